@@ -1,0 +1,292 @@
+"""The scene and proposal model: the one schema every part of Discern speaks.
+
+Adapters build it, the rules and the sanity layer read it, the zenoh protocol
+and the MCAP log carry it as JSON. Units are SI (metres, m/s, seconds);
+positions are relative to the ego: x to the right, y ahead.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+from typing import Annotated, Literal, Optional
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+SCHEMA_VERSION = 1
+
+
+class Action(str, Enum):
+    brake = "brake"
+    accelerate = "accelerate"
+    cruise = "cruise"
+    change_lane_left = "change_lane_left"
+    change_lane_right = "change_lane_right"
+    turn_left = "turn_left"
+    turn_right = "turn_right"
+    pull_over = "pull_over"
+
+
+class Zone(str, Enum):
+    city = "city"
+    residential = "residential"
+    school = "school"
+    campus = "campus"
+    rural = "rural"
+    road = "road"
+    highway = "highway"
+
+
+class Intent(str, Enum):
+    continue_in_lane = "continue_in_lane"
+    merge_into_left_lane = "merge_into_left_lane"
+    merge_into_right_lane = "merge_into_right_lane"
+    enter_left_lane = "enter_left_lane"
+    enter_right_lane = "enter_right_lane"
+    stay_in_leftmost_lane = "stay_in_leftmost_lane"
+    stay_in_rightmost_lane = "stay_in_rightmost_lane"
+    pull_over = "pull_over"
+
+
+class LaneKind(str, Enum):
+    current = "current"
+    oncoming = "oncoming"
+    cross_left = "cross_left"
+    cross_right = "cross_right"
+    sidewalk_left = "sidewalk_left"
+    sidewalk_right = "sidewalk_right"
+    shoulder = "shoulder"
+
+
+class ObjectClass(str, Enum):
+    car = "car"
+    truck = "truck"
+    bus = "bus"
+    bike = "bike"
+    motorcycle = "motorcycle"
+    bicycle = "bicycle"
+    emergency_vehicle = "emergency_vehicle"
+    pedestrian = "pedestrian"
+    animal = "animal"
+    traffic_light = "traffic_light"
+    plastic_bag = "plastic_bag"
+    roadblock = "roadblock"
+    barrier = "barrier"
+    traffic_cone = "traffic_cone"
+    debris = "debris"
+    unknown = "unknown"
+
+
+class Indicator(str, Enum):
+    none = "none"
+    left = "left"
+    right = "right"
+    hazard = "hazard"
+    brake_light = "brake_light"
+
+
+class Source(str, Enum):
+    """Who reported a fact; the sanity layer ranks them (docs/sanity.md)."""
+
+    camera = "camera"
+    radar = "radar"
+    lidar = "lidar"
+    ultrasonic = "ultrasonic"
+    map = "map"
+    fused = "fused"
+    annotation = "annotation"
+
+
+class LightColour(str, Enum):
+    red = "red"
+    yellow = "yellow"
+    green = "green"
+    none = "none"
+
+
+class SignKind(str, Enum):
+    stop = "stop"
+    yield_ = "yield"
+    speed_limit = "speed_limit"
+    no_entry = "no_entry"
+    school_zone = "school_zone"
+    no_turn_on_red = "no_turn_on_red"
+
+
+class IntersectionType(str, Enum):
+    t_intersect = "t_intersect"
+    signaled = "signaled"
+    unsignaled = "unsignaled"
+    four_way = "four_way"
+    roundabout = "roundabout"
+
+
+class IntersectionStage(str, Enum):
+    arriving = "arriving"
+    at = "at"
+    enter = "enter"
+
+
+class SensorSide(str, Enum):
+    front = "front"
+    front_left = "front_left"
+    front_right = "front_right"
+    left = "left"
+    right = "right"
+    rear = "rear"
+    rear_left = "rear_left"
+    rear_right = "rear_right"
+
+
+Metres = Annotated[float, Field(allow_inf_nan=False)]
+NonNegMetres = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Speed = Annotated[float, Field(ge=0, allow_inf_nan=False, description="m/s")]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True, use_enum_values=False)
+
+
+class Vec2(Strict):
+    x: Metres = 0.0
+    y: Metres = 0.0
+
+
+class Ego(Strict):
+    speed: Speed = Field(description="ego speed, m/s")
+    lane: int = Field(ge=1, description="id of the ego's lane among the current lanes (1 = leftmost)")
+    intent: Intent = Intent.continue_in_lane
+    zone: Zone = Zone.city
+    acceleration: Optional[Metres] = Field(None, description="m/s^2, if known")
+    predicted_path: Optional[str] = Field(None, description="id of the ego's predicted path")
+
+
+class Lane(Strict):
+    kind: LaneKind
+    id: int = Field(ge=1, description="1 = leftmost lane of its kind")
+    ends_in: Optional[NonNegMetres] = Field(None, description="metres ahead where this lane ends")
+    speed_limit: Optional[Speed] = Field(None, description="map speed limit of this lane, m/s")
+
+
+class LaneRef(Strict):
+    kind: LaneKind
+    id: int = Field(ge=1)
+
+
+class Size(Strict):
+    length: NonNegMetres
+    width: NonNegMetres
+    height: Optional[NonNegMetres] = None
+
+
+class DetectedObject(Strict):
+    id: int = Field(ge=1, description="object id; 0 is the ego")
+    cls: ObjectClass = Field(alias="class")
+    position: Vec2 = Field(description="metres relative to the ego: x right, y ahead")
+    lane: Optional[LaneRef] = None
+    velocity: Optional[Vec2] = Field(
+        None, description="ground velocity in the ego's axes, m/s (y: along the ego's heading)"
+    )
+    indicator: Indicator = Indicator.none
+    emergency_lights: bool = Field(False, description="flashing red/blue lights seen in this frame")
+    predicted_path: Optional[str] = None
+    sources: list[Source] = Field(default_factory=lambda: [Source.camera])
+    elevation: Optional[Metres] = Field(None, description="height of the object's base above the road, m")
+    size: Optional[Size] = None
+    track_age: Optional[int] = Field(None, ge=0, description="frames this track has existed")
+
+
+class TrafficLight(Strict):
+    colour: LightColour
+    flashing: bool = False
+    source: Source = Source.camera
+
+
+class TrafficSign(Strict):
+    kind: SignKind
+    value: Optional[Speed] = Field(None, description="speed limit read off the sign, m/s")
+    source: Source = Source.camera
+    position: Optional[Vec2] = None
+    confidence: Optional[float] = Field(None, ge=0, le=1)
+
+
+class Intersection(Strict):
+    type: IntersectionType
+    stage: IntersectionStage = IntersectionStage.arriving
+    road: Optional[Literal["major", "minor"]] = Field(None, description="road class of the ego's approach")
+    arrival_rank: Optional[int] = Field(None, ge=1, description="ego's arrival order at an all-way stop")
+    distance: Optional[NonNegMetres] = Field(None, description="metres to the stop line")
+    stop_line: bool = False
+    stop_controlled: bool = Field(False, description="map data: the ego's approach is stop-controlled")
+
+
+class RangeReading(Strict):
+    side: SensorSide
+    distance: NonNegMetres
+    kind: Source = Source.radar
+
+
+class PathCrossing(Strict):
+    ego_path: str
+    object_path: str
+
+
+class Scene(Strict):
+    """One frame of the world as the planner saw it."""
+
+    frame_id: int = Field(ge=0)
+    timestamp: float = Field(0.0, allow_inf_nan=False, description="seconds")
+    ego: Ego
+    speed_limit: Optional[Speed] = Field(None, description="limit in force as perceived, m/s")
+    map_speed_limit: Optional[Speed] = Field(None, description="limit from map data, m/s")
+    lanes: list[Lane] = Field(default_factory=list)
+    objects: list[DetectedObject] = Field(default_factory=list)
+    traffic_lights: list[TrafficLight] = Field(default_factory=list)
+    signs: list[TrafficSign] = Field(default_factory=list)
+    intersection: Optional[Intersection] = None
+    sensors: list[RangeReading] = Field(default_factory=list)
+    path_crossings: list[PathCrossing] = Field(default_factory=list)
+    notes: list[str] = Field(default_factory=list, description="warnings from the adapter or validation")
+
+    @field_validator("objects")
+    @classmethod
+    def _unique_object_ids(cls, objects: list[DetectedObject]) -> list[DetectedObject]:
+        seen: set[int] = set()
+        for obj in objects:
+            if obj.id in seen:
+                raise ValueError(f"object id {obj.id} appears twice")
+            seen.add(obj.id)
+        return objects
+
+    @model_validator(mode="after")
+    def _lanes_consistent(self) -> "Scene":
+        current = sorted(l.id for l in self.lanes if l.kind is LaneKind.current)
+        if not current:
+            # The ego stands in a lane even when the frame lists none.
+            self.lanes.append(Lane(kind=LaneKind.current, id=self.ego.lane))
+            self.notes.append(f"no current lanes given: assuming only the ego's lane {self.ego.lane}")
+        elif self.ego.lane not in current:
+            raise ValueError(
+                f"ego.lane {self.ego.lane} does not exist: current lanes are {current}"
+            )
+        known = {(l.kind, l.id) for l in self.lanes}
+        for obj in self.objects:
+            if obj.lane is not None and (obj.lane.kind, obj.lane.id) not in known:
+                # A detection beyond the mapped lanes is still an obstacle: keep it.
+                self.notes.append(
+                    f"object {obj.id} is in lane {obj.lane.kind.value}/{obj.lane.id}, "
+                    "which the scene does not list; kept"
+                )
+        return self
+
+    def current_lanes(self) -> list[int]:
+        return sorted(l.id for l in self.lanes if l.kind is LaneKind.current)
+
+
+class Proposal(Strict):
+    """What the planner asks the monitor to judge: one message, one frame."""
+
+    version: Literal[1] = SCHEMA_VERSION
+    vehicle: str = Field("ego", min_length=1, max_length=128, pattern=r"^[A-Za-z0-9_\-]+$")
+    action: Action
+    scene: Scene
+    explain: bool = Field(False, description="ask for the full justification tree")

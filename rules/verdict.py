@@ -1,0 +1,57 @@
+"""The verdict model: what the monitor answers for one proposal."""
+
+from __future__ import annotations
+
+from enum import Enum
+from typing import Literal, Optional
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .scene import SCHEMA_VERSION, Action
+
+
+class Decision(str, Enum):
+    approve = "approve"  # the proposal is permitted and executes
+    override = "override"  # the proposal is forbidden; `action` replaces it
+    veto = "veto"  # the proposal is forbidden; shadow mode, nothing replaced
+
+
+class JustificationNode(BaseModel):
+    """One step of a proof: a literal, whether it holds, why, and the rule used."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    literal: str
+    holds: bool
+    text: str
+    rule: Optional[str] = None
+    kind: Literal["derived", "fact", "builtin", "absent", "blocked", "negation", "loop"] = "derived"
+    children: list["JustificationNode"] = Field(default_factory=list)
+
+
+class Justification(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    summary: str = Field(description="one line naming the deciding rules")
+    text: str = Field("", description="the proof rendered as indented prose")
+    tree: list[JustificationNode] = Field(default_factory=list)
+
+
+class Verdict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    version: Literal[1] = SCHEMA_VERSION
+    vehicle: str = "ego"
+    frame_id: Optional[int] = None
+    timestamp: Optional[float] = None
+    decision: Decision
+    proposed: Optional[Action] = None
+    action: Action = Field(description="the action to execute")
+    recommended: Optional[Action] = None
+    permitted: list[Action] = Field(default_factory=list)
+    rules: list[str] = Field(default_factory=list, description="ids of the rules that decided")
+    justification: Justification
+    latency_ms: Optional[float] = None
+    failsafe: bool = False
+    error: Optional[str] = Field(None, description="what was wrong with the input, if anything")
+    shadow: bool = False
