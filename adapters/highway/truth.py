@@ -56,6 +56,7 @@ class EgoTruth:
     lane_width: float
     heading_error: float  # rad between the ego heading and its lane
     on_merge_lane: bool
+    road_position: float  # m along the road (highway-env's roads run along x)
 
 
 @dataclass(frozen=True)
@@ -171,6 +172,7 @@ def read_truth(env, ids: VehicleIds) -> Truth:
             lane_width=width,
             heading_error=float(np.arctan2(np.sin(ego.heading - heading), np.cos(ego.heading - heading))),
             on_merge_lane=on_merge_lane,
+            road_position=float(ego.position[0]),
         ),
         lanes=lanes,
         tracks=tracks,
