@@ -54,7 +54,7 @@ class Faults:
         unknown = sorted(set(names) - set(FAULT_KINDS))
         if unknown:
             raise ValueError(f"unknown fault kind(s) {', '.join(unknown)}: choose from none, all, {', '.join(FAULT_KINDS)}")
-        defaults = {"noise": 1.0, "miss_rate": 0.15, "phantom_rate": 0.1, "sign_rate": 0.5}
+        defaults = {"noise": 1.0, "miss_rate": 0.05, "phantom_rate": 0.1, "sign_rate": 0.5}
         defaults.update({k: v for k, v in rates.items() if v is not None})
         return cls(
             noise=defaults["noise"] if "noise" in names else 0.0,
