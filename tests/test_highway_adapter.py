@@ -56,8 +56,10 @@ def test_objects_are_placed_in_the_ego_frame_with_their_lanes():
         # x: metres to the right, y: metres ahead; a lane to the right is 4 m further right
         assert obj.lane is not None
         assert obj.position.x == pytest.approx((obj.lane.id - scene.ego.lane) * 4.0, abs=1.5)
-    nearest = min(others, key=lambda v: abs(v.position[0] - ego.position[0]))
-    match = [o for o in by_id.values() if o.position.y == pytest.approx(nearest.position[0] - ego.position[0], abs=1e-2)]
+    ahead = [v for v in others if v.position[0] - ego.position[0] > 10.0]
+    nearest = min(ahead, key=lambda v: v.position[0])
+    bumper_gap = nearest.position[0] - ego.position[0] - (nearest.LENGTH + ego.LENGTH) / 2
+    match = [o for o in by_id.values() if o.position.y == pytest.approx(bumper_gap, abs=1e-2)]
     assert match and match[0].velocity.y == pytest.approx(nearest.speed, abs=1e-2)
 
 

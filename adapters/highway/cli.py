@@ -49,6 +49,13 @@ def _options(parser: argparse.ArgumentParser, episodes: int, faults: list[str] |
     parser.add_argument("--sign-rate", type=float, default=None, help="chance each sign is misread")
     parser.add_argument("--sign-value", type=float, default=None, help="limit read off a misread sign, m/s")
     parser.add_argument("--noise", type=float, default=None, help="distance noise std at 50 m, metres")
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="override one of Discern's reasoning parameters (discern.rules.facts.Params), e.g. --param decel=4",
+    )
     parser.add_argument("--jobs", type=int, default=1, help="worker processes")
     parser.add_argument("--monitor", action="store_true", help="ask Discern through the zenoh monitor")
     parser.add_argument("--no-judge", action="store_true", help="skip the ground-truth false-veto judge")
@@ -71,6 +78,7 @@ def _run_eval(args: argparse.Namespace) -> int:
         problems.append(f"--episodes must be at least 1, got {args.episodes}")
     if args.env not in SUPPORTED:
         problems.append(f"unsupported --env {args.env!r} (choose from {', '.join(SUPPORTED)})")
+    params = _params(args.param, problems)
     if args.duration is not None and args.duration <= 0:
         problems.append(f"--duration must be positive, got {args.duration}")
     fault_sets = []
@@ -94,7 +102,9 @@ def _run_eval(args: argparse.Namespace) -> int:
             print(f"error: {problem}", file=sys.stderr)
         return 2
     setup = Setup(
-        env=args.env, duration=args.duration, weights=args.weights, monitor=args.monitor, judge_vetoes=not args.no_judge
+        env=args.env, duration=args.duration, weights=args.weights, monitor=args.monitor,
+        judge_vetoes=not args.no_judge,
+        params=params,
     )
     try:
         results = evaluate(args.episodes, fault_sets, variants, setup, seed=args.seed, jobs=args.jobs, progress=not args.quiet)
@@ -105,6 +115,28 @@ def _run_eval(args: argparse.Namespace) -> int:
     print(text)
     print(f"\nwrote {args.out}/summary.csv, episodes.csv, evaluation.png")
     return 0
+
+
+def _params(pairs: list[str], problems: list[str]) -> tuple[tuple[str, float], ...]:
+    from dataclasses import fields
+
+    from discern.rules.facts import Params
+
+    known = {f.name for f in fields(Params)}
+    parsed = []
+    for pair in pairs:
+        name, _, value = pair.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if name not in known:
+            problems.append(f"unknown --param {name!r} (known: {', '.join(sorted(known))})")
+        elif number is None or number < 0:
+            problems.append(f"--param {name} needs a non-negative number, got {value!r}")
+        else:
+            parsed.append((name, number))
+    return tuple(parsed)
 
 
 def main(argv: list[str] | None = None) -> int:

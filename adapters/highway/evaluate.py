@@ -60,6 +60,7 @@ class Setup:
     weights: str | None = None
     monitor: bool = False
     judge_vetoes: bool = True
+    params: tuple[tuple[str, float], ...] = ()  # Discern Params overrides, e.g. (("decel", 4.0),)
 
 
 _worker: dict = {}
@@ -76,11 +77,14 @@ def _checker(variant: str, setup: Setup):
         from .wrapper import MonitorChecker
 
         return MonitorChecker()
-    if "reasoner" not in _worker:
+    key = ("reasoner", setup.params)
+    if key not in _worker:
+        from discern.rules.facts import Params
+
         from .wrapper import ReasonerChecker
 
-        _worker["reasoner"] = ReasonerChecker()
-    return _worker["reasoner"]
+        _worker[key] = ReasonerChecker(params=Params(**dict(setup.params)))
+    return _worker[key]
 
 
 def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> EpisodeResult:

@@ -1,4 +1,11 @@
-"""Perceived highway-env frame -> Discern Scene (the one schema; see discern.rules.scene)."""
+"""Perceived highway-env frame -> Discern Scene (the one schema; see discern.rules.scene).
+
+Object positions are reported as a range sensor measures them: `y` runs from the ego's nearest
+bumper to the object's nearest face (ego front to the rear of a car ahead, ego rear to the front of a
+car behind, 0 while they overlap alongside), `x` is the centre-to-centre offset across the lane.
+The catalog compares `y` with gaps, and a gap is free road between bumpers: centre-to-centre
+distances would hand it 5 m (one car length) that is not there.
+"""
 
 from __future__ import annotations
 
@@ -19,10 +26,17 @@ from discern.rules.scene import (
 )
 
 from .perception import Perceived
+from .truth import Track
 
 
 def _r(value: float) -> float:
     return round(float(value), 3)
+
+
+def _ahead(track: Track, ego_length: float) -> float:
+    """Signed bumper-to-bumper distance along the lane."""
+    gap = max(abs(track.ahead) - (track.length + ego_length) / 2.0, 0.0)
+    return gap if track.ahead >= 0 else -gap
 
 
 def build_scene(perceived: Perceived, previous_speed: float | None = None, period: float = 1.0) -> Scene:
@@ -36,7 +50,7 @@ def build_scene(perceived: Perceived, previous_speed: float | None = None, perio
             DetectedObject(
                 id=t.id,
                 cls=ObjectClass.roadblock if t.static else ObjectClass.car,
-                position=Vec2(x=_r(t.right), y=_r(t.ahead)),
+                position=Vec2(x=_r(t.right), y=_r(_ahead(t, ego.length))),
                 lane=LaneRef(kind=LaneKind.current, id=t.lane) if t.lane is not None else None,
                 velocity=Vec2(x=_r(t.v_right), y=_r(t.v_ahead)),
                 sources=list(d.sources),

@@ -51,11 +51,12 @@ class ReasonerChecker:
 
     name = "discern"
 
-    def __init__(self, reasoner=None, explain: bool = False, shadow: bool = False):
+    def __init__(self, reasoner=None, explain: bool = False, shadow: bool = False, params=None):
         if reasoner is None:
             from discern.rules.engine import Reasoner
+            from discern.rules.facts import Params
 
-            reasoner = Reasoner()
+            reasoner = Reasoner(params=params or Params())
         self.reasoner = reasoner
         self.explain = explain
         self.shadow = shadow
