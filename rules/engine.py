@@ -71,6 +71,7 @@ class Reasoner:
         self._solve_hook = solve_hook
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
+        proposed = Action(proposed)
         facts = [self._param_facts, scene_facts(scene, proposed)]
         facts.extend(p.facts(scene, history) for p in self.providers)
         text = "".join(facts)

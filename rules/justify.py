@@ -183,6 +183,14 @@ class Prover:
                 yield rule, solution
                 break
 
+    def fired_rules(self) -> set[str]:
+        """Ids of the catalog rules with at least one instance whose body holds in the model."""
+        fired = set(self.catalog.fact_rule.get(sym) for sym in self.answer.atoms) - {None}
+        for rule in self.catalog.compiled:
+            if rule.info.id not in fired and next(self._solve(list(rule.body), {}, 0, None), None) is not None:
+                fired.add(rule.info.id)
+        return fired
+
     # -- holds --
     def why(self, sym: Symbol, depth: int = 0, path: frozenset = frozenset()) -> JustificationNode:
         text = self.phrases.atom(sym)
