@@ -5,7 +5,7 @@ A catalog file is plain clingo syntax plus `%!` annotation comments:
     %! pred obstacle_ahead(O) :: "@(O:obj) blocks the ego's lane"
     %! rule brake.obstacle_ahead
     %! says An obstacle ... is a hazard.
-    %! source AUTO-DISCERN example 192
+    %! source AUTO-DISCERN (obstacle ahead); AV-CSR brake_conditions
     hazard(obstacle(O)) :- obstacle_ahead(O).
 
 A `rule` annotation names every statement that follows it up to the next
