@@ -6,7 +6,7 @@ pytest.importorskip("highway_env")
 pytest.importorskip("torch")
 
 from discern.adapters.highway.actions import FASTER, from_catalog
-from discern.adapters.highway.cli import main as cli_main
+from discern.adapters.highway.cli import demo, main as cli_main
 from discern.adapters.highway.envs import make_env
 from discern.adapters.highway.evaluate import Setup, evaluate, summarise
 from discern.adapters.highway.perception import Faults
@@ -74,11 +74,8 @@ def test_short_evaluation_compares_planner_and_discern_on_the_same_episodes():
     assert {row["variant"] for row in rows} == {"planner", "discern"} and all(row["km"] > 0 for row in rows)
 
 
-def test_cli_demo_prints_the_comparison_table(tmp_path, capsys):
-    code = cli_main(
-        ["demo", "highway", "--episodes", "1", "--duration", "6", "--variants", "planner,discern,rss", "--quiet",
-         "--out", str(tmp_path)]
-    )
+def test_demo_prints_the_comparison_table_with_and_without_faults(tmp_path, capsys):
+    code = demo(tmp_path, episodes=1, duration=6)
     out = capsys.readouterr().out
     assert code == 0
     assert "coll/km" in out and "discern" in out and "rss" in out and "missed,signs" in out

@@ -1,4 +1,4 @@
-"""`discern eval highway` and `discern demo highway`."""
+"""`discern eval highway`, and `demo()` for the closed-loop part of `discern demo`."""
 
 from __future__ import annotations
 
@@ -18,24 +18,26 @@ def register(subparsers) -> None:
         description="Runs the same seeded highway-env episodes with the DQN planner alone, shielded by "
         "Discern, and shielded by an RSS longitudinal check; prints a comparison table and writes CSV and PNG.",
     )
-    _options(highway, episodes=20)
+    _options(highway)
     highway.set_defaults(func=_run_eval)
 
-    demo = subparsers.add_parser("demo", help="short closed-loop demos")
-    demo_targets = demo.add_subparsers(dest="target", required=True, metavar="TARGET")
-    demo_highway = demo_targets.add_parser(
-        "highway", help="3 episodes of planner vs planner + Discern (vs RSS), with and without faults"
-    )
-    _options(demo_highway, episodes=3, faults=list(DEMO_FAULTS))
-    demo_highway.set_defaults(func=_run_eval)
+
+def demo(out: Path = Path("out/demo-highway"), episodes: int = 3, duration: float | None = None) -> int:
+    """The short closed-loop demo for `discern demo`: planner vs + Discern vs + RSS, with and without faults."""
+    parser = argparse.ArgumentParser(prog="discern eval highway")
+    _options(parser)
+    argv = ["--episodes", str(episodes), "--faults", *DEMO_FAULTS, "--out", str(out)]
+    if duration is not None:
+        argv += ["--duration", str(duration)]
+    return _run_eval(parser.parse_args(argv))
 
 
-def _options(parser: argparse.ArgumentParser, episodes: int, faults: list[str] | None = None) -> None:
-    parser.add_argument("--episodes", type=int, default=episodes, help="seeded episodes per variant and fault set")
+def _options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--episodes", type=int, default=20, help="seeded episodes per variant and fault set")
     parser.add_argument(
         "--faults",
         nargs="+",
-        default=faults or ["none"],
+        default=list(DEMO_FAULTS),
         metavar="SET",
         help="fault sets, each 'none', 'all' or a comma list of noise, missed, phantoms, signs "
         "(e.g. --faults none signs,missed)",
@@ -54,7 +56,8 @@ def _options(parser: argparse.ArgumentParser, episodes: int, faults: list[str] |
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="override one of Discern's reasoning parameters (discern.rules.facts.Params), e.g. --param decel=4",
+        help="override one of Discern's reasoning parameters (discern.rules.facts.Params); "
+        "the closed loop sets decel=4 (what highway-env's vehicle can brake), e.g. --param headway_s=2",
     )
     parser.add_argument("--jobs", type=int, default=1, help="worker processes")
     parser.add_argument("--monitor", action="store_true", help="ask Discern through the zenoh monitor")
@@ -122,8 +125,10 @@ def _params(pairs: list[str], problems: list[str]) -> tuple[tuple[str, float], .
 
     from discern.rules.facts import Params
 
+    from .wrapper import VEHICLE_PARAMS
+
     known = {f.name for f in fields(Params)}
-    parsed = []
+    parsed = dict(VEHICLE_PARAMS)
     for pair in pairs:
         name, _, value = pair.partition("=")
         try:
@@ -135,8 +140,8 @@ def _params(pairs: list[str], problems: list[str]) -> tuple[tuple[str, float], .
         elif number is None or number < 0:
             problems.append(f"--param {name} needs a non-negative number, got {value!r}")
         else:
-            parsed.append((name, number))
-    return tuple(parsed)
+            parsed[name] = number
+    return tuple(sorted(parsed.items()))
 
 
 def main(argv: list[str] | None = None) -> int:

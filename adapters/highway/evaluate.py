@@ -22,7 +22,7 @@ from .envs import make_env, policy_period
 from .oracle import proposal_was_safe
 from .perception import Faults
 from .planner import Planner
-from .wrapper import DiscernWrapper
+from .wrapper import VEHICLE_PARAMS, DiscernWrapper
 
 VARIANTS = ("planner", "discern", "rss")
 SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
@@ -60,7 +60,7 @@ class Setup:
     weights: str | None = None
     monitor: bool = False
     judge_vetoes: bool = True
-    params: tuple[tuple[str, float], ...] = ()  # Discern Params overrides, e.g. (("decel", 4.0),)
+    params: tuple[tuple[str, float], ...] = tuple(VEHICLE_PARAMS.items())  # Discern's Params overrides
 
 
 _worker: dict = {}
