@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import re
 import time
+from importlib import resources
+from pathlib import Path
 from typing import Callable, Iterable, Optional, Protocol, Sequence
 
 import clingo
@@ -33,6 +35,17 @@ RANK = [
     Action.accelerate,
     Action.cruise,
 ]
+
+
+JURISDICTIONS = ("us", "uk")
+
+
+def jurisdiction_pack(name: str) -> Path:
+    """The rule pack of a jurisdiction (rules/jurisdictions/<name>.lp): traffic side, zone limits, turn on red."""
+    key = str(name).strip().lower()
+    if key not in JURISDICTIONS:
+        raise ValueError(f"unknown jurisdiction {name!r}: choose from {', '.join(JURISDICTIONS)}")
+    return Path(str(resources.files("discern.rules") / "jurisdictions" / f"{key}.lp"))
 
 
 class FactProvider(Protocol):
@@ -63,8 +76,11 @@ class Reasoner:
         params: Params = Params(),
         providers: Iterable[FactProvider] | None = None,
         solve_hook: Callable[[], None] | None = None,
+        jurisdiction: str = "us",
     ):
-        self.catalog = catalog if catalog is not None else load_catalog()
+        """`jurisdiction` picks the rule pack loaded with the shipped catalog; a given catalog is used as is."""
+        self.jurisdiction = jurisdiction
+        self.catalog = catalog if catalog is not None else load_catalog(extra_files=[jurisdiction_pack(jurisdiction)])
         self.params = params
         self._param_facts = params.facts()
         self.providers = list(providers) if providers is not None else _default_providers()
