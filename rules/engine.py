@@ -143,6 +143,12 @@ class Reasoner:
             tree.append(prover.why(_atom("recommended", recommended)))
 
         summary = _summary(decision, proposed, action, recommended, rules)
+        for note in solved.answer.of("noted", 1):
+            # What the sanity layer set aside or doubted (noted/1) is reported with every verdict.
+            node = prover.why(note.arguments[0])
+            rules.extend(r for r in rule_ids(node) if r not in rules)
+            if explain or not allowed:
+                tree.append(node)
         justification = Justification(summary=summary, tree=tree)
         justification.text = render_text(justification)
         return Verdict(
