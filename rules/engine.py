@@ -143,12 +143,17 @@ class Reasoner:
             tree.append(prover.why(_atom("recommended", recommended)))
 
         summary = _summary(decision, proposed, action, recommended, rules)
-        for note in solved.answer.of("noted", 1):
-            # What the sanity layer set aside or doubted (noted/1) is reported with every verdict.
-            node = prover.why(note.arguments[0])
-            rules.extend(r for r in rule_ids(node) if r not in rules)
+        notes = solved.answer.of("noted", 1)
+        brief = Prover(self.catalog, solved.answer, negative_depth=0) if notes else prover
+        for note in notes:
+            # What the sanity layer set aside or doubted (noted/1) is reported with every verdict, briefly.
             if explain or not allowed:
+                node = brief.why(note.arguments[0])
                 tree.append(node)
+                found = rule_ids(node)
+            else:
+                found = [rule.info.id for rule, _ in prover.derivations(note.arguments[0])]
+            rules.extend(r for r in found if r not in rules)
         justification = Justification(summary=summary, tree=tree)
         justification.text = render_text(justification)
         return Verdict(

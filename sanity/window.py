@@ -199,19 +199,16 @@ def _relative_velocity(obj: DetectedObject, ego_speed: float) -> tuple[float, fl
 
 def _world_facts(scene: Scene) -> list[str]:
     """Sizes, and camera-only vehicles that sit inside the outline of a confirmed object."""
-    out = []
-    for obj in scene.objects:
-        if obj.size is not None:
-            out.append(f"obj_size({obj.id},{cm(obj.size.length)},{cm(obj.size.width)}).")
-    confirmed = [o for o in scene.objects if CONFIRMING.intersection(o.sources)]
-    for obj in scene.objects:
-        if set(obj.sources) != {Source.camera}:
-            continue
-        for other in confirmed:
-            length, width = _footprint(other)
-            if (abs(obj.position.x - other.position.x) <= width / 2
-                    and abs(obj.position.y - other.position.y) <= length / 2 + 1.0):
-                out.append(f"overlaps({obj.id},{other.id}).")
+    out = [f"obj_size({o.id},{cm(o.size.length)},{cm(o.size.width)})." for o in scene.objects if o.size is not None]
+    camera_only = [o for o in scene.objects if o.sources == [Source.camera]]
+    if not camera_only:
+        return out
+    outlines = [(o.id, o.position.x, o.position.y, *_footprint(o))
+                for o in scene.objects if CONFIRMING.intersection(o.sources)]
+    for obj in camera_only:
+        x, y = obj.position.x, obj.position.y
+        out.extend(f"overlaps({obj.id},{oid})." for oid, ox, oy, length, width in outlines
+                   if abs(x - ox) <= width / 2 and abs(y - oy) <= length / 2 + 1.0)
     return out
 
 
@@ -267,24 +264,25 @@ def _memory_facts(scene: Scene, window: list[Scene], config: WindowConfig) -> li
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
     present = {o.id: o for o in scene.objects}
+    unconfirmed = {o.id for o in scene.objects if not CONFIRMING.intersection(o.sources)}
     last: dict[int, tuple[Scene, DetectedObject]] = {}
     frames: dict[int, int] = {}
     lights: dict[int, int] = {}
-    sources: dict[int, set[Source]] = {}
+    earlier: dict[int, set[Source]] = {}
     for past in window:
         for obj in past.objects:
-            last[obj.id] = (past, obj)
-            frames[obj.id] = frames.get(obj.id, 0) + 1
+            oid = obj.id
+            if oid not in present:
+                last[oid] = (past, obj)
+                frames[oid] = frames.get(oid, 0) + 1
+            elif oid in unconfirmed:
+                earlier.setdefault(oid, set()).update(CONFIRMING.intersection(obj.sources))
             if obj.emergency_lights:
-                lights[obj.id] = lights.get(obj.id, 0) + 1
-            sources.setdefault(obj.id, set()).update(obj.sources)
-    for oid, obj in present.items():
-        earlier = (sources.get(oid, set()) & CONFIRMING) - set(obj.sources)
-        out.extend(f"obj_source_before({oid},{s.value})." for s in sorted(earlier, key=lambda s: s.value))
+                lights[oid] = lights.get(oid, 0) + 1
+    for oid, found in earlier.items():
+        out.extend(f"obj_source_before({oid},{s.value})." for s in sorted(found, key=lambda s: s.value))
     kept: set[int] = set()
     for oid, (seen, obj) in last.items():
-        if oid in present:
-            continue
         age = max(scene.timestamp - seen.timestamp, 0.0)
         vx, vy = _relative_velocity(obj, seen.ego.speed)
         x, y = obj.position.x + vx * age, obj.position.y + vy * age
