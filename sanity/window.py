@@ -299,6 +299,7 @@ def _memory_facts(scene: Scene, window: list[Scene], config: WindowConfig) -> li
             out.append(f"remembered_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")
         if obj.velocity is not None:
             out.append(f"remembered_velocity({oid},{cm(obj.velocity.x)},{cm(obj.velocity.y)}).")
+        out.extend(f"remembered_source({oid},{source.value})." for source in obj.sources)
         if reads:
             out.append(f"sensor_still_reads({oid},{reads[0].side.value}).")
     for oid, count in lights.items():
