@@ -216,7 +216,7 @@ def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
     """Objects whose course, kept as it is, meets the ego's corridor within the horizon.
 
     Objects already in the corridor are the lane rules' business; this looks
-    for those that will come into it (crossing, cutting in).
+    for those that will come into it ahead of the ego (crossing, cutting in).
     """
     out = []
     for obj in scene.objects:
@@ -235,8 +235,9 @@ def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
             continue
         start = max(span_x[0], span_y[0], 0.0)
         end = min(span_x[1], span_y[1], horizon)
-        if 0.0 < start < end:
-            out.append(f"predicted_conflict({obj.id},{int(round(start * 1000))},{cm(y + vy * start)}).")
+        meet = y + vy * start
+        if 0.0 < start < end and meet > 0.0:  # from behind, braking would not help
+            out.append(f"predicted_conflict({obj.id},{int(round(start * 1000))},{cm(meet)}).")
     return out
 
 

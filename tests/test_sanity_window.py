@@ -118,10 +118,11 @@ def test_a_pedestrian_walking_into_the_road_meets_the_ego_path():
     assert conflict.startswith("predicted_conflict(3,26")
 
 
-def test_objects_walking_along_or_already_in_the_ego_lane_get_no_predicted_crossing():
+def test_objects_walking_along_in_the_ego_lane_or_coming_from_behind_get_no_predicted_crossing():
     along = scene(speed=8.0, objects=[obj(3, "pedestrian", 5.5, 22.0, vy=1.2)])
     ahead = scene(speed=8.0, objects=[obj(4, "car", 0.0, 20.0, 1, vy=2.0)])
-    assert not facts([along]) and not facts([ahead])
+    behind = scene(speed=8.0, lanes=2, objects=[obj(5, "car", 3.5, -7.0, 2, vy=12.0, vx=-1.0)])
+    assert not facts([along]) and not facts([ahead]) and not facts([behind])
 
 
 def test_a_camera_only_vehicle_inside_a_confirmed_outline_overlaps_it():
