@@ -17,7 +17,7 @@ from discern.rules.render import render_html, render_json
 from discern.rules.scene import Action, Proposal, Scene, describe_errors
 
 # Parts that add subcommands through a `register(subparsers)` function.
-PARTS: list[str] = []
+PARTS: list[str] = ["discern.monitor.demo"]
 
 
 class UserError(Exception):

@@ -35,3 +35,9 @@ def test_duplicate_rule_id_is_rejected(tmp_path):
 def test_choice_rules_are_rejected_because_they_cannot_be_justified(tmp_path):
     with pytest.raises(CatalogError, match="only normal rules"):
         load_catalog(write_rules(tmp_path, "%! rule x.c\n%! says C.\n%! source s\n{ a } :- b.\n"))
+
+
+def test_a_rule_through_its_own_negation_is_rejected_as_unstratified(tmp_path):
+    text = "%! rule x.loop\n%! says L.\n%! source s\na :- not b.\nb :- not a.\n"
+    with pytest.raises(CatalogError, match="must be stratified"):
+        load_catalog(write_rules(tmp_path, text))

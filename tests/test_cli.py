@@ -94,7 +94,7 @@ def test_missing_file_and_missing_action_are_user_errors(tmp_path, capsys):
 def test_catalog_lists_rules_with_english_and_source(capsys):
     assert main(["catalog"]) == 0
     out = capsys.readouterr().out
-    assert "brake.obstacle_ahead" in out and "source: AUTO-DISCERN example 192" in out
+    assert "brake.obstacle_ahead" in out and "source: AUTO-DISCERN (obstacle ahead)" in out
 
 
 def test_scenarios_run_kitti_prints_the_paper_table(avcsr_dir, capsys):

@@ -36,11 +36,11 @@ def full_model(reasoner, sc):
     return set(atoms)
 
 
-def test_slicing_the_program_never_changes_the_answer_set(reasoner):
+def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program(reasoner):
     rng = random.Random(7)
     for _ in range(40):
         sc = random_scene(rng)
-        assert reasoner.solve(sc, "cruise").answer.atoms == full_model(reasoner, sc)
+        assert set(reasoner.solve(sc, "cruise").answer.all()) == full_model(reasoner, sc)
 
 
 def test_fact_names_found_for_slicing_include_zero_arity_facts():
