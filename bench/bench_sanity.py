@@ -60,6 +60,13 @@ def window_before(scene: Scene, seconds: float) -> tuple[Scene, ...]:
     return tuple(frames)
 
 
+def load_average() -> str:
+    try:
+        return Path("/proc/loadavg").read_text().split()[0]
+    except OSError:
+        return "?"
+
+
 def random_scene(rng: random.Random, n: int, frame: int) -> Scene:
     lanes = 4
     objects = []
@@ -90,6 +97,7 @@ def main() -> None:
     parser.add_argument("--window", type=float, default=2.0, help="seconds of history")
     args = parser.parse_args()
 
+    load_before = load_average()
     core = Reasoner(catalog=load_catalog([catalog_dirs()[0]], extra_files=[jurisdiction_pack("us")]), providers=[])
     sanity = Reasoner()
     assert sanity.providers and sanity.providers[0].config == WindowConfig(seconds=args.window)
@@ -150,7 +158,8 @@ def main() -> None:
         "## Sanity layer",
         "",
         f"Command: `python bench/bench_sanity.py --repeats {args.repeats} --window {args.window:g}`  ",
-        f"Machine: {machine()}; one process, wall-clock per decision, cases interleaved frame by frame.  ",
+        f"Machine: {machine()}; one process, wall-clock per decision, cases interleaved frame by frame; "
+        f"1-minute load average {load_before} at the start and {load_average()} at the end of the run.  ",
         f"\"core\" is the driving catalog with the US pack and no sanity rules or provider; \"sanity\" is the default "
         f"Reasoner (catalog + sanity rules + US pack + WindowProvider). The window is {args.window:g} s of history at "
         f"{RATE_HZ:g} Hz ({history_frames} earlier frames, objects moved back along their velocities). "

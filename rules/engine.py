@@ -136,10 +136,10 @@ class Reasoner:
 
         summary = _summary(decision, proposed, action, recommended, rules)
         notes = solved.answer.of("noted", 1)
-        brief = Prover(self.catalog, solved.answer, negative_depth=0) if notes else prover
+        brief = Prover(self.catalog, solved.answer, negative_depth=0) if notes and explain else prover
         for note in notes:
-            # What the sanity layer set aside or doubted (noted/1) is reported with every verdict, briefly.
-            if explain or not allowed:
+            # What the sanity layer set aside or doubted (noted/1): its rules with every verdict, its proof on request.
+            if explain:
                 node = brief.why(note.arguments[0])
                 tree.append(node)
                 found = rule_ids(node)
