@@ -83,6 +83,11 @@ def test_demo_prints_the_comparison_table_with_and_without_faults(tmp_path, caps
 
 
 def test_cli_rejects_bad_options_with_a_clear_error(capsys):
-    assert cli_main(["eval", "highway", "--faults", "gremlins", "--variants", "planner,magic", "--episodes", "0"]) == 2
+    code = cli_main(
+        ["eval", "highway", "--faults", "gremlins", "--variants", "planner,magic", "--episodes", "0",
+         "--param", "warp=9", "--param", "decel=fast"]
+    )
     err = capsys.readouterr().err
-    assert "gremlins" in err and "magic" in err and "--episodes" in err and "Traceback" not in err
+    assert code == 2 and "Traceback" not in err
+    for problem in ("gremlins", "magic", "--episodes", "'warp'", "decel needs a non-negative number"):
+        assert problem in err

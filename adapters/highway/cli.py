@@ -116,7 +116,7 @@ def _run_eval(args: argparse.Namespace) -> int:
         return 2
     _, text = report(results, args.out)
     print(text)
-    print(f"\nwrote {args.out}/summary.csv, episodes.csv, evaluation.png")
+    print(f"\nwrote {args.out}/: summary.csv, episodes.csv, summary.txt, evaluation.png, vetoing_rules.png")
     return 0
 
 

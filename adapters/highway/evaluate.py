@@ -259,6 +259,32 @@ def plot(rows: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
+def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> None:
+    """Which of Discern's rules did the vetoing, per fault set (the RSS peer has one rule)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = sorted({(r.faults, r.variant) for r in results if r.variant == "discern"}, key=lambda g: (g[0] != "none", g))
+    if not groups:
+        return
+    fig, axes = plt.subplots(1, len(groups), figsize=(5.2 * len(groups), 3.4), squeeze=False)
+    for ax, (faults, variant) in zip(axes[0], groups):
+        counts = Counter()
+        for r in results:
+            if (r.faults, r.variant) == (faults, variant):
+                counts.update(r.rules)
+        names, values = zip(*counts.most_common(top)) if counts else ((), ())
+        ax.barh(list(reversed(names)), list(reversed(values)), color="#1f77b4")
+        ax.set_title(f"{variant}, faults: {faults}", fontsize=9)
+        ax.tick_params(axis="y", labelsize=7)
+        ax.set_xlabel("vetoes citing the rule")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def evaluate(
     episodes: int,
     fault_sets: list[Faults],
@@ -298,5 +324,6 @@ def report(results: list[EpisodeResult], out: Path | None) -> tuple[list[dict], 
         write_csv(out / "episodes.csv", [r.row() for r in results])
         write_csv(out / "summary.csv", rows)
         plot(rows, out / "evaluation.png")
+        plot_rules(results, out / "vetoing_rules.png")
         (out / "summary.txt").write_text(text + "\n")
     return rows, text
