@@ -1,0 +1,327 @@
+"""Load the rules catalog: ASP files whose rules carry ids, English and sources.
+
+A catalog file is plain clingo syntax plus `%!` annotation comments:
+
+    %! pred obstacle_ahead(O) :: "@(O:obj) blocks the ego's lane"
+    %! rule brake.obstacle_ahead
+    %! says An obstacle ... is a hazard.
+    %! source AUTO-DISCERN (obstacle ahead); AV-CSR brake_conditions
+    hazard(obstacle(O)) :- obstacle_ahead(O).
+
+A `rule` annotation names every statement that follows it up to the next
+`rule` annotation. Rules are also compiled to plain tuples (terms.py) for the
+justifier, and indexed by the predicates they need so that a frame grounds
+only the rules that can fire on its facts.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from functools import cached_property
+from importlib import resources
+from pathlib import Path
+from typing import Iterable, Sequence
+
+from clingo import Control, Symbol, ast
+
+from .terms import Literal, Term, compile_literal, compile_term
+
+_ANNOTATION = re.compile(r"^%!\s*(rule|says|source|pred|hide)\s+(.*?)\s*$")
+_PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
+
+
+class CatalogError(ValueError):
+    """A catalog file breaks the catalog's own conventions."""
+
+
+@dataclass(frozen=True)
+class RuleInfo:
+    id: str
+    says: str
+    source: str
+    file: str
+    line: int
+
+
+@dataclass(frozen=True)
+class PredTemplate:
+    """English for a predicate, like s(CASP)'s #pred: `@(Var:format)` placeholders."""
+
+    name: str
+    params: tuple[str, ...]
+    template: str
+
+    @property
+    def signature(self) -> tuple[str, int]:
+        return (self.name, len(self.params))
+
+
+@dataclass
+class CompiledRule:
+    """One normal rule of the catalog with what the justifier needs to replay it."""
+
+    index: int
+    info: RuleInfo
+    statement: ast.AST
+    head: Term
+    body: tuple[Literal, ...]
+    signature: tuple[str, int]
+    needs: frozenset[str]  # predicates of the positive body
+    assignments: frozenset[int]  # body positions of `X = expr` that only compute a value
+
+
+@dataclass
+class Catalog:
+    rules: list[RuleInfo]
+    templates: dict[tuple[str, int], PredTemplate]
+    compiled: list[CompiledRule]
+    facts: list[ast.AST] = field(repr=False)
+    fact_rule: dict[Symbol, str] = field(default_factory=dict, repr=False)
+    fact_predicates: set[str] = field(default_factory=set, repr=False)
+    hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
+    _slices: dict[frozenset[str], list[ast.AST]] = field(default_factory=dict, repr=False)
+
+    @cached_property
+    def by_id(self) -> dict[str, RuleInfo]:
+        return {r.id: r for r in self.rules}
+
+    @cached_property
+    def by_head(self) -> dict[tuple[str, int], list[CompiledRule]]:
+        index: dict[tuple[str, int], list[CompiledRule]] = {}
+        for rule in self.compiled:
+            index.setdefault(rule.signature, []).append(rule)
+        return index
+
+    def program_for(self, given: frozenset[str]) -> list[ast.AST]:
+        """The statements that can matter when the frame's facts use these predicates.
+
+        A rule whose positive body needs a predicate that no fact provides and
+        no rule can derive never fires; leaving it out changes no model and
+        saves its grounding cost (about 10 us a rule).
+        """
+        program = self._slices.get(given)
+        if program is None:
+            derivable = set(given | self.fact_predicates)
+            live: list[CompiledRule] = []
+            pending = list(self.compiled)
+            changed = True
+            while changed:
+                changed = False
+                still = []
+                for rule in pending:
+                    if rule.needs <= derivable:
+                        live.append(rule)
+                        derivable.add(rule.signature[0])
+                        changed = True
+                    else:
+                        still.append(rule)
+                pending = still
+            live.sort(key=lambda r: r.index)
+            program = self.facts + [r.statement for r in live]
+            self._slices[given] = program
+        return program
+
+    def driving_rules(self) -> list[RuleInfo]:
+        """Rules that decide something, as opposed to definitions (def.*) and data (ent.*)."""
+        return [r for r in self.rules if not r.id.startswith(("def.", "ent."))]
+
+
+def signature_of(head: ast.AST) -> tuple[str, int]:
+    atom = head.atom if head.ast_type == ast.ASTType.Literal else head
+    term = atom.symbol
+    if term.ast_type == ast.ASTType.Function:
+        return (term.name, len(term.arguments))
+    if term.ast_type == ast.ASTType.SymbolicTerm:
+        return (term.symbol.name, 0)
+    raise CatalogError(f"unsupported head {head}")
+
+
+def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[PredTemplate], set[tuple[str, int]]]:
+    """Map each `%! rule` block's first line to its RuleInfo; collect templates and hidden predicates."""
+    blocks: dict[int, RuleInfo] = {}
+    templates: list[PredTemplate] = []
+    hidden: set[tuple[str, int]] = set()
+    current: dict[str, str] = {}
+    start = 0
+    for number, line in enumerate(text.splitlines(), start=1):
+        match = _ANNOTATION.match(line.strip())
+        if not match:
+            continue
+        key, value = match.groups()
+        if key == "hide":
+            name, _, arity = value.partition("/")
+            if not arity.isdigit():
+                raise CatalogError(f"{path}:{number}: hide needs name/arity, got {value!r}")
+            hidden.add((name, int(arity)))
+        elif key == "pred":
+            pred = _PRED.match(value)
+            if not pred:
+                raise CatalogError(f"{path}:{number}: bad pred annotation {value!r}")
+            name, params, template = pred.groups()
+            args = tuple(p.strip() for p in params.split(",")) if params else ()
+            templates.append(PredTemplate(name, args, template))
+        elif key == "rule":
+            current, start = {"rule": value}, number
+        else:
+            if not current:
+                raise CatalogError(f"{path}:{number}: '{key}' before any '%! rule'")
+            current[key] = value
+            if "says" in current and "source" in current:
+                blocks[start] = RuleInfo(current["rule"], current["says"], current["source"], path, start)
+    return blocks, templates, hidden
+
+
+def _compile_file(path: str, text: str, catalog: Catalog) -> None:
+    blocks, templates, hidden = _annotations(text, path)
+    catalog.hidden |= hidden
+    for template in templates:
+        catalog.templates[template.signature] = template
+    starts = sorted(blocks)
+    for info in blocks.values():
+        catalog.rules.append(info)
+
+    def owner(line: int) -> RuleInfo | None:
+        best = None
+        for start in starts:
+            if start < line:
+                best = blocks[start]
+        return best
+
+    parsed: list[ast.AST] = []
+    ast.parse_string(text, parsed.append)
+    for stm in parsed:
+        if stm.ast_type in (ast.ASTType.Program, ast.ASTType.Comment):
+            continue
+        if stm.ast_type != ast.ASTType.Rule:
+            raise CatalogError(f"{path}:{stm.location.begin.line}: only rules and facts belong in a catalog")
+        info = owner(stm.location.begin.line)
+        if not stm.body:
+            catalog.facts.append(stm)
+            for atom in _ground_fact(stm):
+                catalog.fact_predicates.add(atom.name)
+                if info is not None:
+                    catalog.fact_rule[atom] = info.id
+            continue
+        if info is None:
+            raise CatalogError(f"{path}:{stm.location.begin.line}: rule has no '%! rule' annotation")
+        if stm.head.ast_type != ast.ASTType.Literal or stm.head.atom.ast_type != ast.ASTType.SymbolicAtom:
+            raise CatalogError(f"{path}:{stm.location.begin.line}: {info.id}: only normal rules are supported")
+        body = tuple(compile_literal(lit) for lit in stm.body)
+        if any(lit.negated and not lit.is_atom for lit in body):
+            raise CatalogError(f"{path}:{stm.location.begin.line}: {info.id}: negated comparisons are not supported")
+        catalog.compiled.append(
+            CompiledRule(
+                index=len(catalog.compiled),
+                info=info,
+                statement=stm,
+                head=compile_term(stm.head.atom.symbol),
+                body=body,
+                signature=signature_of(stm.head),
+                needs=frozenset(lit.predicate for lit in body if lit.is_atom and not lit.negated),
+                assignments=_assignments(body),
+            )
+        )
+
+
+def _assignments(body: tuple[Literal, ...]) -> frozenset[int]:
+    bound = set().union(*(lit.variables for lit in body if lit.is_atom and not lit.negated))
+    found = set()
+    for i, lit in enumerate(body):
+        if lit.comparison is not None and len(lit.comparison[1]) == 1 and lit.comparison[1][0][0] == int(ast.ComparisonOperator.Equal):
+            left, right = lit.comparison[0], lit.comparison[1][0][1]
+            if (left[0] == "v" and left[1] not in bound) or (right[0] == "v" and right[1] not in bound):
+                found.add(i)
+    return frozenset(found)
+
+
+def _ground_fact(stm: ast.AST) -> list[Symbol]:
+    """The atoms a catalog fact stands for (pools expanded), to credit them to their rule."""
+    ctl = Control(["--warn=none"])
+    with ast.ProgramBuilder(ctl) as builder:
+        builder.add(stm)
+    ctl.ground([("base", [])])
+    return [a.symbol for a in ctl.symbolic_atoms if a.is_fact]
+
+
+def _check_stratified(catalog: Catalog) -> None:
+    """No predicate may depend on itself through negation.
+
+    Then the program has exactly one answer set, the grounder computes it as
+    facts, and every atom's justification is well-founded.
+    """
+    edges: dict[str, set[tuple[str, bool]]] = {}
+    for rule in catalog.compiled:
+        for lit in rule.body:
+            if lit.is_atom:
+                edges.setdefault(rule.signature[0], set()).add((lit.predicate, lit.negated))
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    component: dict[str, int] = {}
+    stack: list[str] = []
+    counter = 0
+
+    def visit(root: str) -> None:
+        nonlocal counter
+        work = [(root, iter(edges.get(root, ())))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        while work:
+            node, children = work[-1]
+            for child, _ in children:
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    work.append((child, iter(edges.get(child, ()))))
+                    break
+                if child not in component:
+                    low[node] = min(low[node], index[child])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    while True:
+                        member = stack.pop()
+                        component[member] = index[node]
+                        if member == node:
+                            break
+
+    for predicate in list(edges):
+        if predicate not in index:
+            visit(predicate)
+    for head, body in edges.items():
+        for predicate, negated in body:
+            if negated and component.get(predicate) == component.get(head):
+                raise CatalogError(f"{head} depends on itself through 'not {predicate}': the catalog must be stratified")
+
+
+def catalog_dirs() -> list[Path]:
+    """The shipped catalogs: driving rules, then sanity rules."""
+    dirs = [Path(str(resources.files("discern.rules") / "catalog"))]
+    sanity = Path(str(resources.files("discern.sanity"))) / "catalog"
+    if sanity.is_dir():
+        dirs.append(sanity)
+    return dirs
+
+
+def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> Catalog:
+    catalog = Catalog(rules=[], templates={}, compiled=[], facts=[])
+    files: list[Path] = []
+    for directory in dirs if dirs is not None else catalog_dirs():
+        directory = Path(directory)
+        if not directory.is_dir():
+            raise CatalogError(f"rules directory {directory} does not exist")
+        files.extend(sorted(directory.glob("*.lp")))
+    files.extend(Path(f) for f in extra_files)
+    for path in files:
+        _compile_file(str(path), path.read_text(encoding="utf-8"), catalog)
+    _check_stratified(catalog)
+    seen: dict[str, RuleInfo] = {}
+    for info in catalog.rules:
+        if info.id in seen:
+            raise CatalogError(f"rule id {info.id} is used twice ({seen[info.id].file}, {info.file})")
+        seen[info.id] = info
+    return catalog

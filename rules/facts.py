@@ -1,0 +1,121 @@
+"""Turn a Scene into ASP facts.
+
+clingo reasons over integers, so distances become centimetres and speeds
+cm/s; the predicate templates convert them back for people.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from .scene import Action, Scene
+
+
+def cm(metres: float) -> int:
+    return int(round(metres * 100))
+
+
+@dataclass(frozen=True)
+class Params:
+    """Physical and behavioural parameters of the catalog, in SI units."""
+
+    reaction_s: float = 1.0  # perception + actuation latency before braking starts
+    decel: float = 6.0  # m/s^2, firm braking on a dry road
+    min_gap: float = 10.0  # m, AV-CSR's fixed gap: the floor of every gap
+    headway_s: float = 1.0  # time gap kept to a vehicle ahead when following
+    swerve_dist: float = 20.0  # m, AV-CSR's look-ahead for swerving around objects
+    overtake_dist: float = 40.0  # m, how far ahead a slower vehicle makes the ego overtake
+    merge_dist: float = 150.0  # m, an ending lane closer than this must be left
+    side_clearance: float = 1.0  # m, a side sensor closer than this blocks a lane change
+    evade_dist: float = 0.5  # m, AV-CSR's contact distance for range sensors
+    tailgate_dist: float = 8.0  # m, a follower closer than this makes braking for nothing unsafe
+    crossing_dist: float = 15.0  # m, vulnerable road users crossing nearer than this block a turn
+
+    def facts(self) -> str:
+        values = asdict(self)
+        return "".join(
+            [
+                f"param(reaction_ms,{int(round(values.pop('reaction_s') * 1000))}).",
+                f"param(headway_ms,{int(round(values.pop('headway_s') * 1000))}).",
+                f"param(decel,{cm(values.pop('decel'))}).",
+            ]
+            + [f"param({name},{cm(value)})." for name, value in values.items()]
+        )
+
+
+def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
+    ego = scene.ego
+    out = [
+        f"ego_speed({cm(ego.speed)}).",
+        f"ego_lane({ego.lane}).",
+        f"intent({ego.intent.value}).",
+        f"zone({ego.zone.value}).",
+    ]
+    if ego.predicted_path:
+        out.append(f"ego_path({_const(ego.predicted_path)}).")
+    if scene.speed_limit is not None:
+        out.append(f"speed_limit({cm(scene.speed_limit)}).")
+    if scene.map_speed_limit is not None:
+        out.append(f"map_speed_limit({cm(scene.map_speed_limit)}).")
+    for lane in scene.lanes:
+        out.append(f"lane({lane.kind.value},{lane.id}).")
+        if lane.ends_in is not None and lane.kind.value == "current":
+            out.append(f"lane_ends({lane.id},{cm(lane.ends_in)}).")
+        if lane.speed_limit is not None:
+            out.append(f"lane_speed_limit({lane.kind.value},{lane.id},{cm(lane.speed_limit)}).")
+    for obj in scene.objects:
+        oid = obj.id
+        out.append(f"object({oid},{obj.cls.value}).")
+        out.append(f"obj_pos({oid},{cm(obj.position.x)},{cm(obj.position.y)}).")
+        if obj.lane is not None:
+            out.append(f"obj_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")
+        if obj.velocity is not None:
+            out.append(f"obj_velocity({oid},{cm(obj.velocity.x)},{cm(obj.velocity.y)}).has_velocity({oid}).")
+        if obj.indicator.value != "none":
+            out.append(f"obj_indicator({oid},{obj.indicator.value}).")
+        if obj.emergency_lights:
+            out.append(f"obj_emergency_lights({oid}).")
+        if obj.predicted_path:
+            out.append(f"obj_path({oid},{_const(obj.predicted_path)}).")
+        for source in obj.sources:
+            out.append(f"obj_source({oid},{source.value}).")
+        if obj.elevation is not None:
+            out.append(f"obj_elevation({oid},{cm(obj.elevation)}).")
+        if obj.track_age is not None:
+            out.append(f"obj_track_age({oid},{obj.track_age}).")
+    for light in scene.traffic_lights:
+        if light.colour.value != "none":
+            out.append(f"traffic_light({light.colour.value}).")
+            if light.flashing:
+                out.append(f"light_flashing({light.colour.value}).")
+    for sign in scene.signs:
+        out.append(f"traffic_sign({sign.kind.value}).")
+        if sign.value is not None:
+            out.append(f"sign_reading({sign.kind.value},{cm(sign.value)},{sign.source.value}).")
+    if scene.intersection is not None:
+        x = scene.intersection
+        out.append(f"intersection({x.type.value}).intersection_stage({x.stage.value}).")
+        if x.road:
+            out.append(f"intersection_road({x.road}).")
+        if x.arrival_rank is not None:
+            out.append(f"arrival_rank({x.arrival_rank}).")
+        if x.distance is not None:
+            out.append(f"intersection_distance({cm(x.distance)}).")
+        if x.stop_line:
+            out.append("stop_line.")
+        if x.stop_controlled:
+            out.append("stop_controlled.")
+    for reading in scene.sensors:
+        out.append(f"sensor({reading.side.value},{cm(reading.distance)},{reading.kind.value}).")
+    for crossing in scene.path_crossings:
+        out.append(f"paths_cross({_const(crossing.ego_path)},{_const(crossing.object_path)}).")
+    if proposed is not None:
+        out.append(f"proposed({proposed.value}).")
+    return "".join(out)
+
+
+def _const(name: str) -> str:
+    """Path ids become quoted strings unless they are already valid constants."""
+    if name and name[0].islower() and name.replace("_", "").isalnum():
+        return name
+    return '"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"'

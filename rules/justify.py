@@ -1,0 +1,419 @@
+"""Goal-directed proof trees over clingo's answer set, in the style of s(CASP).
+
+clingo computes the model bottom-up; people want the story top-down. The
+program is stratified, so its answer set is unique and every atom in it has a
+derivation by some catalog rule whose body holds in the model. The prover
+replays rule bodies against the model: for an atom that holds it finds the
+rule instance that derives it; for one that does not, it shows, rule by rule,
+the body literal that fails ("there is no evidence that ...").
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Iterator, Optional
+
+from clingo import Control, Symbol, SymbolType
+
+from .catalog import Catalog, CompiledRule
+from .terms import CMP_TEXT, Env, Literal, Term, Unbound, check_comparison, evaluate, is_assignment, match, term_vars
+from .verdict import JustificationNode
+
+_PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?\)")
+
+
+class AnswerSet:
+    """The frame's unique answer set, read lazily from the grounder.
+
+    The catalog is stratified (checked when it loads), so grounding alone
+    derives every true atom as a fact: no solving, and no copying thousands of
+    atoms into Python unless a justification asks for them.
+    """
+
+    def __init__(self, control: Control):
+        self._control = control  # owns the atoms: they must not outlive it
+        self._atoms = control.symbolic_atoms
+        self._by_sig: dict[tuple[str, int], list[Symbol]] = {}
+        self._by_first: dict[tuple[str, int], dict[Symbol, list[Symbol]]] = {}
+        self._args: dict[Symbol, tuple[Symbol, ...]] = {}
+
+    def holds(self, sym: Symbol) -> bool:
+        atom = self._atoms[sym]
+        return atom is not None and atom.is_fact
+
+    def of(self, name: str, arity: int) -> list[Symbol]:
+        found = self._by_sig.get((name, arity))
+        if found is None:
+            found = [a.symbol for a in self._atoms.by_signature(name, arity) if a.is_fact]
+            self._by_sig[(name, arity)] = found
+        return found
+
+    def with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
+        """Atoms of a predicate whose first argument is given: the prover's common lookup."""
+        index = self._by_first.get((name, arity))
+        if index is None:
+            index = {}
+            for sym in self.of(name, arity):
+                index.setdefault(self.arguments(sym)[0], []).append(sym)
+            self._by_first[(name, arity)] = index
+        return index.get(first, [])
+
+    def arguments(self, sym: Symbol) -> tuple[Symbol, ...]:
+        args = self._args.get(sym)
+        if args is None:
+            args = self._args[sym] = tuple(sym.arguments)
+        return args
+
+    def all(self) -> list[Symbol]:
+        return [a.symbol for a in self._atoms if a.is_fact]
+
+
+# --- English ---------------------------------------------------------------
+
+
+def _words(sym: Symbol) -> str:
+    if sym.type == SymbolType.Number:
+        return str(sym.number)
+    if sym.type == SymbolType.String:
+        return sym.string
+    if sym.type == SymbolType.Function and sym.arguments:
+        inner = ", ".join(_words(a) for a in sym.arguments)
+        return f"{sym.name.replace('_', ' ')} ({inner})" if sym.name else f"({inner})"
+    return str(sym).replace("_", " ")
+
+
+def _ordinal(n: int) -> str:
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"
+
+
+_PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "decel": ("m/s²", 100)}
+_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ahead": "somewhere", "right": "somewhere"}
+
+
+class Phrasebook:
+    """Renders atoms and comparisons as English with the catalog's templates."""
+
+    def __init__(self, catalog: Catalog, answer: AnswerSet):
+        self.catalog = catalog
+        self._answer = answer
+        self._class_cache: Optional[dict[Symbol, str]] = None
+        self._formats: dict[int, dict[str, str]] = {}
+
+    def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str) -> str:
+        if sym is None:
+            return _UNKNOWN.get(fmt or "", f"some {param}")
+        if sym.type != SymbolType.Number:
+            return _words(sym)
+        n = sym.number
+        if fmt == "m":
+            return f"{n / 100:.1f} m"
+        if fmt == "mps":
+            return f"{n / 100:.1f} m/s"
+        if fmt == "ahead":
+            return f"{n / 100:.1f} m ahead" if n >= 0 else f"{-n / 100:.1f} m behind"
+        if fmt == "right":
+            return f"{n / 100:.1f} m to the right" if n >= 0 else f"{-n / 100:.1f} m to the left"
+        if fmt == "ordinal":
+            return _ordinal(n)
+        if fmt == "obj":
+            if self._class_cache is None:
+                self._class_cache = {a[0]: a[1].name for a in map(self._answer.arguments, self._answer.of("object", 2))}
+            cls = self._class_cache.get(sym)
+            return f"{cls.replace('_', ' ')} {n}" if cls else f"object {n}"
+        return str(n)
+
+    def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
+        if name == "param" and len(args) == 2 and args[0] is not None and args[1] is not None:
+            unit, scale = _PARAM_UNITS.get(args[0].name, ("m", 100))
+            label = args[0].name.removesuffix("_ms").replace("_", " ")
+            return f"the {label} is {args[1].number / scale:g} {unit}"
+        template = self.catalog.templates.get((name, len(args)))
+        if template is None:
+            inner = ", ".join("_" if a is None else str(a) for a in args)
+            return f"{name}({inner})" if args else name
+        values = dict(zip(template.params, args))
+        return _PLACEHOLDER.sub(lambda m: self.value(values.get(m.group(1)), m.group(2), m.group(1)), template.template)
+
+    def atom(self, sym: Symbol) -> str:
+        return self.sentence(sym.name, list(sym.arguments))
+
+    def formats_of(self, rule: CompiledRule) -> dict[str, str]:
+        """Units of a rule's variables, read off the templates of the atoms they appear in."""
+        formats = self._formats.get(rule.index)
+        if formats is not None:
+            return formats
+        formats = {}
+        for term in [rule.head] + [lit.atom for lit in rule.body if lit.is_atom]:
+            if term[0] != "f":
+                continue
+            template = self.catalog.templates.get((term[1], len(term[2])))
+            if template is None:
+                continue
+            by_param = {m.group(1): m.group(2) for m in _PLACEHOLDER.finditer(template.template)}
+            for param, arg in zip(template.params, term[2]):
+                fmt = by_param.get(param)
+                if arg[0] == "v" and fmt in ("m", "mps", "ahead", "right"):
+                    formats.setdefault(arg[1], "m" if fmt in ("ahead", "right") else fmt)
+        self._formats[rule.index] = formats
+        return formats
+
+    def comparison(self, rule: CompiledRule, lit: Literal, env: Env) -> str:
+        formats = self.formats_of(rule)
+        left, guards = lit.comparison
+        terms = [left] + [t for _, t in guards]
+        fmt = next((formats[v] for t in terms for v in sorted(term_vars(t)) if v in formats), None)
+
+        def show(term: Term) -> str:
+            try:
+                return self.value(evaluate(term, env), fmt, "")
+            except Unbound:
+                return lit.source
+
+        parts = [show(left)]
+        for op, term in guards:
+            parts += [CMP_TEXT.get(op, "?"), show(term)]
+        return " ".join(parts)
+
+
+# --- proofs ----------------------------------------------------------------
+
+
+@dataclass
+class _Failure:
+    depth: int
+    literal: Literal
+    env: Env
+    witness: Optional[Symbol] = None  # the atom that holds when a negated literal fails
+
+
+class Prover:
+    """Builds justification trees for one solved frame."""
+
+    def __init__(self, catalog: Catalog, answer: AnswerSet, max_depth: int = 12, negative_depth: int = 2,
+                 alternatives: int = 3):
+        self.catalog = catalog
+        self.answer = answer
+        self.max_depth = max_depth
+        self.negative_depth = negative_depth
+        self.alternatives = alternatives
+        self.phrases = Phrasebook(catalog, answer)
+
+    # -- derivations --
+    def derivations(self, sym: Symbol) -> Iterator[tuple[CompiledRule, Env]]:
+        """Every catalog rule instance (one per rule) whose body holds and derives `sym`."""
+        for rule in self.catalog.by_head.get((sym.name, len(sym.arguments)), []):
+            env = match(rule.head, sym, {})
+            if env is None:
+                continue
+            for solution in self._solve(list(rule.body), env, 0, None):
+                yield rule, solution
+                break
+
+    def fired_rules(self) -> set[str]:
+        """Ids of the catalog rules with at least one instance whose body holds in the model."""
+        fired = set(self.catalog.fact_rule.get(sym) for sym in self.answer.all()) - {None}
+        for rule in self.catalog.compiled:
+            if rule.info.id not in fired and next(self._solve(list(rule.body), {}, 0, None), None) is not None:
+                fired.add(rule.info.id)
+        return fired
+
+    # -- holds --
+    def why(self, sym: Symbol, depth: int = 0, path: frozenset = frozenset()) -> JustificationNode:
+        text = self.phrases.atom(sym)
+        if sym in path:
+            return JustificationNode(literal=str(sym), holds=True, text=text, kind="loop")
+        fact_rule = self.catalog.fact_rule.get(sym)
+        derivation = None if fact_rule else next(self.derivations(sym), None)
+        if derivation is None:
+            return JustificationNode(literal=str(sym), holds=True, text=text, kind="fact", rule=fact_rule)
+        rule, env = derivation
+        return self.node_for(rule, env, sym, depth, path)
+
+    def node_for(self, rule: CompiledRule, env: Env, sym: Symbol, depth: int = 0,
+                 path: frozenset = frozenset()) -> JustificationNode:
+        children: list[JustificationNode] = []
+        if depth < self.max_depth:
+            for position, lit in enumerate(rule.body):
+                if position in rule.assignments or (lit.is_atom and not lit.negated and self._hidden(lit)):
+                    continue
+                children.append(self._literal_holds(rule, lit, env, depth + 1, path | {sym}))
+        return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym), rule=rule.info.id,
+                                 children=children)
+
+    def _hidden(self, lit: Literal) -> bool:
+        atom = lit.atom
+        arity = len(atom[2]) if atom[0] == "f" else len(atom[1].arguments)
+        return (lit.predicate, arity) in self.catalog.hidden
+
+    def _literal_holds(self, rule: CompiledRule, lit: Literal, env: Env, depth: int,
+                       path: frozenset) -> JustificationNode:
+        if not lit.is_atom:
+            return JustificationNode(literal=lit.source, holds=True, text=self.phrases.comparison(rule, lit, env),
+                                     kind="builtin")
+        if not lit.negated:
+            ground = next(self._matches(lit.atom, env), None)
+            if ground is None:  # the model changed under us; say so rather than crash
+                return JustificationNode(literal=lit.source, holds=True, text=lit.source, kind="builtin")
+            return self.why(ground[0], depth, path)
+        return self.why_not(lit.atom, env, depth)
+
+    # -- does not hold --
+    def why_not(self, term: Term, env: Env, depth: int = 0, negative_left: Optional[int] = None) -> JustificationNode:
+        negative_left = self.negative_depth if negative_left is None else negative_left
+        name, args = self._pattern(term, env)
+        shown = ", ".join("_" if a is None else str(a) for a in args)
+        literal = f"not {name}({shown})" if args else f"not {name}"
+        text = "there is no evidence that " + self.phrases.sentence(name, args)
+        rules = self.catalog.by_head.get((name, len(args)), [])
+        if not rules:
+            return JustificationNode(literal=literal, holds=True, text=text, kind="absent")
+        children: list[JustificationNode] = []
+        closed = all(rule.info.id.startswith("ent.") for rule in rules)  # the hierarchy speaks for itself
+        if negative_left > 0 and depth < self.max_depth and not closed:
+            for rule in rules:
+                blocked = self._blocked(rule, args, depth + 1, negative_left - 1)
+                if blocked is not None:
+                    children.append(blocked)
+        return JustificationNode(literal=literal, holds=True, text=text, kind="negation", children=children)
+
+    def _pattern(self, term: Term, env: Env) -> tuple[str, list[Optional[Symbol]]]:
+        if term[0] == "s":
+            return term[1].name, list(term[1].arguments)
+        args: list[Optional[Symbol]] = []
+        for arg in term[2]:
+            try:
+                args.append(evaluate(arg, env))
+            except Unbound:
+                args.append(None)
+        return term[1], args
+
+    def _blocked(self, rule: CompiledRule, args: list[Optional[Symbol]], depth: int,
+                 negative_left: int) -> Optional[JustificationNode]:
+        env: Optional[Env] = {}
+        head_args = rule.head[2] if rule.head[0] == "f" else ()
+        for sub, value in zip(head_args, args):
+            if value is not None:
+                env = match(sub, value, env)
+                if env is None:
+                    return None  # this rule cannot derive the goal at all
+        failures: list[_Failure] = []
+        for _ in self._solve(list(rule.body), env, 0, failures):
+            return None  # its body holds, so it does not block anything
+        if not failures:
+            return None
+        deepest = max(f.depth for f in failures)
+        worst = [f for f in failures if f.depth == deepest][: self.alternatives]
+        reasons = [self._failure_node(rule, f, depth, negative_left) for f in worst]
+        if len(reasons) == 1:
+            only = reasons[0]
+            only.text = f"rule {rule.info.id} needs {only.text}"
+            only.rule = rule.info.id
+            return only
+        return JustificationNode(literal=rule.info.id, holds=False, text=f"rule {rule.info.id} does not apply",
+                                 rule=rule.info.id, kind="blocked", children=reasons)
+
+    def _failure_node(self, rule: CompiledRule, failure: _Failure, depth: int, negative_left: int) -> JustificationNode:
+        lit = failure.literal
+        if not lit.is_atom:
+            text = self.phrases.comparison(rule, lit, failure.env) + ", which is false"
+            return JustificationNode(literal=lit.source, holds=False, text=text, kind="blocked")
+        if failure.witness is None:  # a positive literal with nothing to match
+            child = self.why_not(lit.atom, failure.env, depth, negative_left)
+            child.text = "that " + child.text.removeprefix("there is no evidence that ") + ", and there is no evidence of it"
+            child.holds = False
+            child.kind = "blocked"
+            return child
+        node = JustificationNode(literal=str(failure.witness), holds=False,
+                                 text=f"that it is not so that {self.phrases.atom(failure.witness)}, but it is",
+                                 kind="blocked")
+        if negative_left > 0:
+            proof = self.why(failure.witness, depth)
+            node.children, node.rule = proof.children, proof.rule
+        return node
+
+    def _solve(self, body: list[Literal], env: Env, done: int,
+               failures: Optional[list[_Failure]]) -> Iterator[Env]:
+        """Backtracking evaluation of a rule body against the model, recording where it fails."""
+        if not body:
+            yield env
+            return
+        chosen = _next_ready(body, env)
+        lit = body[chosen]
+        rest = body[:chosen] + body[chosen + 1:]
+        if not lit.is_atom:
+            result = check_comparison(lit, env)
+            if result is None:
+                return
+            if result is False:
+                if failures is not None:
+                    failures.append(_Failure(done, lit, env))
+                return
+            yield from self._solve(rest, result, done + 1, failures)
+            return
+        if not lit.negated:
+            found = False
+            for _, bound in self._matches(lit.atom, env):
+                found = True
+                yield from self._solve(rest, bound, done + 1, failures)
+            if not found and failures is not None:
+                failures.append(_Failure(done, lit, env))
+            return
+        witness = next(self._matches(lit.atom, env), None)
+        if witness is not None:
+            if failures is not None:
+                failures.append(_Failure(done, lit, env, witness[0]))
+            return
+        yield from self._solve(rest, env, done + 1, failures)
+
+    def _matches(self, term: Term, env: Env) -> Iterator[tuple[Symbol, Env]]:
+        if term[0] == "s":
+            if self.answer.holds(term[1]):
+                yield term[1], env
+            return
+        try:
+            ground = evaluate(term, env)
+        except Unbound:
+            ground = None
+        if ground is not None:
+            if self.answer.holds(ground):
+                yield ground, env
+            return
+        args = term[2]
+        candidates = None
+        if args:
+            try:
+                candidates = self.answer.with_first(term[1], len(args), evaluate(args[0], env))
+            except Unbound:
+                pass
+        for sym in candidates if candidates is not None else self.answer.of(term[1], len(args)):
+            bound = match(term, sym, env)
+            if bound is not None:
+                yield sym, bound
+
+
+def _next_ready(body: list[Literal], env: Env) -> int:
+    """Positive atoms bind variables; comparisons and negations wait until theirs are bound."""
+    for i, lit in enumerate(body):
+        if lit.is_atom and not lit.negated:
+            return i
+        if lit.variables <= env.keys() or is_assignment(lit, env):
+            return i
+    return 0
+
+
+def rule_ids(node: JustificationNode, skip_prefixes: tuple[str, ...] = ("def.", "ent.")) -> list[str]:
+    """Decision-level rules used in a proof, first use first; rules that did not fire are not counted."""
+    seen: list[str] = []
+
+    def walk(n: JustificationNode) -> None:
+        if n.kind in ("negation", "blocked", "absent"):
+            return
+        if n.rule and not n.rule.startswith(skip_prefixes) and n.rule not in seen:
+            seen.append(n.rule)
+        for child in n.children:
+            walk(child)
+
+    walk(node)
+    return seen

@@ -1,0 +1,213 @@
+"""Rule bodies as plain Python tuples, evaluated against a model.
+
+clingo's AST objects are slow to walk from Python (every attribute is a C
+call); the justifier replays rule bodies many times, so rules are compiled
+once into tuples: ("v", name) variable, ("s", Symbol) constant,
+("f", name, args) function, ("b", op, left, right), ("u", op, arg).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+from clingo import Function, Number, Symbol, SymbolType, Tuple_
+from clingo import ast
+
+Env = dict[str, Symbol]
+Term = tuple
+
+_BIN = ast.BinaryOperator
+_UN = ast.UnaryOperator
+_CMP = ast.ComparisonOperator
+CMP_TEXT = {
+    int(_CMP.Equal): "=",
+    int(_CMP.NotEqual): "≠",
+    int(_CMP.LessThan): "<",
+    int(_CMP.LessEqual): "≤",
+    int(_CMP.GreaterThan): ">",
+    int(_CMP.GreaterEqual): "≥",
+}
+
+
+class Unbound(Exception):
+    """A term still has a free variable."""
+
+
+def compile_term(node: ast.AST) -> Term:
+    kind = node.ast_type
+    if kind == ast.ASTType.Variable:
+        return ("v", node.name)
+    if kind == ast.ASTType.SymbolicTerm:
+        return ("s", node.symbol)
+    if kind == ast.ASTType.Function:
+        return ("f", node.name, tuple(compile_term(a) for a in node.arguments))
+    if kind == ast.ASTType.BinaryOperation:
+        return ("b", int(node.operator_type), compile_term(node.left), compile_term(node.right))
+    if kind == ast.ASTType.UnaryOperation:
+        return ("u", int(node.operator_type), compile_term(node.argument))
+    raise ValueError(f"unsupported term in a catalog rule: {node}")
+
+
+def term_vars(term: Term) -> frozenset[str]:
+    tag = term[0]
+    if tag == "v":
+        return frozenset() if term[1] == "_" else frozenset([term[1]])
+    if tag == "s":
+        return frozenset()
+    if tag == "f":
+        return frozenset().union(*(term_vars(a) for a in term[2])) if term[2] else frozenset()
+    if tag == "b":
+        return term_vars(term[2]) | term_vars(term[3])
+    return term_vars(term[2])
+
+
+@dataclass(frozen=True)
+class Literal:
+    """A body literal: an atom (possibly negated) or a comparison chain."""
+
+    negated: bool
+    atom: Optional[Term]  # ("f", ...) or ("s", ...) for atoms
+    comparison: Optional[tuple[Term, tuple[tuple[int, Term], ...]]]
+    variables: frozenset[str]
+    source: str
+
+    @property
+    def is_atom(self) -> bool:
+        return self.atom is not None
+
+    @property
+    def predicate(self) -> Optional[str]:
+        if self.atom is None:
+            return None
+        return self.atom[1] if self.atom[0] == "f" else self.atom[1].name
+
+
+def compile_literal(lit: ast.AST) -> Literal:
+    atom = lit.atom
+    negated = lit.sign != ast.Sign.NoSign
+    if atom.ast_type == ast.ASTType.SymbolicAtom:
+        term = compile_term(atom.symbol)
+        return Literal(negated, term, None, term_vars(term), str(lit))
+    if atom.ast_type == ast.ASTType.Comparison:
+        left = compile_term(atom.term)
+        guards = tuple((int(g.comparison), compile_term(g.term)) for g in atom.guards)
+        variables = term_vars(left).union(*(term_vars(t) for _, t in guards))
+        return Literal(negated, None, (left, guards), variables, str(lit))
+    raise ValueError(f"unsupported literal in a catalog rule: {lit}")
+
+
+def _int_div(a: int, b: int) -> int:
+    q = abs(a) // abs(b)
+    return q if (a >= 0) == (b >= 0) else -q
+
+
+def evaluate(term: Term, env: Env) -> Symbol:
+    tag = term[0]
+    if tag == "s":
+        return term[1]
+    if tag == "v":
+        try:
+            return env[term[1]]
+        except KeyError:
+            raise Unbound(term[1]) from None
+    if tag == "f":
+        args = [evaluate(a, env) for a in term[2]]
+        return Tuple_(args) if term[1] == "" else Function(term[1], args)
+    if tag == "u":
+        value = evaluate(term[2], env).number
+        if term[1] == _UN.Minus:
+            return Number(-value)
+        if term[1] == _UN.Absolute:
+            return Number(abs(value))
+        return Number(~value)
+    a, b = evaluate(term[2], env).number, evaluate(term[3], env).number
+    op = term[1]
+    if op == _BIN.Plus:
+        return Number(a + b)
+    if op == _BIN.Minus:
+        return Number(a - b)
+    if op == _BIN.Multiplication:
+        return Number(a * b)
+    if op == _BIN.Division:
+        return Number(_int_div(a, b))
+    if op == _BIN.Modulo:
+        return Number(a - b * _int_div(a, b))
+    if op == _BIN.Power:
+        return Number(a**b)
+    raise Unbound(f"unsupported operator {op}")
+
+
+def match(term: Term, sym: Symbol, env: Env) -> Optional[Env]:
+    """Unify a partly bound term with a ground symbol; the extended env, or None."""
+    tag = term[0]
+    if tag == "v":
+        name = term[1]
+        if name == "_":
+            return env
+        bound = env.get(name)
+        if bound is not None:
+            return env if bound == sym else None
+        extended = dict(env)
+        extended[name] = sym
+        return extended
+    if tag == "f" and term[2]:
+        if sym.type != SymbolType.Function or sym.name != term[1] or len(sym.arguments) != len(term[2]):
+            return None
+        for sub, value in zip(term[2], sym.arguments):
+            env = match(sub, value, env)
+            if env is None:
+                return None
+        return env
+    try:
+        return env if evaluate(term, env) == sym else None
+    except Unbound:
+        return None
+
+
+def compare(op: int, a: Symbol, b: Symbol) -> bool:
+    if op == _CMP.Equal:
+        return a == b
+    if op == _CMP.NotEqual:
+        return a != b
+    if op == _CMP.LessThan:
+        return a < b
+    if op == _CMP.LessEqual:
+        return a <= b
+    if op == _CMP.GreaterThan:
+        return a > b
+    return a >= b
+
+
+def is_assignment(lit: Literal, env: Env) -> bool:
+    """`X = expr` with X free and expr bound: clingo reads it as an assignment."""
+    if lit.comparison is None:
+        return False
+    left, guards = lit.comparison
+    if len(guards) != 1 or guards[0][0] != _CMP.Equal:
+        return False
+    right = guards[0][1]
+    return (left[0] == "v" and left[1] not in env and not (term_vars(right) - env.keys())) or (
+        right[0] == "v" and right[1] not in env and not (term_vars(left) - env.keys())
+    )
+
+
+def check_comparison(lit: Literal, env: Env) -> Optional[Env] | bool:
+    """The (extended) env when the comparison holds, False when it fails, None when undecidable."""
+    left, guards = lit.comparison
+    if is_assignment(lit, env):
+        right = guards[0][1]
+        var, expr = (left, right) if left[0] == "v" and left[1] not in env else (right, left)
+        extended = dict(env)
+        extended[var[1]] = evaluate(expr, env)
+        return extended
+    try:
+        lhs = evaluate(left, env)
+        for op, term in guards:
+            rhs = evaluate(term, env)
+            if not compare(op, lhs, rhs):
+                return False
+            lhs = rhs
+    except Unbound:
+        return None
+    return env
