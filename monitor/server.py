@@ -223,12 +223,15 @@ class MonitorServer:
             state = states[req.vehicle] = VehicleState(self.config.window_s)
         scene = proposal.scene
         history = state.admit(scene, req.arrived)
-        verdict = decide(scene, proposal.action, history=history, explain=proposal.explain, shadow=self.config.shadow)
+        verdict = decide(
+            scene,
+            proposal.action,
+            history=history,
+            explain=proposal.explain,
+            shadow=self.config.shadow,
+            vehicle=req.vehicle,
+        )
         state.remember_permitted(verdict.permitted, req.arrived)
-        verdict.vehicle = req.vehicle
-        verdict.frame_id = scene.frame_id
-        verdict.timestamp = scene.timestamp
-        verdict.proposed = proposal.action
         return verdict
 
     # -- deadline --------------------------------------------------------------
