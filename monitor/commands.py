@@ -114,6 +114,9 @@ def _wait_for_signal() -> None:
 def cmd_serve(args) -> int:
     from .server import MonitorServer
 
+    # The worker holds the GIL while it reasons; the default 5 ms switch interval would let it
+    # sit on arriving proposals that long. 0.5 ms keeps the zenoh threads' latency low.
+    sys.setswitchinterval(0.0005)
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
@@ -148,9 +151,9 @@ def cmd_serve(args) -> int:
         return _fail("serve", f"{type(exc).__name__}: {exc}")
     try:
         chunk = server.vehicles_chunk
-        listen = config.zenoh.listen if config.zenoh.listen is not None else [DEFAULT_ENDPOINT]
         print(
-            f"discern serve: monitor {config.monitor_id} ready; listening on {', '.join(listen) or 'nothing'}; "
+            f"discern serve: monitor {config.monitor_id} ready; "
+            f"listening on {', '.join(server.listen_endpoints) or 'nothing'}; "
             f"serving {keys.proposal_key(chunk)} and {keys.check_key(chunk)}; budget {config.budget_ms:g} ms"
             + (f"; logging to {config.log.directory}" if config.log else ""),
             flush=True,
@@ -216,14 +219,18 @@ def _status_text(s) -> str:
 
 
 def cmd_router(args) -> int:
-    from .router import open_router
+    import zenoh
+
+    from .config import listen_endpoints
+    from .router import router_config
 
     try:
-        session = open_router(_zenoh_settings(args, mode="router"))
+        config = router_config(_zenoh_settings(args, mode="router"))
+        listen = listen_endpoints(config)
+        session = zenoh.open(config)
     except Exception as exc:
         return _fail("router", str(exc))
     try:
-        listen = args.listen or [DEFAULT_ENDPOINT]
         print(f"discern router: zenoh router {session.zid()} ready; listening on {', '.join(listen)}", flush=True)
         _wait_for_signal()
     finally:

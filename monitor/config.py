@@ -75,6 +75,15 @@ class ZenohSettings:
         return config
 
 
+def listen_endpoints(config: zenoh.Config) -> list[str]:
+    """The endpoints a config listens on; zenoh may give them per mode ({"peer": [...], ...})."""
+    value = config.get_json("listen/endpoints")
+    value = json.loads(value) if isinstance(value, str) else value
+    if isinstance(value, dict):
+        value = [e for eps in value.values() for e in eps]
+    return list(value or [])
+
+
 def _insert(config: zenoh.Config, key: str, endpoints: list[str]) -> None:
     try:
         config.insert_json5(key, json.dumps(list(endpoints)))
