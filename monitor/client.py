@@ -13,6 +13,7 @@ itself does, so the planner's loop has one code path.
 from __future__ import annotations
 
 import atexit
+import logging
 import threading
 from pathlib import Path
 from typing import Callable, Iterable, Optional, Union
@@ -26,6 +27,7 @@ from . import keys
 from .config import DEFAULT_ENDPOINT, ZenohSettings
 from .protocol import RULE_NO_ANSWER, decode_verdict, encode, failsafe_verdict
 
+log = logging.getLogger(__name__)
 JSON = zenoh.Encoding.APPLICATION_JSON
 STYLES = ("query", "pubsub")
 
@@ -89,16 +91,17 @@ class Monitor:
             verdict = self._query(proposal, timeout)
         else:
             verdict = self._publish_and_wait(proposal, timeout)
-        if verdict is None:
-            verdict = failsafe_verdict(
-                self.vehicle,
-                f"no verdict from a monitor on {self._key()} within {timeout * 1000:g} ms",
-                RULE_NO_ANSWER,
-                proposed=proposal.action,
-                frame_id=proposal.scene.frame_id,
-                timestamp=proposal.scene.timestamp,
-            )
-        return verdict
+        if isinstance(verdict, Verdict):
+            return verdict
+        reason = verdict or f"no verdict from a monitor on {self._key()} within {timeout * 1000:g} ms"
+        return failsafe_verdict(
+            self.vehicle,
+            reason,
+            RULE_NO_ANSWER,
+            proposed=proposal.action,
+            frame_id=proposal.scene.frame_id,
+            timestamp=proposal.scene.timestamp,
+        )
 
     def publish(self, scene: Union[Scene, dict], action: Union[Action, str], *, explain: bool = False) -> None:
         """Send a proposal without waiting; its verdict goes to `on_verdict`."""
@@ -129,17 +132,24 @@ class Monitor:
             scene = Scene.model_validate(scene)
         return Proposal(vehicle=self.vehicle, action=Action(action), scene=scene, explain=explain)
 
-    def _query(self, proposal: Proposal, timeout: float) -> Optional[Verdict]:
+    def _query(self, proposal: Proposal, timeout: float) -> Union[Verdict, str, None]:
+        """The first verdict that arrives, else why none did (None: nothing in time)."""
         replies = self.session.get(
             keys.check_key(self.vehicle), payload=encode(proposal), encoding=JSON, timeout=timeout
         )
+        problem = None
         try:
-            for reply in replies:  # first good reply wins: sharded monitors answer once
-                if reply.ok is not None:
+            for reply in replies:
+                if reply.ok is None:
+                    problem = f"the monitor replied with an error: {reply.err.payload.to_string()[:200]}"
+                    continue
+                try:
                     return decode_verdict(reply.ok.payload.to_bytes())
+                except ValueError as exc:
+                    problem = f"unreadable verdict from the monitor: {str(exc).splitlines()[0]}"
         except zenoh.ZError:
             pass
-        return None
+        return problem
 
     def _publish_and_wait(self, proposal: Proposal, timeout: float) -> Optional[Verdict]:
         frame = proposal.scene.frame_id
@@ -158,6 +168,7 @@ class Monitor:
         try:
             verdict = decode_verdict(sample.payload.to_bytes())
         except ValueError:
+            log.warning("ignored an unreadable verdict on %s", sample.key_expr)
             return
         with self._lock:
             slot = self._waiting.get(verdict.frame_id) if verdict.frame_id is not None else None

@@ -40,6 +40,7 @@ from .protocol import (
     decode_proposal,
     encode,
     failsafe_verdict,
+    peek_frame,
 )
 from .status import MonitorStatus, StatusCounters
 from .vehicle_state import VehicleState
@@ -254,7 +255,7 @@ class MonitorServer:
                 continue
             delay = req.deadline - time.perf_counter()
             if delay > 0:
-                time.sleep(delay)
+                self._stopping.wait(delay)  # later requests have later deadlines; stop() wakes us
                 continue
             pending.popleft()
             reason = (
@@ -268,14 +269,19 @@ class MonitorServer:
 
     def _failsafe(self, req: Request, reason: str, rule: str) -> Verdict:
         p = req.proposal
+        if p is not None:
+            frame_id, action, timestamp = p.scene.frame_id, p.action, p.scene.timestamp
+        else:  # still queued: label the answer with what a glance at the payload gives
+            frame_id, action = peek_frame(req.payload)
+            timestamp = None
         state = self._states[zlib.crc32(req.vehicle.encode()) % len(self._states)].get(req.vehicle)
         return failsafe_verdict(
             req.vehicle,
             reason,
             rule,
-            proposed=p.action if p else None,
-            frame_id=p.scene.frame_id if p else None,
-            timestamp=p.scene.timestamp if p else None,
+            proposed=action,
+            frame_id=frame_id,
+            timestamp=timestamp,
             permitted=state.recent_permitted(time.perf_counter()) if state else (),
             shadow=self.config.shadow,
         )

@@ -51,6 +51,7 @@ def test_a_backlog_is_answered_in_time_and_nothing_is_lost(slow_monitor):
     assert all(v.failsafe and v.rules == [RULE_DEADLINE] for v in verdicts.values())
     assert all(v.latency_ms < DELAY_MS for v in verdicts.values())  # none waited for the slow worker
     assert any("still queued" in v.error for v in verdicts.values())
+    assert all(v.frame_id == 1 and v.proposed is Action.cruise for v in verdicts.values())  # matchable to their frame
     report = wait_until(lambda: [r for r in status(slow_monitor, "slow") if r["deadline_misses"] >= 7])
     assert report and report[0]["failsafes"] == report[0]["proposals"]
 

@@ -18,7 +18,7 @@ from tests.monitor_process import REPO, endpoint, free_port, serve, status, wait
 
 @pytest.fixture(scope="module")
 def monitor():
-    proc, ep = serve("--id", "rt")
+    proc, ep = serve("--id", "rt", "--budget-ms", "5000")  # correctness here; the deadline has its own tests
     yield ep
     assert proc.stop() == 0, proc.output
 
@@ -108,3 +108,21 @@ def test_without_a_monitor_the_client_returns_a_failsafe_in_time():
         elapsed = time.monotonic() - started
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
     assert "no verdict" in verdict.error and elapsed < 2.0
+
+
+def test_an_unreadable_verdict_becomes_a_client_side_failsafe():
+    """Something that is not a Discern monitor answers on the check key: the planner still gets a verdict."""
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+
+    ep = endpoint(free_port())
+    impostor = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
+    try:
+        impostor.declare_queryable("discern/garbled/check", lambda q: q.reply(q.key_expr, b'{"version": 7}'))
+        with Monitor("garbled", connect=[ep], timeout=2.0) as client:
+            verdict = client.check(highway_scene(0, 2), "cruise")
+    finally:
+        impostor.close()
+    assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
+    assert "unreadable verdict from the monitor" in verdict.error

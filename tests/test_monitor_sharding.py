@@ -20,7 +20,7 @@ def fleet():
             started.append(
                 DiscernProcess(
                     "serve", "--mode", "client", "--connect", router_ep, "--id", f"shard_{shard}",
-                    "--vehicles", f"fleet_{shard}_*",
+                    "--vehicles", f"fleet_{shard}_*", "--budget-ms", "5000",
                 ).wait_ready()
             )
         # Both monitors' declarations must have reached the router before planners ask.
