@@ -15,6 +15,7 @@ from __future__ import annotations
 import atexit
 import logging
 import threading
+import time
 from pathlib import Path
 from typing import Callable, Iterable, Optional, Union
 
@@ -72,6 +73,7 @@ class Monitor:
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
         self._lock = threading.Lock()
         self._publisher = self.session.declare_publisher(keys.proposal_key(vehicle), encoding=JSON)
+        self._querier = self.session.declare_querier(keys.check_key(vehicle))
         self._subscriber = None
         if style == "pubsub" or on_verdict is not None:
             self._subscriber = self.session.declare_subscriber(keys.verdict_key(vehicle), self._on_sample)
@@ -107,10 +109,21 @@ class Monitor:
         """Send a proposal without waiting; its verdict goes to `on_verdict`."""
         self._publisher.put(encode(self._proposal(scene, action, explain)))
 
+    def wait_for_monitor(self, timeout: float = 2.0) -> bool:
+        """True once a monitor serving this vehicle is reachable; for a planner's start-up check."""
+        entity = self._querier if self.style == "query" else self._publisher
+        deadline = time.monotonic() + timeout
+        while not entity.matching_status.matching:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.02)
+        return True
+
     def close(self) -> None:
         if getattr(self, "_closed", True):
             return
         self._closed = True
+        atexit.unregister(self.close)
         try:
             self.session.close()
         except zenoh.ZError:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import re
 import signal
 import sys
 import threading
@@ -98,8 +99,12 @@ def _zenoh_settings(args, mode=None) -> ZenohSettings:
     )
 
 
+_RUST_LOCATION = re.compile(r" at /\S+?\.rs:\d+\.?")
+
+
 def _fail(command: str, message: str) -> int:
-    print(f"discern {command}: error: {message}", file=sys.stderr)
+    """One line for the user; zenoh's errors carry Rust source locations they have no use for."""
+    print(f"discern {command}: error: {_RUST_LOCATION.sub('', message)}", file=sys.stderr)
     return 2
 
 
@@ -148,7 +153,7 @@ def cmd_serve(args) -> int:
     except (ValueError, OSError, ImportError) as exc:
         return _fail("serve", str(exc))
     except Exception as exc:  # zenoh refuses an endpoint or config: say so, no traceback
-        return _fail("serve", f"{type(exc).__name__}: {exc}")
+        return _fail("serve", str(exc))
     try:
         chunk = server.vehicles_chunk
         print(

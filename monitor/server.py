@@ -102,12 +102,21 @@ class MonitorServer:
     # -- lifecycle -----------------------------------------------------------
 
     def start(self) -> "MonitorServer":
+        """Go live; on any failure nothing is left running and the error propagates."""
+        try:
+            self._open()
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def _open(self) -> None:
         deciders = [self._decide_factory() for _ in range(self.config.workers)]  # fail before going live
-        if self.config.log is not None:
-            self.log = McapLogWriter(self.config.log, self.config.monitor_id)
         zenoh_config = self.config.zenoh.to_zenoh(default_listen=[DEFAULT_ENDPOINT])
         self.listen_endpoints = listen_endpoints(zenoh_config)
         self.session = zenoh.open(zenoh_config)
+        if self.config.log is not None:
+            self.log = McapLogWriter(self.config.log, self.config.monitor_id)
         for i, decide in enumerate(deciders):
             self._spawn(f"discern-worker-{i}", self._work, i, decide)
         self._spawn("discern-watchdog", self._watch)
@@ -120,7 +129,6 @@ class MonitorServer:
             s.declare_queryable(keys.check_key(chunk), _direct(self._on_query)),
             s.declare_queryable(keys.status_key(self.config.monitor_id), self._on_status_query),
         ]
-        return self
 
     def stop(self) -> None:
         if self._stopping.is_set():
