@@ -103,11 +103,16 @@ class Result:
 
     @property
     def sustained(self) -> bool:
-        """Kept up with: nothing lost, 99 % of verdicts back within the 50 ms budget.
+        """Kept up with: nothing lost and at most 1 % fail-safe verdicts.
 
         (Not "no fail-safe at all": the rules alone exceed 50 ms on an odd frame at any rate.)
         """
-        return self.lost == 0 and pct(self.rtt_ms, 99) <= 50
+        return self.lost == 0 and self.failsafe <= 0.01 * self.sent
+
+    @property
+    def judged_per_s(self) -> float:
+        """Verdicts that came from the rules, per second: the monitor's real throughput."""
+        return (self.answered - self.failsafe) / self.seconds if self.seconds else 0.0
 
     def transport_ms(self) -> float:
         return pct([r - m for r, m in zip(self.rtt_ms, self.monitor_ms)], 50)
@@ -201,6 +206,8 @@ def main() -> None:
                 r = run_load(session, label, loads, rate)
                 rows.append(row(r, vehicles, rate))
                 print(rows[-1], flush=True)
+                if r.failsafe:
+                    notes.append(f"{label}: {r.judged_per_s:.0f} verdicts/s from the rules, the rest fail-safe at the budget")
             finally:
                 session.close()
                 monitors.close()
@@ -232,7 +239,7 @@ def main() -> None:
                 session.close()
                 monitors.close()
             notes.append(f"max sustained rate, {shards} monitor process(es): {best or '< 20'} proposals/s "
-                         "(nothing lost, p99 round trip within the 50 ms budget)")
+                         "(nothing lost, at most 1 % fail-safe)")
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
 
@@ -260,7 +267,7 @@ def main() -> None:
             *rows,
             "",
             "Maximum sustained rate (10 vehicles; the total rate is raised step by step until a proposal is lost "
-            "or the p99 round trip exceeds the 50 ms budget; with 2 monitors each serves 5 vehicles, sharded by "
+            "or more than 1 % of verdicts are fail-safe; with 2 monitors each serves 5 vehicles, sharded by "
             "`--vehicles`):",
             "",
             header,

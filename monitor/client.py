@@ -36,6 +36,8 @@ STYLES = ("query", "pubsub")
 class Monitor:
     """A connection to the monitor(s) serving one vehicle.
 
+    Connects to `connect` (default tcp/127.0.0.1:7447) or as the zenoh `config_file` says;
+    `mode` is peer unless given or set in the file.
     style="query": `check` queries ``discern/<vehicle>/check`` and takes the first reply.
     style="pubsub": `check` publishes on ``discern/<vehicle>/proposal`` and waits for the
     verdict of that frame on ``discern/<vehicle>/verdict``; `publish` sends without waiting
@@ -46,8 +48,8 @@ class Monitor:
         self,
         vehicle: str = "ego",
         *,
-        connect: Optional[Iterable[str]] = (DEFAULT_ENDPOINT,),
-        mode: str = "peer",
+        connect: Optional[Iterable[str]] = None,
+        mode: Optional[str] = None,
         config_file: Optional[Union[str, Path]] = None,
         style: str = "query",
         timeout: float = 0.1,
@@ -61,9 +63,10 @@ class Monitor:
         self.style = style
         self.timeout = timeout
         self._on_verdict = on_verdict
-        settings = ZenohSettings(
+        if connect is None and config_file is None:
+            connect = [DEFAULT_ENDPOINT]
+        settings = ZenohSettings(  # explicit arguments override the config file; a planner need not listen
             mode=mode,
-            listen=[],
             connect=list(connect) if connect is not None else None,
             config_file=Path(config_file) if config_file else None,
         )

@@ -170,10 +170,16 @@ class MonitorServer:
     # -- zenoh callbacks: copy, enqueue, return ----------------------------------
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        self._submit(str(sample.key_expr), sample.payload, None)
+        try:
+            self._submit(str(sample.key_expr), sample.payload, None)
+        except Exception:  # an exception would vanish inside zenoh: make it visible
+            log.exception("could not take a proposal on %s", sample.key_expr)
 
     def _on_query(self, query: zenoh.Query) -> None:
-        self._submit(str(query.key_expr), query.payload, query)
+        try:
+            self._submit(str(query.key_expr), query.payload, query)
+        except Exception:
+            log.exception("could not take a query on %s", query.key_expr)
 
     def _submit(self, key: str, payload: Optional[zenoh.ZBytes], query: Optional[zenoh.Query]) -> None:
         now = time.perf_counter()
@@ -202,12 +208,25 @@ class MonitorServer:
     def _work(self, index: int, decide: Decide) -> None:
         work = self._queues[index]
         states = self._states[index]
+        typical_s = 0.0  # moving average of decision time: what a decision needs from the budget
         while True:
             req = work.get()
             if req is None:
                 return
             if req.answered:  # the watchdog already sent its fail-safe: shed the backlog
                 continue
+            left = req.deadline - time.perf_counter()
+            if left < typical_s:
+                # Deciding now would finish after the deadline: answer at once and move on to a
+                # proposal that can still make it, instead of collapsing into all-late under overload.
+                reason = (
+                    f"no decision within the {self.config.budget_ms:g} ms budget: {max(left, 0) * 1000:.1f} ms "
+                    f"left after queueing, a decision takes about {typical_s * 1000:.1f} ms"
+                )
+                if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE), None):
+                    self.counters.count("deadline_misses")
+                continue
+            started = time.perf_counter()
             error_kind = None
             try:
                 verdict = self._judge(req, decide, states)
@@ -218,6 +237,8 @@ class MonitorServer:
                 log.exception("internal error judging a proposal from %s", req.vehicle)
                 self.counters.count("internal_errors")
                 verdict = self._failsafe(req, f"internal error: {type(exc).__name__}: {exc}", RULE_INTERNAL_ERROR)
+            if error_kind is None:
+                typical_s += 0.1 * ((time.perf_counter() - started) - typical_s)
             if not self._answer(req, verdict, error_kind):
                 self.counters.count("late_decisions")
 

@@ -32,7 +32,7 @@ def test_a_decision_over_budget_gets_a_failsafe_verdict_at_the_deadline(slow_mon
     assert verdict.decision is Decision.override and verdict.action is Action.brake
     assert f"no decision within the {BUDGET_MS} ms budget" in verdict.error
     assert verdict.frame_id == 0 and verdict.proposed is Action.accelerate
-    assert BUDGET_MS <= verdict.latency_ms < DELAY_MS
+    assert verdict.latency_ms < DELAY_MS  # at the deadline, or sooner once the monitor knows it is slow
 
 
 def test_a_backlog_is_answered_in_time_and_nothing_is_lost(slow_monitor):

@@ -83,7 +83,7 @@ def secured(tmp_path_factory):
 
 
 def check(config, vehicle):
-    with Monitor(vehicle, connect=None, config_file=config, timeout=1.0) as monitor:
+    with Monitor(vehicle, config_file=config, timeout=1.0) as monitor:
         return monitor.check(highway_scene(0, 4), "cruise")
 
 
