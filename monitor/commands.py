@@ -32,7 +32,7 @@ def register(subparsers) -> None:
     serve.add_argument("--budget-ms", type=float, default=50.0, help="decision budget; later = fail-safe (default: 50)")
     serve.add_argument("--window-s", type=float, default=2.0, help="per-vehicle history window (default: 2)")
     serve.add_argument("--max-payload-bytes", type=int, default=1024 * 1024, help="larger proposals are refused")
-    serve.add_argument("--workers", type=int, default=1, help="decision threads (default: 1; scale out with processes)")
+    serve.add_argument("--workers", type=int, default=1, help="decision worker processes (default: 1)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
     serve.add_argument("--log-dir", type=Path, default=None, help="write the MCAP log here (default: no log)")
     serve.add_argument("--log-rotate-mb", type=float, default=256.0, help="start a new log file past this size")

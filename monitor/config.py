@@ -110,7 +110,7 @@ class MonitorConfig:
     budget_ms: float = 50.0
     window_s: float = 2.0
     max_payload_bytes: int = 1024 * 1024
-    workers: int = 1  # the GIL makes more threads slower: scale out with processes (--vehicles)
+    workers: int = 1  # decision processes; each vehicle sticks to one
     shadow: bool = False
     log: Optional[LogSettings] = None
     status_period_s: float = 1.0
