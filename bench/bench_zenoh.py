@@ -50,11 +50,12 @@ def free_port() -> int:
 class Monitors:
     """One or more `discern serve` processes (sharded by vehicle prefix), stopped on exit."""
 
-    def __init__(self, shards: int, log_dir: Path | None):
+    def __init__(self, shards: int, log_dir: Path | None, workers: int = 1):
         self.endpoints, self.procs = [], []
         for i in range(shards):
             ep = f"tcp/127.0.0.1:{free_port()}"
-            args = [sys.executable, "-m", "discern.monitor.commands", "serve", "--listen", ep, "--id", f"bench{i}"]
+            args = [sys.executable, "-m", "discern.monitor.commands", "serve", "--listen", ep, "--id", f"bench{i}",
+                    "--workers", str(workers)]
             if shards > 1:
                 args += ["--vehicles", f"s{i}_*"]
             if log_dir is not None:
@@ -216,8 +217,8 @@ def main() -> None:
                 notes.append(f"{label}: {sum(p.stat().st_size for p in logs) / 1e6:.1f} MB of MCAP in {len(logs)} file(s)")
 
         # Maximum sustained rate: 10 vehicles, total rate raised until a verdict is fail-safe or lost.
-        for shards in (1, 2):
-            monitors = Monitors(shards, workdir / f"ramp{shards}")
+        for label, shards, workers in (("1 monitor", 1, 1), ("1 monitor, 2 workers", 1, 2), ("2 monitors", 2, 1)):
+            monitors = Monitors(shards, workdir / label.replace(" ", "_").replace(",", ""), workers)
             session = zenoh.open(ZenohSettings(listen=[], connect=monitors.endpoints).to_zenoh())
             best = None
             try:
@@ -229,7 +230,7 @@ def main() -> None:
                     for s in range(shards):
                         prefix = f"s{s}_r{step}_" if shards > 1 else f"r{step}_"
                         loads.update(payloads(prefix, 10 // shards, frames, args.objects))
-                    r = run_load(session, f"{shards} monitor{'s' if shards > 1 else ''}", loads, per_vehicle)
+                    r = run_load(session, label, loads, per_vehicle)
                     ramp_rows.append(row(r, 10, per_vehicle))
                     print(ramp_rows[-1], flush=True)
                     if not r.sustained:
@@ -238,8 +239,7 @@ def main() -> None:
             finally:
                 session.close()
                 monitors.close()
-            notes.append(f"max sustained rate, {shards} monitor process(es): {best or '< 20'} proposals/s "
-                         "(nothing lost, at most 1 % fail-safe)")
+            notes.append(f"max sustained rate, {label}: {best or '< 20'} proposals/s (nothing lost, at most 1 % fail-safe)")
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
 
@@ -255,7 +255,7 @@ def main() -> None:
             "## Sidecar round trip",
             "",
             f"Command: `{command}`  ",
-            f"Machine: {machine()}; monitor (`discern serve`, 1 worker thread, MCAP log on unless noted) and "
+            f"Machine: {machine()}; monitor (`discern serve`, 1 decision worker process unless noted, MCAP log on unless noted) and "
             "load generator as separate processes on the same machine, zenoh peer-to-peer over TCP loopback, "
             f"query/reply, {args.objects}-object highway scenes, open-loop sending.",
             "",

@@ -58,7 +58,6 @@ class Outcome:
 
     rid: int
     verdict: Optional[bytes] = None  # JSON, sent as is
-    proposal: Optional[bytes] = None  # the validated proposal as JSON, for the log
     decision: Optional[str] = None
     failsafe: bool = False
     latency_ms: float = 0.0
@@ -254,7 +253,6 @@ class _Judge:
             return Outcome(
                 job.rid,
                 verdict=encode(verdict),
-                proposal=encode(proposal) if proposal else None,
                 decision=verdict.decision.value,
                 failsafe=True,
                 latency_ms=verdict.latency_ms,
@@ -277,7 +275,6 @@ class _Judge:
             log.exception("internal error judging frame %s of %s", proposal.scene.frame_id, job.vehicle)
             return Outcome(
                 job.rid,
-                proposal=encode(proposal),
                 frame_id=proposal.scene.frame_id,
                 action=proposal.action.value,
                 no_verdict=f"internal error: {type(exc).__name__}: {exc}",
@@ -289,7 +286,6 @@ class _Judge:
         return Outcome(
             job.rid,
             verdict=encode(verdict),
-            proposal=encode(proposal),
             decision=verdict.decision.value,
             failsafe=verdict.failsafe,
             latency_ms=verdict.latency_ms,

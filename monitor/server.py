@@ -78,7 +78,6 @@ class Answer:
     latency_ms: float
     error_kind: Optional[str] = None  # refused as bad input of this kind
     error: Optional[str] = None
-    proposal: Optional[bytes] = None  # validated proposal JSON, for the log
 
 
 class MonitorServer:
@@ -247,7 +246,7 @@ class MonitorServer:
                 else f"no decision within the {self.config.budget_ms:g} ms budget: {outcome.no_verdict}"
             )
             answer = self._failsafe(req, reason, rule, frame_id=outcome.frame_id, action=outcome.action)
-            if self._answer(req, answer, proposal=outcome.proposal) and not outcome.internal:
+            if self._answer(req, answer) and not outcome.internal:
                 self.counters.count("deadline_misses")
             return
         if not outcome.failsafe and outcome.permitted:
@@ -259,7 +258,6 @@ class MonitorServer:
             outcome.latency_ms,
             outcome.error_kind,
             outcome.error,
-            outcome.proposal,
         )
         if not self._answer(req, answer):
             self.counters.count("late_decisions")
@@ -325,7 +323,7 @@ class MonitorServer:
             encode(verdict), verdict.decision.value, True, verdict.latency_ms, error_kind, error=verdict.error
         )
 
-    def _answer(self, req: Request, answer: Answer, proposal: Optional[bytes] = None) -> bool:
+    def _answer(self, req: Request, answer: Answer) -> bool:
         if not req.claim():
             return False
         self._open.pop(req.rid, None)
@@ -341,11 +339,12 @@ class MonitorServer:
         if answer.error_kind is not None:
             log.warning("refused a proposal on %s: %s", req.key, answer.error or "see the log")
         if self.log is not None:
+            # The proposal as the planner sent it; a payload that is not a readable proposal goes
+            # to the `rejected` channel instead, with the reason.
             topic_vehicle = _topic_safe(req.vehicle)
-            proposal = proposal or answer.proposal
-            if proposal is not None:
-                self.log.write(vehicle_topic(topic_vehicle, "proposal"), "proposal", proposal, req.arrived_ns)
-            elif answer.error_kind is not None:
+            if answer.error_kind in (None, "order") and req.payload is not None:
+                self.log.write(vehicle_topic(topic_vehicle, "proposal"), "proposal", req.payload, req.arrived_ns)
+            else:
                 self._log_rejected(req, answer.error or answer.error_kind)
             self.log.write(vehicle_topic(topic_vehicle, "verdict"), "verdict", answer.verdict)
         return True
