@@ -189,6 +189,7 @@ def main() -> None:
     parser.add_argument("--no-docs", action="store_true", help="print only, leave docs/benchmarks.md alone")
     args = parser.parse_args()
 
+    load_before = os.getloadavg()[0]
     workdir = Path(tempfile.mkdtemp(prefix="discern-bench-"))
     rows, ramp_rows, notes = [], [], []
     cases = [
@@ -262,6 +263,8 @@ def main() -> None:
             "Round trip = planner sends the proposal until the verdict is back; in monitor = arrival to answer "
             "(queueing + rules + encoding) as reported in the verdict's latency_ms; transport = round trip minus in monitor. "
             "A fail-safe is a verdict sent at the 50 ms budget because the rules had not answered yet.",
+            f"Other load on the machine: 1-minute load average {load_before:.1f} before the run "
+            f"({os.cpu_count()} cores); the figures are only as quiet as the machine was.",
             "",
             header,
             *rows,

@@ -30,6 +30,7 @@ from .vehicle_state import VehicleState
 log = logging.getLogger(__name__)
 
 START_TIMEOUT_S = 120.0
+DEADLINE_MARGIN = 1.5  # decide only with this many typical decision times left: decision times vary
 STOP_TIMEOUT_S = 10.0
 _STOP = None
 
@@ -224,7 +225,7 @@ class _Judge:
 
     def __call__(self, job: Job) -> Outcome:
         left = job.deadline - time.monotonic()
-        if left < self.typical_s:
+        if left < DEADLINE_MARGIN * self.typical_s:
             # Deciding now would finish after the deadline: say so at once and move on to a
             # proposal that can still make it, instead of collapsing into all-late under overload.
             return Outcome(
