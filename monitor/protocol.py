@@ -34,7 +34,6 @@ RULE_BAD_INPUT = "monitor.bad_input"
 RULE_DEADLINE = "monitor.deadline"
 RULE_INTERNAL_ERROR = "monitor.internal_error"
 RULE_NO_ANSWER = "monitor.no_answer"
-RULE_OVERLOAD = "monitor.overload"
 
 MAX_ERRORS_NAMED = 5
 
