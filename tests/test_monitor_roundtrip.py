@@ -126,3 +126,14 @@ def test_an_unreadable_verdict_becomes_a_client_side_failsafe():
         impostor.close()
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
     assert "unreadable verdict from the monitor" in verdict.error
+
+
+def test_shadow_mode_vetoes_without_replacing_the_action():
+    proc, ep = serve("--id", "shadow", "--shadow", "--budget-ms", "5000")
+    try:
+        with Monitor("shadowed", connect=[ep], timeout=5.0) as monitor:
+            verdict = monitor.check(highway_scene(300, 8), "cruise")
+    finally:
+        assert proc.stop() == 0, proc.output
+    assert verdict.decision is Decision.veto and verdict.shadow and verdict.action.value == "cruise"
+    assert verdict.rules and not verdict.failsafe
