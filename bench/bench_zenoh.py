@@ -104,11 +104,12 @@ class Result:
 
     @property
     def sustained(self) -> bool:
-        """Kept up with: nothing lost and at most 1 % fail-safe verdicts.
+        """Kept up with: nothing lost, at most 2 % fail-safe, 90 % of round trips within the budget.
 
-        (Not "no fail-safe at all": the rules alone exceed 50 ms on an odd frame at any rate.)
+        (Not "no fail-safe at all": the rules alone take over 50 ms on about 1 % of these frames,
+        at any rate.)
         """
-        return self.lost == 0 and self.failsafe <= 0.01 * self.sent
+        return self.lost == 0 and self.failsafe <= 0.02 * self.sent and pct(self.rtt_ms, 90) <= 50
 
     @property
     def judged_per_s(self) -> float:
@@ -184,7 +185,7 @@ def row(r: Result, vehicles: int, rate: float) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--duration", type=float, default=10.0, help="seconds per fixed-rate case")
-    parser.add_argument("--ramp-duration", type=float, default=5.0, help="seconds per step of the max-rate search")
+    parser.add_argument("--ramp-duration", type=float, default=10.0, help="seconds per step of the max-rate search")
     parser.add_argument("--objects", type=int, default=50, help="objects per scene")
     parser.add_argument("--no-docs", action="store_true", help="print only, leave docs/benchmarks.md alone")
     args = parser.parse_args()
@@ -208,7 +209,7 @@ def main() -> None:
                 r = run_load(session, label, loads, rate)
                 rows.append(row(r, vehicles, rate))
                 print(rows[-1], flush=True)
-                if r.failsafe:
+                if r.failsafe > 0.02 * r.sent:
                     notes.append(f"{label}: {r.judged_per_s:.0f} verdicts/s from the rules, the rest fail-safe at the budget")
             finally:
                 session.close()
@@ -240,7 +241,7 @@ def main() -> None:
             finally:
                 session.close()
                 monitors.close()
-            notes.append(f"max sustained rate, {label}: {best or '< 20'} proposals/s (nothing lost, at most 1 % fail-safe)")
+            notes.append(f"max sustained rate, {label}: {best or '< 20'} proposals/s")
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
 
@@ -269,9 +270,9 @@ def main() -> None:
             header,
             *rows,
             "",
-            "Maximum sustained rate (10 vehicles; the total rate is raised step by step until a proposal is lost "
-            "or more than 1 % of verdicts are fail-safe; with 2 monitors each serves 5 vehicles, sharded by "
-            "`--vehicles`):",
+            "Maximum sustained rate (10 vehicles; the total rate is raised step by step until a proposal is lost, "
+            "more than 2 % of verdicts are fail-safe or the p90 round trip exceeds the 50 ms budget; with 2 monitors "
+            "each serves 5 vehicles, sharded by `--vehicles`):",
             "",
             header,
             *ramp_rows,
