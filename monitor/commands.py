@@ -14,6 +14,8 @@ import threading
 import time
 from pathlib import Path
 
+from discern.rules.engine import JURISDICTIONS
+
 from . import keys
 from .config import DEFAULT_ENDPOINT, LogSettings, MonitorConfig, ZenohSettings, default_monitor_id
 
@@ -34,6 +36,7 @@ def register(subparsers) -> None:
     serve.add_argument("--max-payload-bytes", type=int, default=1024 * 1024, help="larger proposals are refused")
     serve.add_argument("--workers", type=int, default=1, help="decision worker processes (default: 1)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
+    serve.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
     serve.add_argument("--log-dir", type=Path, default=None, help="write the MCAP log here (default: no log)")
     serve.add_argument("--log-rotate-mb", type=float, default=256.0, help="start a new log file past this size")
     serve.add_argument("--log-rotate-s", type=float, default=3600.0, help="start a new log file past this age")
@@ -136,6 +139,7 @@ def cmd_serve(args) -> int:
             max_payload_bytes=args.max_payload_bytes,
             workers=args.workers,
             shadow=args.shadow,
+            jurisdiction=args.jurisdiction,
             log=LogSettings(
                 directory=args.log_dir,
                 rotate_bytes=int(args.log_rotate_mb * 1024 * 1024),

@@ -39,6 +39,7 @@ _STOP = None
 class WorkerSettings:
     window_s: float
     shadow: bool
+    jurisdiction: str = "us"  # the rule pack: traffic side, limits
     test_delay_s: float = 0.0  # test-only: sleep before every decision
 
 
@@ -219,7 +220,7 @@ class _Judge:
 
     def __init__(self, settings: WorkerSettings):
         self.settings = settings
-        self.reasoner = Reasoner()
+        self.reasoner = Reasoner(jurisdiction=settings.jurisdiction)
         self.vehicles: dict[str, VehicleState] = {}
         self.typical_s = 0.0  # moving average of decision time: what a decision needs from the budget
 

@@ -102,7 +102,7 @@ class MonitorServer:
         self._declared: list = []
         self.pool = DecisionPool(
             config.workers,
-            WorkerSettings(config.window_s, config.shadow, config.test_decision_delay_ms / 1000),
+            WorkerSettings(config.window_s, config.shadow, config.jurisdiction, config.test_decision_delay_ms / 1000),
             self._on_outcome,
             self._on_worker_lost,
         )

@@ -137,3 +137,21 @@ def test_shadow_mode_vetoes_without_replacing_the_action():
         assert proc.stop() == 0, proc.output
     assert verdict.decision is Decision.veto and verdict.shadow and verdict.action.value == "cruise"
     assert verdict.rules and not verdict.failsafe
+
+
+@pytest.mark.parametrize("rule", ["san.memory.stop_sign", "san.memory.object_permanence", "san.limit.remembered"])
+def test_the_vehicles_recent_frames_reach_the_sanity_layer(client, rule):
+    """The monitor's per-vehicle window is the `history` the sanity rules need: same verdict as in-process."""
+    from discern.sanity.examples import EXAMPLES
+
+    [example] = [e for e in EXAMPLES if e.rule == rule]
+    *earlier, last = example.frames
+    monitor = client(f"window_{rule.replace('.', '_')}")
+    for frame in earlier:
+        assert not monitor.check(frame, example.proposed).failsafe
+    verdict = monitor.check(last, example.proposed)
+    reasoner = Reasoner()
+    with_history = reasoner.decide(last, example.proposed, history=tuple(earlier))
+    assert (verdict.decision, verdict.action, verdict.rules) == (with_history.decision, with_history.action, with_history.rules)
+    assert rule in verdict.rules
+    assert reasoner.decide(last, example.proposed).decision is not verdict.decision  # the history decided it
