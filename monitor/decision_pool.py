@@ -226,7 +226,10 @@ class _Judge:
 
     def __call__(self, job: Job) -> Outcome:
         left = job.deadline - time.monotonic()
-        if left < DEADLINE_MARGIN * self.typical_s:
+        # A fresh proposal (over half its budget left) is always tried: the estimate is only
+        # updated by decisions, so it must never lock every proposal out.
+        needed = min(DEADLINE_MARGIN * self.typical_s, 0.5 * (job.deadline - job.arrived))
+        if left < needed:
             # Deciding now would finish after the deadline: say so at once and move on to a
             # proposal that can still make it, instead of collapsing into all-late under overload.
             return Outcome(

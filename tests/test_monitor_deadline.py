@@ -63,3 +63,20 @@ def test_a_late_failsafe_uses_the_most_cautious_recently_permitted_action():
     stale = failsafe_verdict("v", "late", RULE_DEADLINE, permitted=memory.recent("v", 10.0 + 2 * PERMITTED_MEMORY_S))
     other = failsafe_verdict("w", "late", RULE_DEADLINE, permitted=memory.recent("w", 10.1))
     assert recent.action is Action.cruise and stale.action is Action.brake and other.action is Action.brake
+
+
+def test_a_worker_that_once_was_slow_still_tries_fresh_proposals():
+    """The decision-time estimate must never lock every proposal out (it only learns from decisions)."""
+    import time
+
+    from discern.monitor.decision_pool import Job, WorkerSettings, _Judge
+    from discern.rules.scene import Proposal
+
+    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge.typical_s = 10.0  # after a pathological decision
+    payload = Proposal(vehicle="v", action="cruise", scene=highway_scene(0, 4)).model_dump_json().encode()
+    now = time.monotonic()
+    fresh = judge(Job(1, "v", payload, now, now + BUDGET_MS / 1000))
+    assert fresh.verdict is not None and fresh.decision == "approve"
+    stale = judge(Job(2, "v", payload, now - 0.045, now + 0.005))  # 5 ms of 50 left
+    assert stale.verdict is None and "left after queueing" in stale.no_verdict
