@@ -1,0 +1,155 @@
+"""Wire format of the sidecar: the core's Proposal in, the core's Verdict out, as JSON.
+
+There is no second copy of the format here: the pydantic models of
+`discern.rules.scene` and `discern.rules.verdict` are the schema. This module
+only turns bytes into a Proposal with an error message a person can act on,
+and builds the fail-safe verdicts the monitor owes when it cannot judge.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Iterable, Optional
+
+from pydantic import BaseModel, ValidationError
+
+from discern.rules.scene import Action, Proposal, describe_errors
+from discern.rules.verdict import Decision, Justification, Verdict
+
+from .keys import VEHICLE_PATTERN
+
+# Most cautious first: what a fail-safe verdict picks among the permitted actions.
+CAUTION_ORDER = (
+    Action.brake,
+    Action.cruise,
+    Action.pull_over,
+    Action.change_lane_right,
+    Action.change_lane_left,
+    Action.turn_right,
+    Action.turn_left,
+    Action.accelerate,
+)
+
+RULE_BAD_INPUT = "monitor.bad_input"
+RULE_DEADLINE = "monitor.deadline"
+RULE_INTERNAL_ERROR = "monitor.internal_error"
+RULE_NO_ANSWER = "monitor.no_answer"
+
+MAX_ERRORS_NAMED = 5
+
+
+class InputError(ValueError):
+    """A proposal the monitor refuses to judge; the message names the problem."""
+
+    def __init__(self, message: str, kind: str):
+        super().__init__(message)
+        self.kind = kind  # short tag for counting: json, schema, size, vehicle, order
+
+
+def describe_validation_error(exc: ValidationError) -> str:
+    """The core's one-line-per-problem description, first few problems, on one line."""
+    lines = describe_errors(exc).splitlines()
+    if len(lines) > MAX_ERRORS_NAMED:
+        lines = lines[:MAX_ERRORS_NAMED] + [f"... and {len(lines) - MAX_ERRORS_NAMED} more"]
+    return "; ".join(lines)
+
+
+def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
+    """Validate a proposal that arrived on ``discern/<key_vehicle>/...``.
+
+    The key names the vehicle; a payload that names another one is refused, one
+    that names none takes the key's.
+    """
+    if not VEHICLE_PATTERN.match(key_vehicle):
+        raise InputError(
+            f"vehicle {key_vehicle[:140]!r} in the key is not a valid vehicle id ([A-Za-z0-9_-], 1-128 chars)",
+            "vehicle",
+        )
+    try:
+        proposal = Proposal.model_validate_json(payload)
+    except ValidationError as exc:
+        invalid_json = [e["msg"] for e in exc.errors() if e["type"] == "json_invalid"]
+        if invalid_json:
+            raise InputError(f"malformed JSON: {invalid_json[0].removeprefix('Invalid JSON: ')}", "json") from None
+        raise InputError(f"schema violation: {describe_validation_error(exc)}", "schema") from None
+    if "vehicle" not in proposal.model_fields_set:
+        proposal.vehicle = key_vehicle
+    elif proposal.vehicle != key_vehicle:
+        raise InputError(
+            f"vehicle: payload names {proposal.vehicle!r} but it was sent on the key of {key_vehicle!r}",
+            "vehicle",
+        )
+    return proposal
+
+
+_FRAME_ID = re.compile(rb'"frame_id"\s*:\s*(\d{1,18})\b')
+_ACTION = re.compile(rb'"action"\s*:\s*"([a-z_]{1,32})"')
+
+
+def peek_frame(payload: Optional[bytes]) -> tuple[Optional[int], Optional[Action]]:
+    """Frame id and action of a proposal not parsed yet, best effort and in microseconds.
+
+    Only labels a fail-safe sent for a proposal still queued at its deadline, so the
+    planner can match it to its frame; a full parse there would only deepen the backlog.
+    """
+    if not payload:
+        return None, None
+    frame = _FRAME_ID.search(payload)
+    action = _ACTION.search(payload)
+    try:
+        proposed = Action(action.group(1).decode()) if action else None
+    except ValueError:
+        proposed = None
+    return (int(frame.group(1)) if frame else None), proposed
+
+
+def most_cautious(permitted: Iterable[Action]) -> Action:
+    allowed = set(permitted)
+    for action in CAUTION_ORDER:
+        if action in allowed:
+            return action
+    return Action.brake
+
+
+def failsafe_verdict(
+    vehicle: str,
+    reason: str,
+    rule: str,
+    *,
+    proposed: Optional[Action] = None,
+    frame_id: Optional[int] = None,
+    timestamp: Optional[float] = None,
+    permitted: Iterable[Action] = (),
+    shadow: bool = False,
+) -> Verdict:
+    """The conservative answer owed when no proper decision can be made in time.
+
+    Bad input always brakes; a late or failed decision takes the most cautious
+    action known to be permitted for this vehicle, else brakes.
+    """
+    action = Action.brake if rule == RULE_BAD_INPUT else most_cautious(permitted)
+    summary = f"fail-safe {action.value}: {reason}"
+    return Verdict(
+        vehicle=vehicle[:140],
+        frame_id=frame_id,
+        timestamp=timestamp,
+        decision=Decision.override,
+        proposed=proposed,
+        action=action,
+        recommended=action,
+        permitted=list(permitted),
+        rules=[rule],
+        justification=Justification(summary=summary, text=summary),
+        failsafe=True,
+        error=reason,
+        shadow=shadow,
+    )
+
+
+def encode(model: BaseModel) -> bytes:
+    return model.model_dump_json(by_alias=True).encode()
+
+
+def decode_verdict(payload: bytes) -> Verdict:
+    return Verdict.model_validate_json(payload)
+

@@ -1,0 +1,388 @@
+"""The sidecar monitor: proposals in over zenoh, a verdict out for every one, within the budget.
+
+Who does what:
+- zenoh callbacks only copy the payload and enqueue it, so they never block;
+- decision worker processes judge proposals (decision_pool.py); the monitor's
+  own process does no reasoning, so nothing holds it up;
+- a watchdog thread answers any proposal still unanswered at its deadline with
+  a fail-safe verdict, so a slow rule set, a backlog or a dead worker never
+  leaves a planner without an answer (a late decision is then discarded);
+- the MCAP writer runs on its own thread (log/writer.py).
+Every proposal is answered exactly once: whoever claims the request first sends.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Optional
+
+import zenoh
+
+from discern.rules.scene import Action
+from discern.rules.verdict import Verdict
+
+from . import keys
+from .config import DEFAULT_ENDPOINT, MonitorConfig, listen_endpoints
+from .decision_pool import DecisionPool, Job, Outcome, WorkerSettings
+from .log import McapLogWriter, RejectedInput, vehicle_topic
+from .log.channels import STATUS_TOPIC
+from .protocol import RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, encode, failsafe_verdict, peek_frame
+from .status import MonitorStatus, StatusCounters
+from .vehicle_state import PermittedMemory
+
+log = logging.getLogger(__name__)
+
+JSON = zenoh.Encoding.APPLICATION_JSON
+EXCERPT_BYTES = 512
+
+
+@dataclass(eq=False)
+class Request:
+    """One proposal in flight, from its arrival to its single answer."""
+
+    rid: int
+    key: str
+    vehicle: str
+    payload: Optional[bytes]  # None when empty or over the size limit
+    size: int
+    arrived: float  # time.monotonic(), the clock the workers share
+    arrived_ns: int  # wall clock, for the log
+    deadline: float
+    query: Optional[zenoh.Query] = None
+    _once: threading.Lock = field(default_factory=threading.Lock)
+
+    def claim(self) -> bool:
+        """True for the one thread allowed to answer."""
+        return self._once.acquire(blocking=False)
+
+    @property
+    def answered(self) -> bool:
+        return self._once.locked()
+
+    def still_open(self) -> bool:
+        return not self._once.locked()
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A verdict ready to send, with what the counters and the log need to know about it."""
+
+    verdict: bytes
+    decision: str
+    failsafe: bool
+    latency_ms: float
+    error_kind: Optional[str] = None  # refused as bad input of this kind
+    error: Optional[str] = None
+
+
+class MonitorServer:
+    """Serve verdicts until `stop()`; use as a context manager."""
+
+    def __init__(self, config: MonitorConfig):
+        self.config = config.validate()
+        self.vehicles_chunk = keys.vehicle_selector(config.vehicles)
+        self.counters = StatusCounters(config.monitor_id, self.vehicles_chunk, config.budget_ms)
+        self._budget_s = config.budget_ms / 1000
+        self._rids = itertools.count()
+        self._open: dict[int, Request] = {}
+        self._pending: deque[Request] = deque()  # in arrival order, hence deadline order
+        self._refusals: deque[tuple[Request, str, str]] = deque()  # (request, reason, kind): bad input seen on arrival
+        self._wake = threading.Event()
+        self._stopping = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._publishers: dict[str, zenoh.Publisher] = {}
+        self._publishers_lock = threading.Lock()
+        self._permitted = PermittedMemory()
+        self._vehicles: set[str] = set()
+        self._declared: list = []
+        self.pool = DecisionPool(
+            config.workers,
+            WorkerSettings(config.window_s, config.shadow, config.jurisdiction, config.test_decision_delay_ms / 1000),
+            self._on_outcome,
+            self._on_worker_lost,
+        )
+        self.session: Optional[zenoh.Session] = None
+        self.listen_endpoints: list[str] = []
+        self.log: Optional[McapLogWriter] = None
+
+    # -- lifecycle -----------------------------------------------------------
+
+    def start(self) -> "MonitorServer":
+        """Go live; on any failure nothing is left running and the error propagates."""
+        try:
+            self._open_all()
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def _open_all(self) -> None:
+        self.pool.start()  # workers load the rules before zenoh starts any thread
+        zenoh_config = self.config.zenoh.to_zenoh(default_listen=[DEFAULT_ENDPOINT])
+        self.listen_endpoints = listen_endpoints(zenoh_config)
+        self.session = zenoh.open(zenoh_config)
+        if self.config.log is not None:
+            self.log = McapLogWriter(self.config.log, self.config.monitor_id)
+        self._spawn("discern-watchdog", self._watch)
+        if self.log is not None:
+            self._spawn("discern-status-log", self._log_status)
+        chunk = self.vehicles_chunk
+        s = self.session
+        self._declared = [
+            s.declare_subscriber(keys.proposal_key(chunk), _direct(self._on_sample)),
+            s.declare_queryable(keys.check_key(chunk), _direct(self._on_query)),
+            s.declare_queryable(keys.status_key(self.config.monitor_id), self._on_status_query),
+        ]
+
+    def stop(self) -> None:
+        if self._stopping.is_set():
+            return
+        for entity in self._declared:
+            _quietly(entity.undeclare)
+        self._declared = []
+        self.pool.stop()  # workers finish what they were sent
+        self._stopping.set()
+        self._wake.set()
+        for t in self._threads:
+            t.join(timeout=10)
+        for req in list(self._open.values()):
+            self._answer(req, self._failsafe(req, "the monitor is shutting down", RULE_INTERNAL_ERROR))
+        if self.log is not None:
+            self.log.write(STATUS_TOPIC, "status", self.status())
+            self.log.close()
+        if self.session is not None:
+            _quietly(self.session.close)
+
+    def __enter__(self) -> "MonitorServer":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    def status(self) -> MonitorStatus:
+        extra = dict(vehicles=len(self._vehicles))
+        if self.log is not None:
+            extra.update(
+                log_files=[str(p) for p in self.log.files], log_records=self.log.records, log_dropped=self.log.dropped
+            )
+        return self.counters.snapshot(**extra)
+
+    def _spawn(self, name: str, target, *args) -> None:
+        t = threading.Thread(target=target, args=args, name=name, daemon=True)
+        t.start()
+        self._threads.append(t)
+
+    # -- zenoh callbacks: copy, enqueue, return ----------------------------------
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        try:
+            self._submit(str(sample.key_expr), sample.payload, None)
+        except Exception:  # an exception would vanish inside zenoh: make it visible
+            log.exception("could not take a proposal on %s", sample.key_expr)
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        try:
+            self._submit(str(query.key_expr), query.payload, query)
+        except Exception:
+            log.exception("could not take a query on %s", query.key_expr)
+
+    def _submit(self, key: str, payload: Optional[zenoh.ZBytes], query: Optional[zenoh.Query]) -> None:
+        now = time.monotonic()
+        size = len(payload) if payload is not None else 0
+        limit = self.config.max_payload_bytes
+        data = payload.to_bytes() if size and size <= limit else None
+        vehicle = keys.vehicle_of(key)
+        req = Request(next(self._rids), key, vehicle, data, size, now, time.time_ns(), now + self._budget_s, query)
+        if not keys.VEHICLE_PATTERN.match(vehicle):
+            if query is None and any(c in vehicle for c in "*$"):
+                # A wildcard put names no vehicle: a verdict could only be broadcast. Refuse it quietly.
+                req.claim()
+                reason = f"vehicle chunk {vehicle!r} of key {key!r} is a wildcard: no verdict sent"
+                self.counters.input_refused("vehicle")
+                log.warning("refused a proposal: %s", reason)
+                self._log_rejected(req, reason)
+                return
+            refusal = (f"vehicle {vehicle[:140]!r} in the key is not a valid vehicle id ([A-Za-z0-9_-], 1-128 chars)", "vehicle")
+        elif data is None:
+            refusal = (
+                (f"payload of {size} bytes exceeds the limit of {limit} bytes", "size")
+                if size > limit
+                else ("empty payload: expected a Proposal as JSON", "json")
+            )
+        else:
+            refusal = None
+        self._vehicles.add(vehicle)
+        self._open[req.rid] = req
+        if refusal is not None:
+            # Cheap to decide, but answered from the watchdog's thread, never from a zenoh thread.
+            self._refusals.append((req, *refusal))
+        else:
+            self.pool.submit(Job(req.rid, vehicle, data, now, req.deadline), req.still_open)
+        self._pending.append(req)
+        self._wake.set()
+
+    def _on_status_query(self, query: zenoh.Query) -> None:
+        with query:
+            query.reply(keys.status_key(self.config.monitor_id), encode(self.status()), encoding=JSON)
+
+    # -- outcomes from the decision workers -------------------------------------
+
+    def _on_outcome(self, outcome: Outcome) -> None:
+        req = self._open.get(outcome.rid)
+        if req is None or req.answered:
+            self.counters.count("late_decisions")
+            return
+        if outcome.verdict is None:
+            rule = RULE_INTERNAL_ERROR if outcome.internal else RULE_DEADLINE
+            if outcome.internal:
+                self.counters.count("internal_errors")
+            reason = (
+                outcome.no_verdict if outcome.internal
+                else f"no decision within the {self.config.budget_ms:g} ms budget: {outcome.no_verdict}"
+            )
+            answer = self._failsafe(req, reason, rule, frame_id=outcome.frame_id, action=outcome.action)
+            if self._answer(req, answer) and not outcome.internal:
+                self.counters.count("deadline_misses")
+            return
+        if not outcome.failsafe and outcome.permitted:
+            self._permitted.remember(req.vehicle, tuple(Action(a) for a in outcome.permitted), time.monotonic())
+        answer = Answer(
+            outcome.verdict,
+            outcome.decision,
+            outcome.failsafe,
+            outcome.latency_ms,
+            outcome.error_kind,
+            outcome.error,
+        )
+        if not self._answer(req, answer):
+            self.counters.count("late_decisions")
+
+    def _on_worker_lost(self, index: int, exitcode: Optional[int]) -> None:
+        self.counters.count("internal_errors")
+        log.error("decision worker %d died (exit code %s): starting a new one", index, exitcode)
+
+    # -- deadline --------------------------------------------------------------
+
+    def _watch(self) -> None:
+        """Send refusals, and at its deadline a fail-safe for every request still open."""
+        pending = self._pending
+        while not self._stopping.is_set():
+            while self._refusals:
+                req, reason, kind = self._refusals.popleft()
+                verdict = failsafe_verdict(req.vehicle, reason, RULE_BAD_INPUT, shadow=self.config.shadow)
+                self._answer(req, self._finish(req, verdict, error_kind=kind))
+            if not pending:
+                self._wake.clear()
+                if not pending and not self._refusals:
+                    self._wake.wait(0.5)
+                continue
+            req = pending[0]
+            if req.answered:
+                pending.popleft()
+                continue
+            delay = req.deadline - time.monotonic()
+            if delay > 0:
+                # Later requests have later deadlines; a refusal or stop() wakes us early.
+                self._wake.clear()
+                if not self._refusals:
+                    self._wake.wait(delay)
+                continue
+            pending.popleft()
+            reason = f"no decision within the {self.config.budget_ms:g} ms budget"
+            if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
+                self.counters.count("deadline_misses")
+
+    # -- answers ---------------------------------------------------------------
+
+    def _failsafe(
+        self, req: Request, reason: str, rule: str, *, frame_id: Optional[int] = None, action: Optional[str] = None
+    ) -> Answer:
+        if frame_id is None:  # not parsed yet: label the answer with what a glance at the payload gives
+            frame_id, proposed = peek_frame(req.payload)
+        else:
+            proposed = Action(action) if action else None
+        verdict = failsafe_verdict(
+            req.vehicle,
+            reason,
+            rule,
+            proposed=proposed,
+            frame_id=frame_id,
+            permitted=self._permitted.recent(req.vehicle, time.monotonic()),
+            shadow=self.config.shadow,
+        )
+        return self._finish(req, verdict)
+
+    def _finish(self, req: Request, verdict: Verdict, error_kind: Optional[str] = None) -> Answer:
+        verdict.latency_ms = round((time.monotonic() - req.arrived) * 1000, 3)
+        return Answer(
+            encode(verdict), verdict.decision.value, True, verdict.latency_ms, error_kind, error=verdict.error
+        )
+
+    def _answer(self, req: Request, answer: Answer) -> bool:
+        if not req.claim():
+            return False
+        self._open.pop(req.rid, None)
+        try:
+            if req.query is not None:
+                with req.query as query:
+                    query.reply(req.key, answer.verdict, encoding=JSON)
+            else:
+                self._publisher(req.vehicle).put(answer.verdict)
+        except Exception as exc:  # the session is closing, or the querier gave up
+            log.warning("could not send the verdict for %s: %s", req.key, exc)
+        self.counters.verdict_sent(answer.decision, answer.failsafe, answer.latency_ms, answer.error_kind)
+        if answer.error_kind is not None:
+            log.warning("refused a proposal on %s: %s", req.key, answer.error or "see the log")
+        if self.log is not None:
+            # The proposal as the planner sent it; a payload that is not a readable proposal goes
+            # to the `rejected` channel instead, with the reason.
+            topic_vehicle = _topic_safe(req.vehicle)
+            if answer.error_kind in (None, "order") and req.payload is not None:
+                self.log.write(vehicle_topic(topic_vehicle, "proposal"), "proposal", req.payload, req.arrived_ns)
+            else:
+                self._log_rejected(req, answer.error or answer.error_kind)
+            self.log.write(vehicle_topic(topic_vehicle, "verdict"), "verdict", answer.verdict)
+        return True
+
+    def _log_rejected(self, req: Request, reason: str) -> None:
+        if self.log is None:
+            return
+        excerpt = (req.payload or b"")[:EXCERPT_BYTES].decode("utf-8", "replace")
+        rejected = RejectedInput(vehicle=req.vehicle, key=req.key, size=req.size, error=reason, excerpt=excerpt)
+        self.log.write(vehicle_topic(_topic_safe(req.vehicle), "rejected"), "rejected", rejected, req.arrived_ns)
+
+    def _publisher(self, vehicle: str) -> zenoh.Publisher:
+        pub = self._publishers.get(vehicle)
+        if pub is None:
+            with self._publishers_lock:
+                pub = self._publishers.get(vehicle)
+                if pub is None:
+                    pub = self.session.declare_publisher(keys.verdict_key(vehicle), encoding=JSON)
+                    self._publishers[vehicle] = pub
+        return pub
+
+    def _log_status(self) -> None:
+        while not self._stopping.wait(self.config.status_period_s):
+            self.log.write(STATUS_TOPIC, "status", self.status())
+
+
+def _direct(callback):
+    """Run `callback` on the zenoh thread itself: it only enqueues, and skipping the hop to a
+    Python thread saves about a millisecond per proposal."""
+    return zenoh.handlers.Callback(callback, indirect=False)
+
+
+def _topic_safe(vehicle: str) -> str:
+    return vehicle if keys.VEHICLE_PATTERN.match(vehicle) else "_invalid"
+
+
+def _quietly(fn) -> None:
+    try:
+        fn()
+    except Exception as exc:
+        log.debug("ignored during shutdown: %s", exc)
