@@ -91,3 +91,38 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
     assert code == 2 and "Traceback" not in err
     for problem in ("gremlins", "magic", "--episodes", "'warp'", "decel needs a non-negative number"):
         assert problem in err
+
+
+def test_wrapper_asks_a_running_monitor_over_zenoh():
+    from tests.monitor_process import serve
+
+    proc, endpoint = serve("--id", "highway", "--budget-ms", "5000")
+    try:
+        env = DiscernWrapper(
+            make_env("highway-fast-v0", duration=6), monitor=True, monitor_options={"connect": [endpoint]}, timeout=5.0
+        )
+        env.reset(seed=10_001)
+        verdicts = []
+        for _ in range(6):
+            _, _, terminated, truncated, info = env.step(FASTER)
+            verdicts.append(Verdict.model_validate(info["discern"]))
+            if terminated or truncated:
+                break
+        env.close()
+    finally:
+        assert proc.stop() == 0, proc.output
+    assert all(not v.failsafe and v.error is None for v in verdicts), [v.error for v in verdicts]
+    assert Decision.override in {v.decision for v in verdicts}
+
+
+def test_evaluation_records_every_proposal_and_verdict_to_mcap(tmp_path):
+    from discern.monitor.log.reader import read_log
+
+    results = evaluate(1, [Faults()], ["planner", "discern"], Setup(duration=5, record=str(tmp_path)), progress=False)
+    records = list(read_log(sorted(tmp_path.glob("*.mcap"))))
+    shielded = next(r for r in results if r.variant == "discern")
+    proposals = [r for r in records if r.kind == "proposal"]
+    verdicts = [r for r in records if r.kind == "verdict"]
+    assert len(proposals) == len(verdicts) == shielded.steps  # the unshielded run has no verdicts to log
+    assert {r.vehicle for r in verdicts} == {"discern_none_10000"}
+    assert [v.verdict.frame_id for v in verdicts] == [p.proposal.scene.frame_id for p in proposals]

@@ -60,7 +60,17 @@ def _options(parser: argparse.ArgumentParser) -> None:
         "the closed loop sets decel=4 (what highway-env's vehicle can brake), e.g. --param headway_s=2",
     )
     parser.add_argument("--jobs", type=int, default=1, help="worker processes")
-    parser.add_argument("--monitor", action="store_true", help="ask Discern through the zenoh monitor")
+    parser.add_argument(
+        "--monitor",
+        nargs="?",
+        const="tcp/127.0.0.1:7447",
+        default=None,
+        metavar="ENDPOINT",
+        help="ask a running `discern serve` over zenoh instead of the in-process reasoner (default endpoint: %(const)s)",
+    )
+    parser.add_argument(
+        "--record", type=Path, default=None, metavar="DIR", help="log every proposal and verdict to MCAP in DIR (--jobs 1)"
+    )
     parser.add_argument("--no-judge", action="store_true", help="skip the ground-truth false-veto judge")
     parser.add_argument("--weights", default=None, help="planner weights (default: the packaged ones)")
     parser.add_argument("--out", type=Path, default=Path("out/eval-highway"), help="folder for CSV, PNG and table")
@@ -82,6 +92,8 @@ def _run_eval(args: argparse.Namespace) -> int:
     if args.env not in SUPPORTED:
         problems.append(f"unsupported --env {args.env!r} (choose from {', '.join(SUPPORTED)})")
     params = _params(args.param, problems)
+    if args.record is not None and args.jobs > 1:
+        problems.append("--record writes one MCAP log from one process: use it with --jobs 1")
     if args.duration is not None and args.duration <= 0:
         problems.append(f"--duration must be positive, got {args.duration}")
     fault_sets = []
@@ -105,9 +117,10 @@ def _run_eval(args: argparse.Namespace) -> int:
             print(f"error: {problem}", file=sys.stderr)
         return 2
     setup = Setup(
-        env=args.env, duration=args.duration, weights=args.weights, monitor=args.monitor,
+        env=args.env, duration=args.duration, weights=args.weights, monitor=(args.monitor,) if args.monitor else (),
         judge_vetoes=not args.no_judge,
         params=params,
+        record=str(args.record) if args.record else None,
     )
     try:
         results = evaluate(args.episodes, fault_sets, variants, setup, seed=args.seed, jobs=args.jobs, progress=not args.quiet)

@@ -58,9 +58,10 @@ class Setup:
     env: str = "highway-fast-v0"
     duration: float | None = None
     weights: str | None = None
-    monitor: bool = False
+    monitor: tuple[str, ...] = ()  # zenoh endpoints of a running `discern serve`; empty: in-process
     judge_vetoes: bool = True
     params: tuple[tuple[str, float], ...] = tuple(VEHICLE_PARAMS.items())  # Discern's Params overrides
+    record: str | None = None  # folder for an MCAP log of every proposal and verdict
 
 
 _worker: dict = {}
@@ -76,7 +77,9 @@ def _checker(variant: str, setup: Setup):
     if setup.monitor:
         from .wrapper import MonitorChecker
 
-        return MonitorChecker()
+        if "monitor" not in _worker:
+            _worker["monitor"] = MonitorChecker(connect=list(setup.monitor))
+        return _worker["monitor"]
     key = ("reasoner", setup.params)
     if key not in _worker:
         from discern.rules.facts import Params
@@ -87,13 +90,35 @@ def _checker(variant: str, setup: Setup):
     return _worker[key]
 
 
+def _recorder(setup: Setup):
+    if setup.record is None:
+        return None
+    if "recorder" not in _worker:
+        from discern.monitor.config import LogSettings
+        from discern.monitor.log.writer import McapLogWriter
+
+        _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), monitor_id="highway-eval")
+    return _worker["recorder"]
+
+
+def close_recorder() -> None:
+    recorder = _worker.pop("recorder", None)
+    if recorder is not None:
+        recorder.close()
+
+
 def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> EpisodeResult:
     if "planner" not in _worker:
         _worker["planner"] = Planner.load(setup.weights)
     planner: Planner = _worker["planner"]
     checker = _checker(variant, setup)
     env = DiscernWrapper(
-        make_env(setup.env, duration=setup.duration), checker=checker, faults=faults, passthrough=checker is None
+        make_env(setup.env, duration=setup.duration),
+        checker=checker,
+        faults=faults,
+        passthrough=checker is None,
+        recorder=_recorder(setup),
+        vehicle=f"{variant}_{faults.label().replace(',', '-')}_{seed}",
     )
     result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed)
     period = policy_period(env)
@@ -308,6 +333,7 @@ def evaluate(
         for task in tasks:
             results.append(_run_task(task))
             bar.update()
+        close_recorder()
     else:
         with multiprocessing.get_context("spawn").Pool(jobs) as pool:
             for result in pool.imap(_run_task, tasks, chunksize=2):

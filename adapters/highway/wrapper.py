@@ -15,7 +15,7 @@ from typing import Protocol, Sequence
 
 import gymnasium as gym
 
-from discern.rules.scene import Action, Scene
+from discern.rules.scene import Action, Proposal, Scene
 from discern.rules.verdict import Decision, Justification, Verdict
 
 from .actions import from_catalog, to_catalog
@@ -75,7 +75,7 @@ class MonitorChecker:
 
     name = "discern-monitor"
 
-    def __init__(self, timeout: float = 0.5, **client_options):
+    def __init__(self, timeout: float = 0.5, vehicle: str = "ego", **client_options):
         try:
             from discern.monitor.client import Monitor
         except ImportError as exc:
@@ -83,7 +83,7 @@ class MonitorChecker:
                 "the zenoh monitor client (discern.monitor.client) is not available in this install; "
                 "use the in-process reasoner (monitor=False)"
             ) from exc
-        self.client = Monitor(**client_options)
+        self.client = Monitor(vehicle, timeout=timeout, **client_options)
         self.timeout = timeout
 
     def check(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> Verdict:
@@ -98,7 +98,8 @@ class MonitorChecker:
 class DiscernWrapper(gym.Wrapper):
     """Intercepts the agent's DiscreteMetaAction and executes what the checker permits.
 
-    checker=None uses Discern in-process; monitor=True goes through the zenoh monitor instead;
+    checker=None uses Discern in-process; monitor=True goes through a running `discern serve` instead
+    (monitor_options go to discern.monitor.client.Monitor, e.g. {"connect": ["tcp/127.0.0.1:7447"]});
     passthrough=True records scenes but checks nothing (the unshielded baseline).
     """
 
@@ -109,21 +110,27 @@ class DiscernWrapper(gym.Wrapper):
         *,
         faults: Faults | None = None,
         monitor: bool = False,
+        monitor_options: dict | None = None,
         timeout: float = 0.5,
         history_seconds: float = 2.0,
         explain: bool = False,
         shadow: bool = False,
         passthrough: bool = False,
+        recorder=None,
+        vehicle: str = "ego",
     ):
         super().__init__(env)
+        self._owns_checker = checker is None
         if passthrough:
             self.checker = None
         elif checker is not None:
             self.checker = checker
         elif monitor:
-            self.checker = MonitorChecker(timeout=timeout)
+            self.checker = MonitorChecker(timeout=timeout, **(monitor_options or {}))
         else:
             self.checker = ReasonerChecker(explain=explain, shadow=shadow)
+        self.recorder = recorder  # a discern.monitor.log.writer.McapLogWriter: proposals and verdicts to MCAP
+        self.vehicle = vehicle
         self.perception = Perception(faults)
         self.history_seconds = history_seconds
         self.history: deque[Scene] = deque()
@@ -147,9 +154,19 @@ class DiscernWrapper(gym.Wrapper):
         if self.checker is None:
             return None
         try:
-            return self.checker.check(self.scene, proposed, tuple(self.history))
+            verdict = self.checker.check(self.scene, proposed, tuple(self.history))
         except Exception as exc:  # a checker failure must never take the vehicle down with it
-            return failsafe(self.scene, proposed, f"{type(exc).__name__}: {exc}")
+            verdict = failsafe(self.scene, proposed, f"{type(exc).__name__}: {exc}")
+        if self.recorder is not None:
+            self._record(proposed, verdict)
+        return verdict
+
+    def _record(self, proposed: Action, verdict: Verdict) -> None:
+        from discern.monitor.log.channels import vehicle_topic
+
+        proposal = Proposal(vehicle=self.vehicle, action=proposed, scene=self.scene)
+        self.recorder.write(vehicle_topic(self.vehicle, "proposal"), "proposal", proposal)
+        self.recorder.write(vehicle_topic(self.vehicle, "verdict"), "verdict", verdict)
 
     def execute(self, action: int, verdict: Verdict | None):
         executed = int(action)
@@ -176,7 +193,8 @@ class DiscernWrapper(gym.Wrapper):
             self.history.popleft()
 
     def close(self):
+        """Closes the checker too when the wrapper made it (a zenoh session must not outlive us)."""
         close = getattr(self.checker, "close", None)
-        if close:
+        if close and self._owns_checker:
             close()
         return super().close()
