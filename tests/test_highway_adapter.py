@@ -94,3 +94,13 @@ def test_merge_lane_reports_where_it_ends():
     scene, ends = seen
     assert [l.id for l in ends] == [3] and scene.current_lanes() == [1, 2, 3]
     assert 0 < ends[0].ends_in <= 80.0
+
+
+def test_wrapper_refuses_an_env_without_the_five_meta_actions():
+    import gymnasium as gym
+
+    from discern.adapters.highway.wrapper import DiscernWrapper
+
+    env = gym.make("intersection-v0")  # longitudinal meta-actions only
+    with pytest.raises(ValueError, match="all five meta-actions"):
+        DiscernWrapper(env, passthrough=True)

@@ -32,10 +32,6 @@ class Track:
     width: float
     static: bool = False  # a road obstacle rather than a vehicle
 
-    def gap_ahead(self, ego_length: float) -> float:
-        """Bumper-to-bumper distance along the lane (negative once the boxes overlap)."""
-        return abs(self.ahead) - (self.length + ego_length) / 2.0
-
 
 @dataclass(frozen=True)
 class LaneInfo:
@@ -49,12 +45,10 @@ class EgoTruth:
     speed: float  # forward speed, m/s
     v_right: float
     lane: int  # Discern id of the lane the ego is in
-    target_lane: int  # Discern id of the lane the ego steers to (differs during a lane change)
     lateral: float  # m right of the ego lane's centre
     length: float
     width: float
     lane_width: float
-    heading_error: float  # rad between the ego heading and its lane
     on_merge_lane: bool
     road_position: float  # m along the road (highway-env's roads run along x)
 
@@ -129,8 +123,6 @@ def read_truth(env, ids: VehicleIds) -> Truth:
     on_merge_lane = (lane_index[0], lane_index[1]) in MERGE_EDGES or any(
         l.ends_in is not None and l.id == ego_lane_id for l in lanes
     )
-    target = getattr(ego, "target_lane_index", lane_index)
-    target_id = target[2] + 1 if target[:2] == lane_index[:2] else ego_lane_id
     lane_ids = {l.id for l in lanes}
 
     tracks = []
@@ -165,12 +157,10 @@ def read_truth(env, ids: VehicleIds) -> Truth:
             speed=max(float(np.dot(ego_velocity, forward)), 0.0),
             v_right=float(np.dot(ego_velocity, rightward)),
             lane=ego_lane_id,
-            target_lane=target_id,
             lateral=float(l_ego),
             length=float(ego.LENGTH),
             width=float(ego.WIDTH),
             lane_width=width,
-            heading_error=float(np.arctan2(np.sin(ego.heading - heading), np.cos(ego.heading - heading))),
             on_merge_lane=on_merge_lane,
             road_position=float(ego.position[0]),
         ),

@@ -14,6 +14,7 @@ from collections import deque
 from typing import Protocol, Sequence
 
 import gymnasium as gym
+from highway_env.envs.common.action import DiscreteMetaAction
 
 from discern.rules.scene import Action, Proposal, Scene
 from discern.rules.verdict import Decision, Justification, Verdict
@@ -120,17 +121,24 @@ class DiscernWrapper(gym.Wrapper):
         vehicle: str = "ego",
     ):
         super().__init__(env)
+        actions = getattr(getattr(env.unwrapped, "action_type", None), "actions", None)
+        if actions != DiscreteMetaAction.ACTIONS_ALL:
+            raise ValueError(
+                "DiscernWrapper needs highway-env's DiscreteMetaAction with all five meta-actions "
+                f"(LANE_LEFT, IDLE, LANE_RIGHT, FASTER, SLOWER); this environment acts with {actions!r}"
+            )
         self._owns_checker = checker is None
+        self.vehicle = vehicle
         if passthrough:
             self.checker = None
         elif checker is not None:
             self.checker = checker
         elif monitor:
-            self.checker = MonitorChecker(timeout=timeout, **(monitor_options or {}))
+            self.checker = MonitorChecker(timeout=timeout, vehicle=vehicle, **(monitor_options or {}))
         else:
             self.checker = ReasonerChecker(explain=explain, shadow=shadow)
         self.recorder = recorder  # a discern.monitor.log.writer.McapLogWriter: proposals and verdicts to MCAP
-        self.vehicle = vehicle
+        self._episodes = 0
         self.perception = Perception(faults)
         self.history_seconds = history_seconds
         self.history: deque[Scene] = deque()
@@ -142,7 +150,9 @@ class DiscernWrapper(gym.Wrapper):
         obs, info = self.env.reset(seed=seed, options=options)
         self._ids = VehicleIds()
         self.history.clear()
-        self.perceived = self.perception.reset(seed or 0, read_truth(self.env, self._ids))
+        self._episodes += 1
+        episode = seed if seed is not None else self._episodes  # keys the injected faults
+        self.perceived = self.perception.reset(episode, read_truth(self.env, self._ids))
         self.scene = build_scene(self.perceived, period=policy_period(self.env))
         return obs, info
 
