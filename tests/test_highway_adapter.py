@@ -101,6 +101,6 @@ def test_wrapper_refuses_an_env_without_the_five_meta_actions():
 
     from discern.adapters.highway.wrapper import DiscernWrapper
 
-    env = gym.make("intersection-v0")  # longitudinal meta-actions only
+    env = gym.make("intersection-v2")  # longitudinal meta-actions only
     with pytest.raises(ValueError, match="all five meta-actions"):
         DiscernWrapper(env, passthrough=True)

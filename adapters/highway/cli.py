@@ -83,7 +83,10 @@ def _run_eval(args: argparse.Namespace) -> int:
         from .evaluate import VARIANTS, Setup, evaluate, report
         from .perception import Faults
     except ImportError as exc:
-        print(f"error: the highway evaluation needs the planner extra (pip install 'discern[planner]'): {exc}", file=sys.stderr)
+        print(
+            f"discern: error: the highway evaluation needs the planner extra (pip install 'discern[planner]'): {exc}",
+            file=sys.stderr,
+        )
         return 2
     variants = [v.strip() for v in args.variants.split(",") if v.strip()]
     problems = [f"unknown variant {v!r} (choose from {', '.join(VARIANTS)})" for v in variants if v not in VARIANTS]
@@ -114,7 +117,7 @@ def _run_eval(args: argparse.Namespace) -> int:
             problems.append(str(exc))
     if problems:
         for problem in problems:
-            print(f"error: {problem}", file=sys.stderr)
+            print(f"discern: error: {problem}", file=sys.stderr)
         return 2
     setup = Setup(
         env=args.env, duration=args.duration, weights=args.weights, monitor=(args.monitor,) if args.monitor else (),
@@ -125,7 +128,7 @@ def _run_eval(args: argparse.Namespace) -> int:
     try:
         results = evaluate(args.episodes, fault_sets, variants, setup, seed=args.seed, jobs=args.jobs, progress=not args.quiet)
     except (FileNotFoundError, RuntimeError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"discern: error: {exc}", file=sys.stderr)
         return 2
     _, text = report(results, args.out)
     print(text)
