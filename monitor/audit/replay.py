@@ -1,0 +1,259 @@
+"""Replay: re-decide every logged frame with the current (or another) rules catalog.
+
+A regression check for rule edits: each frame the rules judged is decided
+again from its logged scene, proposed action and rebuilt history, and every
+frame whose decision or executed action would change is reported with both
+justifications. Fail-safe verdicts and refused inputs were not decided by the
+rules and are counted, not replayed.
+
+Work is split by file and, when there are fewer files than workers, by a
+hash of the frame's content, so one worker process sees every copy of a
+scene. Identical frames are decided once per worker: the content key is the
+scene, the action, the shadow flag and the history, with frame ids and
+timestamps made relative to the frame (a decision does not depend on the
+wall clock, only on time differences). Only changed decisions get the full
+justification tree.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import time
+from collections import Counter, OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional, Sequence
+
+from discern.monitor.config import MonitorConfig
+from discern.monitor.log import FileRecovery, RecoveryReport
+from discern.rules.catalog import catalog_dirs, load_catalog
+from discern.rules.engine import Reasoner
+from discern.rules.scene import Action, Scene
+from discern.rules.verdict import Decision, Verdict
+
+from .aggregate import Filters, scenario_kind
+from .frames import FrameTask, PairingCounts, plan_tasks, read_frames
+from .parallel import run_jobs
+
+CACHE_LIMIT = 100_000  # decided frames kept per worker for reuse
+SCENE_DIGESTS = 8192  # scenes whose content digest is kept (a history window repeats them)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    decision: str
+    action: str
+    rules: tuple[str, ...]
+
+    @classmethod
+    def of(cls, verdict: Verdict) -> "Outcome":
+        return cls(verdict.decision.value, verdict.action.value, tuple(verdict.rules))
+
+    def describe(self) -> str:
+        return f"{self.decision} {self.action}"
+
+
+@dataclass
+class Change:
+    time_ns: int
+    vehicle: str
+    file: str
+    frame_id: Optional[int]
+    scenario: str
+    recorded: dict  # the verdict as logged (JSON)
+    replayed: dict  # the verdict with the replay's catalog, full justification tree
+
+    @property
+    def transition(self) -> str:
+        def side(v: dict) -> str:
+            return f"{v['decision']} {v['action']}"
+
+        return f"{self.recorded.get('proposed')}: {side(self.recorded)} -> {side(self.replayed)}"
+
+
+@dataclass
+class ReplayTally:
+    frames: int = 0  # frames re-decided
+    solved: int = 0  # of which the reasoner ran
+    reused: int = 0  # of which a copy was decided before (same content)
+    changes: list[Change] = field(default_factory=list)
+    rules_only: int = 0  # same decision and action, other rule ids
+    rules_only_examples: Counter = field(default_factory=Counter)  # (recorded rules, replayed rules)
+    transitions: Counter = field(default_factory=Counter)
+    skipped_failsafe: int = 0  # fail-safe verdicts: the rules did not decide them
+    skipped_refused: int = 0  # inputs refused before they parsed: no scene to replay
+    solve_s: float = 0.0  # worker time spent in the reasoner
+    counts: PairingCounts = field(default_factory=PairingCounts)
+    recovery: list[FileRecovery] = field(default_factory=list)
+
+    def merge(self, other: "ReplayTally") -> None:
+        for name in ("frames", "solved", "reused", "rules_only", "skipped_failsafe", "skipped_refused", "solve_s"):
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+        self.changes.extend(other.changes)
+        self.rules_only_examples.update(other.rules_only_examples)
+        self.transitions.update(other.transitions)
+        self.counts.merge(other.counts)
+        self.recovery.extend(other.recovery)
+
+    @property
+    def unanswered(self) -> int:
+        return max(0, self.counts.unanswered - self.counts.carried)
+
+
+@dataclass
+class ReplayResult:
+    tally: ReplayTally
+    catalog: list[str]  # the rules directories replayed with
+    wall_s: float
+    workers: int
+
+    @property
+    def frames_per_s(self) -> float:
+        return self.tally.frames / self.wall_s if self.wall_s > 0 else 0.0
+
+
+@dataclass(frozen=True)
+class ReplayJob:
+    task: FrameTask
+    shard: int
+    shards: int
+    filters: Filters
+    window_s: float
+
+
+class _Worker:
+    """Per-process state: one Reasoner, the decided frames, the scene digests."""
+
+    def __init__(self, rules_dirs: Sequence[str]):
+        self.reasoner = Reasoner(catalog=load_catalog([Path(d) for d in rules_dirs]))
+        self.decided: OrderedDict[bytes, tuple[Outcome, Verdict]] = OrderedDict()
+        self.digests: OrderedDict[int, tuple[Scene, bytes]] = OrderedDict()
+
+    def digest(self, scene: Scene) -> bytes:
+        """Content of a scene without its frame id and time (kept alive so its id() stays unique)."""
+        hit = self.digests.get(id(scene))
+        if hit is not None and hit[0] is scene:
+            return hit[1]
+        data = scene.model_dump_json(exclude={"frame_id", "timestamp"}).encode()
+        value = hashlib.blake2b(data, digest_size=16).digest()
+        self.digests[id(scene)] = (scene, value)
+        if len(self.digests) > SCENE_DIGESTS:
+            self.digests.popitem(last=False)
+        return value
+
+    def key(self, scene: Scene, action: Action, history: Sequence[Scene], shadow: bool) -> bytes:
+        h = hashlib.blake2b(digest_size=16)
+        h.update(self.digest(scene))
+        h.update(f"|{action.value}|{int(shadow)}".encode())
+        for past in history:
+            h.update(self.digest(past))
+            h.update(f"|{past.frame_id - scene.frame_id}|{past.timestamp - scene.timestamp:.6f}".encode())
+        return h.digest()
+
+
+_worker: Optional[_Worker] = None
+
+
+def _init_worker(rules_dirs: Sequence[str]) -> None:
+    global _worker
+    _worker = _Worker(rules_dirs)
+
+
+def replay_file(job: ReplayJob) -> ReplayTally:
+    """Re-decide one file's frames of this job's shard (runs in a worker process)."""
+    worker = _worker
+    report = RecoveryReport()
+    frames, pairing = read_frames(job.task, report, window_s=job.window_s)
+    tally = ReplayTally()
+    first_shard = job.shard == 0
+    for frame in frames:
+        if not job.filters.frame_selected(frame):
+            continue
+        recorded = frame.verdict
+        if frame.proposal is None:
+            tally.skipped_refused += first_shard
+            continue
+        if recorded.failsafe or frame.history is None:
+            tally.skipped_failsafe += first_shard
+            continue
+        scene, action = frame.proposal.scene, frame.proposal.action
+        key = worker.key(scene, action, frame.history, recorded.shadow)
+        if job.shards > 1 and int.from_bytes(key[:4], "big") % job.shards != job.shard:
+            continue
+        tally.frames += 1
+        hit = worker.decided.get(key)
+        if hit is None:
+            start = time.perf_counter()
+            verdict = worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow)
+            tally.solve_s += time.perf_counter() - start
+            tally.solved += 1
+            hit = (Outcome.of(verdict), verdict)
+            worker.decided[key] = hit
+            if len(worker.decided) > CACHE_LIMIT:
+                worker.decided.popitem(last=False)
+        else:
+            tally.reused += 1
+        outcome, verdict = hit
+        before = Outcome.of(recorded)
+        if (outcome.decision, outcome.action) != (before.decision, before.action):
+            tally.changes.append(_change(worker, frame, verdict))
+            tally.transitions[f"{action.value}: {before.describe()} -> {outcome.describe()}"] += 1
+        elif outcome.rules != before.rules:
+            tally.rules_only += 1
+            tally.rules_only_examples[(", ".join(before.rules), ", ".join(outcome.rules))] += 1
+    if first_shard:
+        tally.counts = pairing.counts
+        tally.recovery = report.files
+    return tally
+
+
+def _change(worker: _Worker, frame, decided: Verdict) -> Change:
+    """The changed frame, with the full justification tree (an approval is decided again to get it)."""
+    scene = frame.proposal.scene
+    if decided.decision is Decision.approve:
+        decided = worker.reasoner.decide(
+            scene, frame.proposal.action, history=frame.history, explain=True, shadow=frame.verdict.shadow
+        )
+    replayed = decided.model_dump(mode="json")
+    replayed.update(frame_id=scene.frame_id, timestamp=scene.timestamp, vehicle=frame.vehicle)
+    return Change(
+        time_ns=frame.log_time_ns,
+        vehicle=frame.vehicle,
+        file=frame.file,
+        frame_id=scene.frame_id,
+        scenario=scenario_kind(scene),
+        recorded=frame.verdict.model_dump(mode="json"),
+        replayed=replayed,
+    )
+
+
+def replay_catalog_dirs(rules: Optional[Sequence[str]]) -> list[str]:
+    """The catalog to replay with: the shipped one, or the given driving-rules dirs plus the shipped sanity rules."""
+    shipped = [str(d) for d in catalog_dirs()]
+    if not rules:
+        return shipped
+    return [str(Path(d)) for d in rules] + shipped[1:]
+
+
+def replay_logs(
+    paths: Sequence[str],
+    rules: Optional[Sequence[str]] = None,
+    filters: Filters = Filters(),
+    workers: int = 1,
+    window_s: Optional[float] = None,
+) -> ReplayResult:
+    """Replay every file; raises CatalogError (from load_catalog) for a broken rules directory."""
+    window = window_s if window_s is not None else MonitorConfig().window_s
+    dirs = replay_catalog_dirs(rules)
+    load_catalog([Path(d) for d in dirs])  # a broken catalog fails here, once, not in every worker
+    tasks = plan_tasks(list(paths))
+    shards = max(1, math.ceil(workers / max(1, len(tasks))))
+    jobs = [ReplayJob(task, shard, shards, filters, window) for task in tasks for shard in range(shards)]
+    start = time.perf_counter()
+    total = ReplayTally()
+    for tally in run_jobs(replay_file, jobs, workers, _init_worker, (dirs,)):
+        total.merge(tally)
+    wall = time.perf_counter() - start
+    total.changes.sort(key=lambda c: (c.time_ns, c.vehicle))
+    return ReplayResult(total, dirs, wall, max(1, min(workers, len(jobs))))
