@@ -15,7 +15,7 @@ from typing import Union
 
 from pydantic import ValidationError
 
-from discern.rules.scene import Action, Scene
+from discern.rules.scene import Action, Scene, describe_errors
 
 Term = Union[int, float, str, "Compound", list]
 
@@ -247,7 +247,7 @@ def _scene(facts: list[Compound], t: int, environment: str, path: str) -> tuple[
     try:
         return Scene.model_validate(data), expected, notes
     except ValidationError as exc:
-        raise AvcsrError(f"{path}: frame {t}: {exc}") from None
+        raise AvcsrError(f"{path}: frame {t}:\n{describe_errors(exc)}") from None
 
 
 def read_dir(directory: Union[str, Path]) -> list[AvcsrFrame]:

@@ -5,7 +5,7 @@ A catalog file is plain clingo syntax plus `%!` annotation comments:
     %! pred obstacle_ahead(O) :: "@(O:obj) blocks the ego's lane"
     %! rule brake.obstacle_ahead
     %! says An obstacle ... is a hazard.
-    %! source AUTO-DISCERN example 192
+    %! source AUTO-DISCERN (obstacle ahead); AV-CSR brake_conditions
     hazard(obstacle(O)) :- obstacle_ahead(O).
 
 A `rule` annotation names every statement that follows it up to the next
@@ -244,6 +244,60 @@ def _ground_fact(stm: ast.AST) -> list[Symbol]:
     return [a.symbol for a in ctl.symbolic_atoms if a.is_fact]
 
 
+def _check_stratified(catalog: Catalog) -> None:
+    """No predicate may depend on itself through negation.
+
+    Then the program has exactly one answer set, the grounder computes it as
+    facts, and every atom's justification is well-founded.
+    """
+    edges: dict[str, set[tuple[str, bool]]] = {}
+    for rule in catalog.compiled:
+        for lit in rule.body:
+            if lit.is_atom:
+                edges.setdefault(rule.signature[0], set()).add((lit.predicate, lit.negated))
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    component: dict[str, int] = {}
+    stack: list[str] = []
+    counter = 0
+
+    def visit(root: str) -> None:
+        nonlocal counter
+        work = [(root, iter(edges.get(root, ())))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        while work:
+            node, children = work[-1]
+            for child, _ in children:
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    work.append((child, iter(edges.get(child, ()))))
+                    break
+                if child not in component:
+                    low[node] = min(low[node], index[child])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    while True:
+                        member = stack.pop()
+                        component[member] = index[node]
+                        if member == node:
+                            break
+
+    for predicate in list(edges):
+        if predicate not in index:
+            visit(predicate)
+    for head, body in edges.items():
+        for predicate, negated in body:
+            if negated and component.get(predicate) == component.get(head):
+                raise CatalogError(f"{head} depends on itself through 'not {predicate}': the catalog must be stratified")
+
+
 def catalog_dirs() -> list[Path]:
     """The shipped catalogs: driving rules, then sanity rules."""
     dirs = [Path(str(resources.files("discern.rules") / "catalog"))]
@@ -264,6 +318,7 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
     files.extend(Path(f) for f in extra_files)
     for path in files:
         _compile_file(str(path), path.read_text(encoding="utf-8"), catalog)
+    _check_stratified(catalog)
     seen: dict[str, RuleInfo] = {}
     for info in catalog.rules:
         if info.id in seen:

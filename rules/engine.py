@@ -41,10 +41,6 @@ class FactProvider(Protocol):
     def facts(self, scene: Scene, history: Sequence[Scene]) -> str: ...
 
 
-class ReasoningError(RuntimeError):
-    """The solver could not produce a decision for a valid scene."""
-
-
 class SolvedFrame:
     """The solved frame: model plus what the verdict needs from it."""
 
@@ -71,6 +67,7 @@ class Reasoner:
         self._solve_hook = solve_hook
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
+        proposed = Action(proposed)
         facts = [self._param_facts, scene_facts(scene, proposed)]
         facts.extend(p.facts(scene, history) for p in self.providers)
         text = "".join(facts)
@@ -80,13 +77,9 @@ class Reasoner:
                 builder.add(statement)
         ctl.add("base", [], text)
         ctl.ground([("base", [])])
-        symbols: list[clingo.Symbol] = []
         if self._solve_hook is not None:
             self._solve_hook()
-        result = ctl.solve(on_model=lambda m: symbols.extend(m.symbols(atoms=True)))
-        if not result.satisfiable:
-            raise ReasoningError("the rules have no answer set for this scene")
-        return SolvedFrame(AnswerSet.from_symbols(symbols), proposed)
+        return SolvedFrame(AnswerSet(ctl), proposed)
 
     def decide(
         self,

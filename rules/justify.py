@@ -14,7 +14,7 @@ import re
 from dataclasses import dataclass
 from typing import Iterator, Optional
 
-from clingo import Symbol, SymbolType
+from clingo import Control, Symbol, SymbolType
 
 from .catalog import Catalog, CompiledRule
 from .terms import CMP_TEXT, Env, Literal, Term, Unbound, check_comparison, evaluate, is_assignment, match, term_vars
@@ -23,25 +23,50 @@ from .verdict import JustificationNode
 _PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?\)")
 
 
-@dataclass
 class AnswerSet:
-    """The solver's model, indexed by predicate."""
+    """The frame's unique answer set, read lazily from the grounder.
 
-    atoms: set[Symbol]
-    by_sig: dict[tuple[str, int], list[Symbol]]
+    The catalog is stratified (checked when it loads), so grounding alone
+    derives every true atom as a fact: no solving, and no copying thousands of
+    atoms into Python unless a justification asks for them.
+    """
 
-    @classmethod
-    def from_symbols(cls, symbols: list[Symbol]) -> "AnswerSet":
-        by_sig: dict[tuple[str, int], list[Symbol]] = {}
-        for sym in symbols:
-            by_sig.setdefault((sym.name, len(sym.arguments)), []).append(sym)
-        return cls(set(symbols), by_sig)
+    def __init__(self, control: Control):
+        self._control = control  # owns the atoms: they must not outlive it
+        self._atoms = control.symbolic_atoms
+        self._by_sig: dict[tuple[str, int], list[Symbol]] = {}
+        self._by_first: dict[tuple[str, int], dict[Symbol, list[Symbol]]] = {}
+        self._args: dict[Symbol, tuple[Symbol, ...]] = {}
 
     def holds(self, sym: Symbol) -> bool:
-        return sym in self.atoms
+        atom = self._atoms[sym]
+        return atom is not None and atom.is_fact
 
     def of(self, name: str, arity: int) -> list[Symbol]:
-        return self.by_sig.get((name, arity), [])
+        found = self._by_sig.get((name, arity))
+        if found is None:
+            found = [a.symbol for a in self._atoms.by_signature(name, arity) if a.is_fact]
+            self._by_sig[(name, arity)] = found
+        return found
+
+    def with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
+        """Atoms of a predicate whose first argument is given: the prover's common lookup."""
+        index = self._by_first.get((name, arity))
+        if index is None:
+            index = {}
+            for sym in self.of(name, arity):
+                index.setdefault(self.arguments(sym)[0], []).append(sym)
+            self._by_first[(name, arity)] = index
+        return index.get(first, [])
+
+    def arguments(self, sym: Symbol) -> tuple[Symbol, ...]:
+        args = self._args.get(sym)
+        if args is None:
+            args = self._args[sym] = tuple(sym.arguments)
+        return args
+
+    def all(self) -> list[Symbol]:
+        return [a.symbol for a in self._atoms if a.is_fact]
 
 
 # --- English ---------------------------------------------------------------
@@ -72,7 +97,8 @@ class Phrasebook:
 
     def __init__(self, catalog: Catalog, answer: AnswerSet):
         self.catalog = catalog
-        self._classes = {s.arguments[0]: s.arguments[1].name for s in answer.of("object", 2)}
+        self._answer = answer
+        self._class_cache: Optional[dict[Symbol, str]] = None
         self._formats: dict[int, dict[str, str]] = {}
 
     def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str) -> str:
@@ -92,7 +118,9 @@ class Phrasebook:
         if fmt == "ordinal":
             return _ordinal(n)
         if fmt == "obj":
-            cls = self._classes.get(sym)
+            if self._class_cache is None:
+                self._class_cache = {a[0]: a[1].name for a in map(self._answer.arguments, self._answer.of("object", 2))}
+            cls = self._class_cache.get(sym)
             return f"{cls.replace('_', ' ')} {n}" if cls else f"object {n}"
         return str(n)
 
@@ -182,6 +210,14 @@ class Prover:
             for solution in self._solve(list(rule.body), env, 0, None):
                 yield rule, solution
                 break
+
+    def fired_rules(self) -> set[str]:
+        """Ids of the catalog rules with at least one instance whose body holds in the model."""
+        fired = set(self.catalog.fact_rule.get(sym) for sym in self.answer.all()) - {None}
+        for rule in self.catalog.compiled:
+            if rule.info.id not in fired and next(self._solve(list(rule.body), {}, 0, None), None) is not None:
+                fired.add(rule.info.id)
+        return fired
 
     # -- holds --
     def why(self, sym: Symbol, depth: int = 0, path: frozenset = frozenset()) -> JustificationNode:
@@ -344,7 +380,14 @@ class Prover:
             if self.answer.holds(ground):
                 yield ground, env
             return
-        for sym in self.answer.of(term[1], len(term[2])):
+        args = term[2]
+        candidates = None
+        if args:
+            try:
+                candidates = self.answer.with_first(term[1], len(args), evaluate(args[0], env))
+            except Unbound:
+                pass
+        for sym in candidates if candidates is not None else self.answer.of(term[1], len(args)):
             bound = match(term, sym, env)
             if bound is not None:
                 yield sym, bound

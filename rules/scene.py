@@ -10,7 +10,7 @@ from __future__ import annotations
 from enum import Enum
 from typing import Annotated, Literal, Optional
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 SCHEMA_VERSION = 1
 
@@ -290,3 +290,25 @@ class Proposal(Strict):
     action: Action
     scene: Scene
     explain: bool = Field(False, description="ask for the full justification tree")
+
+
+def describe_errors(exc: ValidationError, root: str = "") -> str:
+    """One line per problem, naming the field path, the problem and the offending value."""
+    lines = []
+    for err in exc.errors():
+        path = ".".join(str(p) for p in err["loc"]) or "(message)"
+        if root:
+            path = f"{root}.{path}"
+        message = err["msg"].removeprefix("Value error, ")
+        if err["type"] == "value_error":
+            pass
+        elif err["type"] == "enum":
+            expected = err.get("ctx", {}).get("expected", "")
+            message = f"unknown value {err['input']!r} (expected one of {expected})"
+        elif err["type"] in ("missing",):
+            message = "is required but missing"
+        elif "input" in err and err["type"] not in ("model_type", "dict_type"):
+            shown = repr(err["input"])
+            message = f"{message} (got {shown[:60]})"
+        lines.append(f"{path}: {message}")
+    return "\n".join(lines)

@@ -1,0 +1,188 @@
+"""The `discern` command: one argparse tree; each part contributes its subcommands."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from pathlib import Path
+from typing import Optional, Sequence
+
+from pydantic import ValidationError
+
+from discern.rules.catalog import CatalogError, load_catalog
+from discern.rules.engine import Reasoner
+from discern.rules.render import render_html, render_json
+from discern.rules.scene import Action, Proposal, Scene, describe_errors
+
+# Parts that add subcommands through a `register(subparsers)` function.
+PARTS: list[str] = ["discern.monitor.demo"]
+
+
+class UserError(Exception):
+    """A mistake in what the user gave us: reported in one line, no traceback."""
+
+
+def _read_json(path: str) -> dict:
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read: {exc.strerror}") from None
+    try:
+        data = json.loads(text, parse_constant=lambda c: float(c))
+    except json.JSONDecodeError as exc:
+        raise UserError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: expected a JSON object (a scene or a proposal)")
+    return data
+
+
+def _reasoner(args: argparse.Namespace) -> Reasoner:
+    if getattr(args, "rules", None):
+        try:
+            return Reasoner(catalog=load_catalog([Path(args.rules)]))
+        except CatalogError as exc:
+            raise UserError(str(exc)) from None
+    return Reasoner()
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    data = _read_json(args.scene)
+    try:
+        if "scene" in data:
+            proposal = Proposal.model_validate(data)
+            scene, action = proposal.scene, proposal.action
+            if args.proposed:
+                action = Action(args.proposed)
+        else:
+            if not args.proposed:
+                raise UserError(f"{args.scene}: a bare scene needs --proposed ACTION")
+            scene, action = Scene.model_validate(data), Action(args.proposed)
+    except ValidationError as exc:
+        raise UserError(f"{args.scene}: invalid scene:\n{describe_errors(exc)}") from None
+    verdict = _reasoner(args).decide(scene, action, explain=True, shadow=args.shadow)
+    if args.explain == "json":
+        output = render_json(verdict)
+    elif args.explain == "html":
+        output = render_html(verdict)
+    else:
+        output = verdict.justification.text
+        if scene.notes:
+            output += "\nnotes:\n" + "\n".join(f"  {n}" for n in scene.notes)
+    if args.out:
+        Path(args.out).write_text(output, encoding="utf-8")
+        print(f"{verdict.justification.summary}\nwritten to {args.out}")
+    else:
+        print(output)
+    return 0
+
+
+def cmd_catalog(args: argparse.Namespace) -> int:
+    catalog = _reasoner(args).catalog
+    rules = catalog.rules if args.all else catalog.driving_rules()
+    if args.json:
+        print(json.dumps([r.__dict__ for r in rules], indent=2))
+        return 0
+    width = max(len(r.id) for r in rules)
+    current_file = None
+    for rule in rules:
+        if rule.file != current_file:
+            current_file = rule.file
+            print(f"\n# {Path(rule.file).name}")
+        print(f"{rule.id:<{width}}  {rule.says}\n{'':<{width}}  source: {rule.source}")
+    kind = "rules" if args.all else "driving and sanity rules (definitions: --all)"
+    print(f"\n{len(rules)} {kind}; {len(catalog.templates)} predicate templates")
+    return 0
+
+
+def cmd_scenarios(args: argparse.Namespace) -> int:
+    directory = Path(args.dir)
+    if not directory.is_dir():
+        raise UserError(f"{directory}: no such directory")
+    if list(directory.glob("*.pl")):
+        from discern.adapters.avcsr import AvcsrError
+        from discern.scenarios import paper_table
+
+        try:
+            rows = paper_table.run(directory, _reasoner(args), repeats=args.repeats)
+        except AvcsrError as exc:
+            raise UserError(str(exc)) from None
+        print(paper_table.format_rows(rows))
+        print()
+        print(paper_table.format_table(rows))
+        return 0 if all(r.agrees for r in rows) else 1
+    from discern.scenarios import runner
+
+    try:
+        outcomes = runner.run_files(runner.scenario_files(directory), lambda _j: _reasoner(args))
+    except runner.ScenarioError as exc:
+        raise UserError(str(exc)) from None
+    for outcome in outcomes:
+        status = "pass" if outcome.passed else "FAIL"
+        print(f"{status}  {outcome.scenario} #{outcome.index}: {outcome.verdict.justification.summary}")
+        for problem in outcome.problems:
+            print(f"        {problem}")
+    failed = sum(not o.passed for o in outcomes)
+    print(f"{len(outcomes) - failed} passed, {failed} failed")
+    return 0 if failed == 0 else 1
+
+
+def cmd_schema(args: argparse.Namespace) -> int:
+    from discern.rules.schema import write_schemas
+
+    for path in write_schemas(Path(args.out)):
+        print(path)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="discern", description="Explainable safety cross-checker for ML driving planners.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    check = sub.add_parser("check", help="judge a proposed action in a scene and explain the verdict")
+    check.add_argument("scene", help="scene JSON (or a proposal JSON with action and scene)")
+    check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action")
+    check.add_argument("--explain", choices=["text", "json", "html"], default="text")
+    check.add_argument("--out", help="write the output to this file")
+    check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")
+    check.add_argument("--rules", help="use the rules catalog in this directory instead of the shipped one")
+    check.set_defaults(func=cmd_check)
+
+    catalog = sub.add_parser("catalog", help="list the rules with their English and sources")
+    catalog.add_argument("--all", action="store_true", help="include definitions and entity rules")
+    catalog.add_argument("--json", action="store_true")
+    catalog.add_argument("--rules", help="list the catalog in this directory instead of the shipped one")
+    catalog.set_defaults(func=cmd_catalog)
+
+    scenarios = sub.add_parser("scenarios", help="run scenario files or the paper's KITTI frames")
+    scen_sub = scenarios.add_subparsers(dest="action", required=True, metavar="ACTION")
+    run = scen_sub.add_parser("run", help="run a directory of scenario JSON files or AV-CSR .pl frames")
+    run.add_argument("dir")
+    run.add_argument("--repeats", type=int, default=5, help="timing repeats per KITTI frame (median)")
+    run.add_argument("--rules", help="use the rules catalog in this directory")
+    run.set_defaults(func=cmd_scenarios)
+
+    schema = sub.add_parser("schema", help="write the JSON Schemas of the message models")
+    schema.add_argument("--out", default=".", help="directory to write into")
+    schema.set_defaults(func=cmd_schema)
+
+    for module in PARTS:
+        importlib.import_module(module).register(sub)
+    return parser
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except UserError as exc:
+        print(f"discern: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

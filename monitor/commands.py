@@ -1,0 +1,268 @@
+"""CLI subcommands of the sidecar: serve, status, router, planner-example, schema.
+
+`register(subparsers)` adds them to the `discern` command (monitor/cli.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+from . import keys
+from .config import DEFAULT_ENDPOINT, LogSettings, MonitorConfig, ZenohSettings, default_monitor_id
+
+log = logging.getLogger("discern.monitor")
+
+
+def register(subparsers) -> None:
+    serve = subparsers.add_parser(
+        "serve",
+        help="run the sidecar monitor: judge proposals arriving over zenoh",
+        description="Serve verdicts over zenoh on discern/<vehicle>/{proposal,check} -> discern/<vehicle>/verdict.",
+    )
+    _zenoh_arguments(serve, listen_default=DEFAULT_ENDPOINT)
+    serve.add_argument("--id", dest="monitor_id", default=None, help="monitor id, for its status key (default: host-pid)")
+    serve.add_argument("--vehicles", default="*", help="serve only these vehicles, e.g. 'fleet_a_*' (default: all)")
+    serve.add_argument("--budget-ms", type=float, default=50.0, help="decision budget; later = fail-safe (default: 50)")
+    serve.add_argument("--window-s", type=float, default=2.0, help="per-vehicle history window (default: 2)")
+    serve.add_argument("--max-payload-bytes", type=int, default=1024 * 1024, help="larger proposals are refused")
+    serve.add_argument("--workers", type=int, default=2, help="decision threads (default: 2)")
+    serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
+    serve.add_argument("--log-dir", type=Path, default=None, help="write the MCAP log here (default: no log)")
+    serve.add_argument("--log-rotate-mb", type=float, default=256.0, help="start a new log file past this size")
+    serve.add_argument("--log-rotate-s", type=float, default=3600.0, help="start a new log file past this age")
+    serve.add_argument("--log-flush-s", type=float, default=0.5, help="close a chunk this often (bounds crash loss)")
+    serve.add_argument("--log-compression", choices=("zstd", "none"), default="zstd")
+    serve.add_argument("--status-period-s", type=float, default=1.0, help="status record period in the log")
+    serve.add_argument(
+        "--test-only-decision-delay-ms",
+        type=float,
+        default=0.0,
+        help="TEST ONLY: sleep this long before every decision, to exercise the fail-safe deadline",
+    )
+    serve.add_argument("-v", "--verbose", action="store_true", help="log every refused proposal and more")
+    serve.set_defaults(func=cmd_serve)
+
+    status = subparsers.add_parser("status", help="ask running monitors for their counts and latency")
+    _zenoh_arguments(status, listen_default=None, connect_default=DEFAULT_ENDPOINT)
+    status.add_argument("--id", dest="monitor_id", default="*", help="monitor id (default: all that answer)")
+    status.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for answers (default: 2)")
+    status.add_argument("--json", action="store_true", help="print the raw JSON status")
+    status.set_defaults(func=cmd_status)
+
+    router = subparsers.add_parser(
+        "router", help="run a zenoh router (stand-in for zenohd) that monitors and planners connect to"
+    )
+    _zenoh_arguments(router, listen_default=DEFAULT_ENDPOINT, modes=False)
+    router.set_defaults(func=cmd_router)
+
+    planner = subparsers.add_parser("planner-example", help="an example planner asking the monitor each frame")
+    from .example_planner import add_arguments
+
+    add_arguments(planner)
+    planner.set_defaults(func=cmd_planner_example)
+
+    schema = subparsers.add_parser("schema", help="write the JSON Schemas of the protocol (Proposal, Verdict)")
+    schema.add_argument("--out", type=Path, default=Path("."), help="directory to write into (default: .)")
+    schema.set_defaults(func=cmd_schema)
+
+
+def _zenoh_arguments(parser, *, listen_default, connect_default=None, modes=True) -> None:
+    if modes:
+        parser.add_argument("--mode", choices=("peer", "client", "router"), default=None, help="zenoh mode (default: peer)")
+    parser.add_argument(
+        "--listen", action="append", metavar="ENDPOINT", help=f"endpoint to listen on (default: {listen_default or 'none'})"
+    )
+    parser.add_argument(
+        "--connect",
+        action="append",
+        metavar="ENDPOINT",
+        help=f"router or peer endpoint to connect to, repeatable (default: {connect_default or 'none'})",
+    )
+    parser.add_argument("--zenoh-config", type=Path, default=None, help="zenoh JSON5 config file (TLS, access control...)")
+    parser.add_argument("--multicast-scouting", action="store_true", default=None, help="find peers by UDP multicast")
+    parser.set_defaults(_connect_default=connect_default)
+
+
+def _zenoh_settings(args, mode=None) -> ZenohSettings:
+    connect = args.connect
+    if connect is None and args._connect_default and args.zenoh_config is None:
+        connect = [args._connect_default]
+    return ZenohSettings(
+        mode=mode or getattr(args, "mode", None),
+        listen=args.listen,
+        connect=connect,
+        config_file=args.zenoh_config,
+        multicast_scouting=args.multicast_scouting,
+    )
+
+
+def _fail(command: str, message: str) -> int:
+    print(f"discern {command}: error: {message}", file=sys.stderr)
+    return 2
+
+
+def _wait_for_signal() -> None:
+    stop = threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    while not stop.wait(0.5):
+        pass
+
+
+def cmd_serve(args) -> int:
+    from .server import MonitorServer
+
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    try:
+        config = MonitorConfig(
+            monitor_id=args.monitor_id or default_monitor_id(),
+            zenoh=_zenoh_settings(args),
+            vehicles=args.vehicles,
+            budget_ms=args.budget_ms,
+            window_s=args.window_s,
+            max_payload_bytes=args.max_payload_bytes,
+            workers=args.workers,
+            shadow=args.shadow,
+            log=LogSettings(
+                directory=args.log_dir,
+                rotate_bytes=int(args.log_rotate_mb * 1024 * 1024),
+                rotate_seconds=args.log_rotate_s,
+                flush_seconds=args.log_flush_s,
+                compression=args.log_compression,
+            )
+            if args.log_dir
+            else None,
+            status_period_s=args.status_period_s,
+            test_decision_delay_ms=args.test_only_decision_delay_ms,
+        )
+        server = MonitorServer(config)
+        server.start()
+    except (ValueError, OSError, ImportError) as exc:
+        return _fail("serve", str(exc))
+    except Exception as exc:  # zenoh refuses an endpoint or config: say so, no traceback
+        return _fail("serve", f"{type(exc).__name__}: {exc}")
+    try:
+        chunk = server.vehicles_chunk
+        listen = config.zenoh.listen if config.zenoh.listen is not None else [DEFAULT_ENDPOINT]
+        print(
+            f"discern serve: monitor {config.monitor_id} ready; listening on {', '.join(listen) or 'nothing'}; "
+            f"serving {keys.proposal_key(chunk)} and {keys.check_key(chunk)}; budget {config.budget_ms:g} ms"
+            + (f"; logging to {config.log.directory}" if config.log else ""),
+            flush=True,
+        )
+        _wait_for_signal()
+    finally:
+        server.stop()
+    s = server.status()
+    print(
+        f"discern serve: stopped after {s.proposals} proposals: {s.approvals} approved, {s.overrides} overridden, "
+        f"{s.vetoes} vetoed, {s.failsafes} fail-safe, {s.errors} refused",
+        flush=True,
+    )
+    return 0
+
+
+def cmd_status(args) -> int:
+    import zenoh
+
+    from .status import MonitorStatus
+
+    try:
+        session = zenoh.open(_zenoh_settings(args).to_zenoh(default_listen=[]))
+    except Exception as exc:
+        return _fail("status", str(exc))
+    found = 0
+    try:
+        selector = keys.status_key(args.monitor_id) if args.monitor_id != "*" else keys.ALL_STATUS_KEYS
+        deadline = time.monotonic() + args.timeout
+        # A freshly opened peer needs a moment to learn the routes: retry until something answers.
+        while not found and time.monotonic() < deadline:
+            for reply in session.get(selector, timeout=max(0.1, deadline - time.monotonic())):
+                if reply.ok is None:
+                    continue
+                found += 1
+                status = MonitorStatus.model_validate_json(reply.ok.payload.to_bytes())
+                print(status.model_dump_json(indent=2) if args.json else _status_text(status), flush=True)
+            if not found:
+                time.sleep(0.1)
+    finally:
+        session.close()
+    if not found:
+        return _fail("status", f"no monitor answered on {selector} within {args.timeout:g} s")
+    return 0
+
+
+def _status_text(s) -> str:
+    lat = s.latency_ms
+    latency = (
+        f"latency p50 {lat.p50_ms} ms, p90 {lat.p90_ms} ms, p99 {lat.p99_ms} ms, max {lat.max_ms} ms"
+        if lat.samples
+        else "no decisions yet"
+    )
+    errors = ", ".join(f"{k} {v}" for k, v in sorted(s.errors_by_kind.items())) or "none"
+    return (
+        f"monitor {s.monitor_id} (vehicles {s.vehicles_filter}, up {s.uptime_s:.0f} s, budget {s.budget_ms:g} ms)\n"
+        f"  proposals {s.proposals}: {s.approvals} approved, {s.vetoes} vetoed, {s.overrides} overridden\n"
+        f"  fail-safes {s.failsafes} (deadline {s.deadline_misses}, internal {s.internal_errors}), "
+        f"refused {s.errors} ({errors})\n"
+        f"  {latency}\n"
+        f"  vehicles {s.vehicles}, log records {s.log_records} (dropped {s.log_dropped})"
+    )
+
+
+def cmd_router(args) -> int:
+    from .router import open_router
+
+    try:
+        session = open_router(_zenoh_settings(args, mode="router"))
+    except Exception as exc:
+        return _fail("router", str(exc))
+    try:
+        listen = args.listen or [DEFAULT_ENDPOINT]
+        print(f"discern router: zenoh router {session.zid()} ready; listening on {', '.join(listen)}", flush=True)
+        _wait_for_signal()
+    finally:
+        session.close()
+    return 0
+
+
+def cmd_planner_example(args) -> int:
+    from .example_planner import run
+
+    return 1 if run(args.vehicle, args.frames, args.rate, args.connect or [DEFAULT_ENDPOINT], args.style, args.explain) else 0
+
+
+def cmd_schema(args) -> int:
+    from .protocol import json_schemas
+
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+        for name, schema in json_schemas().items():
+            path = args.out / name
+            path.write_text(json.dumps(schema, indent=2) + "\n")
+            print(path)
+    except OSError as exc:
+        return _fail("schema", str(exc))
+    return 0
+
+
+def main(argv=None) -> int:
+    """The monitor's subcommands on their own: `python -m discern.monitor.commands serve ...`."""
+    parser = argparse.ArgumentParser(prog="discern")
+    register(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,110 @@
+"""A stand-in ML planner wired to Discern in a few lines; run `python -m discern.monitor.example_planner`.
+
+It drives a made-up highway scene (the ego closing in on a slower car, with
+traffic around) and asks the monitor about a proposed action each frame,
+printing what the monitor decided and why. The scene builder doubles as the
+load generator of bench/bench_zenoh.py.
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import sys
+import time
+from typing import Optional, Sequence
+
+from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, ObjectClass, Scene, Vec2
+
+from .client import Monitor
+from .config import DEFAULT_ENDPOINT
+
+LANE_WIDTH = 3.5
+
+
+def highway_scene(frame_id: int, n_objects: int = 8, *, lanes: int = 3, seed: int = 0, dt: float = 0.05) -> Scene:
+    """A deterministic highway frame: the ego in the middle lane, `n_objects` cars around it."""
+    rng = random.Random(seed * 1_000_003 + frame_id)
+    t = frame_id * dt
+    ego_lane = (lanes + 1) // 2
+    objects = []
+    for i in range(n_objects):
+        lane = 1 + i % lanes
+        ahead = 8.0 + 12.0 * (i // lanes) - 6.0 * (i % 2) - (t * 2.0 if i == 0 else 0.0)
+        objects.append(
+            DetectedObject(
+                id=i + 1,
+                cls=ObjectClass.truck if i % 7 == 3 else ObjectClass.car,
+                position=Vec2(x=(lane - ego_lane) * LANE_WIDTH + rng.uniform(-0.2, 0.2), y=ahead),
+                lane=LaneRef(kind=LaneKind.current, id=lane),
+                velocity=Vec2(x=0.0, y=22.0 + rng.uniform(-3, 3)),
+            )
+        )
+    return Scene(
+        frame_id=frame_id,
+        timestamp=round(1.0 + t, 6),
+        ego=Ego(speed=25.0, lane=ego_lane, zone="highway"),
+        speed_limit=33.3,
+        lanes=[Lane(kind=LaneKind.current, id=i + 1, speed_limit=33.3) for i in range(lanes)],
+        objects=objects,
+    )
+
+
+def planner_action(frame_id: int) -> Action:
+    """What our pretend network proposes: mostly cruise, now and then something bolder."""
+    return (Action.cruise, Action.accelerate, Action.change_lane_left, Action.cruise, Action.change_lane_right)[
+        frame_id % 5
+    ]
+
+
+def run(
+    vehicle: str = "ego",
+    frames: int = 20,
+    rate_hz: float = 10.0,
+    connect: Sequence[str] = (DEFAULT_ENDPOINT,),
+    style: str = "query",
+    explain: bool = False,
+    out=sys.stdout,
+) -> int:
+    """Drive `frames` frames; returns how many verdicts were fail-safe (0 when all went well)."""
+    failsafes = 0
+    period = 1.0 / rate_hz
+    with Monitor(vehicle, connect=list(connect), style=style, timeout=0.5) as monitor:
+        for frame in range(frames):
+            started = time.monotonic()
+            proposed = planner_action(frame)
+            verdict = monitor.check(highway_scene(frame), proposed, explain=explain)
+            failsafes += verdict.failsafe
+            print(
+                f"frame {frame:4d}: proposed {proposed.value:<18} -> {verdict.decision.value:<8} "
+                f"execute {verdict.action.value:<18} {verdict.latency_ms or 0:6.2f} ms  {verdict.justification.summary}",
+                file=out,
+                flush=True,
+            )
+            if explain and verdict.justification.text:
+                print(verdict.justification.text, file=out)
+            time.sleep(max(0.0, period - (time.monotonic() - started)))
+    return failsafes
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--vehicle", default="ego", help="vehicle id (default: ego)")
+    parser.add_argument("--frames", type=int, default=20, help="frames to drive (default: 20)")
+    parser.add_argument("--rate", type=float, default=10.0, help="frames per second (default: 10)")
+    parser.add_argument(
+        "--connect", action="append", metavar="ENDPOINT", help=f"monitor or router endpoint (default: {DEFAULT_ENDPOINT})"
+    )
+    parser.add_argument("--style", choices=("query", "pubsub"), default="query", help="query/reply or publish/subscribe")
+    parser.add_argument("--explain", action="store_true", help="ask for and print the full justification")
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m discern.monitor.example_planner", description=__doc__.split("\n")[0])
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    failsafes = run(args.vehicle, args.frames, args.rate, args.connect or [DEFAULT_ENDPOINT], args.style, args.explain)
+    return 1 if failsafes else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

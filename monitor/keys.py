@@ -1,0 +1,58 @@
+"""Zenoh key expressions of the Discern protocol (docs/protocol.md).
+
+One vehicle, one key chunk: ``discern/<vehicle>/proposal`` (publish) and
+``discern/<vehicle>/check`` (query) in, ``discern/<vehicle>/verdict`` out.
+The vehicle is always read from the key, so a verdict can be addressed even
+when the payload is garbage.
+"""
+
+from __future__ import annotations
+
+import re
+
+import zenoh
+
+PREFIX = "discern"
+VEHICLE_PATTERN = re.compile(r"^[A-Za-z0-9_\-]{1,128}$")
+
+
+def proposal_key(vehicle: str) -> str:
+    return f"{PREFIX}/{vehicle}/proposal"
+
+
+def check_key(vehicle: str) -> str:
+    return f"{PREFIX}/{vehicle}/check"
+
+
+def verdict_key(vehicle: str) -> str:
+    return f"{PREFIX}/{vehicle}/verdict"
+
+
+def status_key(monitor_id: str) -> str:
+    return f"{PREFIX}/monitor/{monitor_id}/status"
+
+
+ALL_STATUS_KEYS = f"{PREFIX}/monitor/*/status"
+
+
+def vehicle_of(key: str) -> str:
+    """The vehicle chunk of ``discern/<vehicle>/...``."""
+    parts = key.split("/")
+    return parts[1] if len(parts) >= 3 and parts[0] == PREFIX else ""
+
+
+def vehicle_selector(pattern: str) -> str:
+    """Turn a shell-style vehicle filter ('fleet_a_*') into one zenoh key chunk ('fleet_a_$*').
+
+    A chunk that is already a zenoh wildcard ('*', or using '$*') is kept, so
+    both spellings work on the command line.
+    """
+    pattern = pattern.strip()
+    if not pattern or "/" in pattern:
+        raise ValueError(f"vehicle filter {pattern!r} must be one key chunk (no '/')")
+    if pattern not in ("*", "**") and "$*" not in pattern:
+        pattern = pattern.replace("*", "$*")
+    try:
+        return str(zenoh.KeyExpr.autocanonize(f"{PREFIX}/{pattern}/x")).split("/")[1]
+    except zenoh.ZError as exc:
+        raise ValueError(f"vehicle filter {pattern!r} is not a valid key chunk: {exc}") from None

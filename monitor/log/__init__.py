@@ -1,0 +1,27 @@
+"""The MCAP log: `McapLogWriter` records a running monitor, `read_log` reads it back (crash-cut files too).
+
+Reader API for audits::
+
+    from discern.monitor.log import read_log, RecoveryReport
+    report = RecoveryReport()
+    for rec in read_log(["run1/", "other.mcap"], report):
+        if rec.kind == "verdict": ...   # rec.verdict is a discern.rules.verdict.Verdict
+    print(report.summary())
+"""
+
+from .channels import STATUS_TOPIC, RejectedInput, parse_topic, vehicle_topic
+from .reader import FileRecovery, LogRecord, RecoveryReport, log_files, read_log
+from .writer import McapLogWriter
+
+__all__ = [
+    "FileRecovery",
+    "LogRecord",
+    "McapLogWriter",
+    "RecoveryReport",
+    "RejectedInput",
+    "STATUS_TOPIC",
+    "log_files",
+    "parse_topic",
+    "read_log",
+    "vehicle_topic",
+]

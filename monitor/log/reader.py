@@ -1,0 +1,228 @@
+"""Read Discern MCAP logs back, including files cut short by a crash.
+
+`read_log(paths)` yields one `LogRecord` per message, typed with the same
+models the monitor wrote. A file without its summary (the monitor was killed)
+is read chunk by chunk up to the last complete one; `RecoveryReport` says how
+much of each file that was. Channels this log does not know are skipped with a
+warning, an empty file yields nothing.
+"""
+
+from __future__ import annotations
+
+import heapq
+import logging
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable, Iterator, Optional, Union
+
+from mcap.records import Channel, Chunk, Footer, Message, Schema
+from mcap.stream_reader import StreamReader, breakup_chunk
+from pydantic import ValidationError
+
+from discern.rules.scene import Proposal
+from discern.rules.verdict import Verdict
+
+from ..status import MonitorStatus
+from .channels import CHANNEL_KINDS, MESSAGE_ENCODING, SCHEMA_NAMES, RejectedInput, parse_topic
+
+log = logging.getLogger(__name__)
+
+PathLike = Union[str, os.PathLike]
+RECORD_SIZE_LIMIT = 1 << 30
+
+
+@dataclass(frozen=True)
+class LogRecord:
+    """One logged message; exactly one of the payload fields is set, named by `kind`."""
+
+    log_time_ns: int
+    vehicle: Optional[str]  # None for monitor-wide topics (status)
+    topic: str
+    kind: str  # proposal | verdict | rejected | status
+    proposal: Optional[Proposal] = None
+    verdict: Optional[Verdict] = None
+    rejected: Optional[RejectedInput] = None
+    status: Optional[MonitorStatus] = None
+    path: Optional[Path] = None
+
+
+@dataclass
+class FileRecovery:
+    path: Path
+    size_bytes: int = 0
+    recovered_bytes: int = 0  # up to the end of the last complete record
+    records: int = 0
+    complete: bool = False  # the file ends with its footer: it was closed cleanly
+    stopped_by: Optional[str] = None  # why reading stopped early, for a cut or damaged file
+    skipped: int = 0  # messages on unknown channels or that failed validation
+
+    @property
+    def truncated(self) -> bool:
+        return not self.complete and self.size_bytes > 0
+
+
+@dataclass
+class RecoveryReport:
+    files: list[FileRecovery] = field(default_factory=list)
+
+    @property
+    def records(self) -> int:
+        return sum(f.records for f in self.files)
+
+    @property
+    def skipped(self) -> int:
+        return sum(f.skipped for f in self.files)
+
+    @property
+    def truncated_files(self) -> list[FileRecovery]:
+        return [f for f in self.files if f.truncated]
+
+    def summary(self) -> str:
+        lines = []
+        for f in self.files:
+            state = "complete" if f.complete else ("empty" if f.size_bytes == 0 else "truncated")
+            line = (
+                f"{f.path}: {state}, {f.records} records, "
+                f"{f.recovered_bytes}/{f.size_bytes} bytes recovered"
+            )
+            if f.skipped:
+                line += f", {f.skipped} skipped"
+            if f.stopped_by:
+                line += f" (stopped: {f.stopped_by})"
+            lines.append(line)
+        return "\n".join(lines)
+
+
+def log_files(paths: Union[PathLike, Iterable[PathLike]]) -> list[Path]:
+    """Expand a file, a directory (its *.mcap, by name: rotation names sort in time) or a list of both."""
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    files: list[Path] = []
+    for p in map(Path, paths):
+        files.extend(sorted(p.glob("*.mcap")) if p.is_dir() else [p])
+    return files
+
+
+def read_log(
+    paths: Union[PathLike, Iterable[PathLike]],
+    report: Optional[RecoveryReport] = None,
+    *,
+    merge: bool = False,
+) -> Iterator[LogRecord]:
+    """Every record of the given files, file after file (or merged by log time with `merge=True`).
+
+    Pass a `RecoveryReport` to learn, once iteration ends, how much of each file was read.
+    A missing or unreadable file is reported and skipped, never raised.
+    """
+    report = report if report is not None else RecoveryReport()
+    streams = []
+    for path in log_files(paths):
+        recovery = FileRecovery(path=path)
+        report.files.append(recovery)
+        streams.append(_read_file(path, recovery))
+    if merge:
+        yield from heapq.merge(*streams, key=lambda r: r.log_time_ns)
+    else:
+        for stream in streams:
+            yield from stream
+
+
+def _read_file(path: Path, recovery: FileRecovery) -> Iterator[LogRecord]:
+    try:
+        f = open(path, "rb")
+    except OSError as exc:
+        recovery.stopped_by = f"cannot open: {exc.strerror or exc}"
+        return
+    with f:
+        recovery.size_bytes = os.fstat(f.fileno()).st_size
+        if recovery.size_bytes == 0:
+            return
+        decoder = _ChannelDecoder(path, recovery)
+        records = StreamReader(f, emit_chunks=True, record_size_limit=RECORD_SIZE_LIMIT).records
+        while True:
+            try:
+                record = next(records)
+            except StopIteration:
+                break
+            except Exception as exc:  # the tail of a killed writer: a record cut anywhere
+                recovery.stopped_by = _describe(exc)
+                break
+            if isinstance(record, Chunk):
+                try:
+                    inner = breakup_chunk(record, validate_crc=True)
+                except Exception as exc:
+                    recovery.stopped_by = f"damaged chunk: {_describe(exc)}"
+                    break
+            else:
+                inner = [record]
+            recovery.recovered_bytes = f.tell()
+            for item in inner:
+                out = decoder.feed(item)
+                if out is not None:
+                    recovery.records += 1
+                    yield out
+            if isinstance(record, Footer):
+                recovery.complete = True
+                recovery.recovered_bytes = recovery.size_bytes
+                break
+
+
+def _describe(exc: Exception) -> str:
+    text = str(exc)
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+class _ChannelDecoder:
+    """Turns schema, channel and message records of one file into LogRecords."""
+
+    def __init__(self, path: Path, recovery: FileRecovery):
+        self.path = path
+        self.recovery = recovery
+        self.schemas: dict[int, Schema] = {}
+        self.channels: dict[int, Optional[tuple[Optional[str], str, str]]] = {}
+
+    def feed(self, record) -> Optional[LogRecord]:
+        if isinstance(record, Schema):
+            self.schemas[record.id] = record
+        elif isinstance(record, Channel):
+            self.channels[record.id] = self._known(record)
+        elif isinstance(record, Message):
+            return self._message(record)
+        return None
+
+    def _known(self, channel: Channel) -> Optional[tuple[Optional[str], str, str]]:
+        schema = self.schemas.get(channel.schema_id)
+        parsed = parse_topic(channel.topic)
+        kind = SCHEMA_NAMES.get(schema.name) if schema is not None else None
+        if parsed is None or kind is None or parsed[1] != kind or channel.message_encoding != MESSAGE_ENCODING:
+            log.warning(
+                "%s: skipping unknown channel %r (schema %r, encoding %r)",
+                self.path,
+                channel.topic,
+                schema.name if schema else None,
+                channel.message_encoding,
+            )
+            return None
+        return parsed[0], kind, channel.topic
+
+    def _message(self, message: Message) -> Optional[LogRecord]:
+        known = self.channels.get(message.channel_id)
+        if known is None:
+            self.recovery.skipped += 1
+            return None
+        vehicle, kind, topic = known
+        try:
+            value = CHANNEL_KINDS[kind][1].model_validate_json(message.data)
+        except ValidationError as exc:
+            self.recovery.skipped += 1
+            log.warning("%s: skipping a %s message that fails its schema: %s", self.path, kind, exc.errors()[0]["msg"])
+            return None
+        return LogRecord(
+            log_time_ns=message.log_time,
+            vehicle=vehicle,
+            topic=topic,
+            kind=kind,
+            path=self.path,
+            **{kind: value},
+        )

@@ -1,0 +1,149 @@
+"""Wire format of the sidecar: the core's Proposal in, the core's Verdict out, as JSON.
+
+There is no second copy of the format here: the pydantic models of
+`discern.rules.scene` and `discern.rules.verdict` are the schema. This module
+only turns bytes into a Proposal with an error message a person can act on,
+and builds the fail-safe verdicts the monitor owes when it cannot judge.
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Optional
+
+from pydantic import BaseModel, ValidationError
+
+from discern.rules.scene import Action, Proposal
+from discern.rules.verdict import Decision, Justification, Verdict
+
+from .keys import VEHICLE_PATTERN
+
+# Most cautious first: what a fail-safe verdict picks among the permitted actions.
+CAUTION_ORDER = (
+    Action.brake,
+    Action.cruise,
+    Action.pull_over,
+    Action.change_lane_right,
+    Action.change_lane_left,
+    Action.turn_right,
+    Action.turn_left,
+    Action.accelerate,
+)
+
+RULE_BAD_INPUT = "monitor.bad_input"
+RULE_DEADLINE = "monitor.deadline"
+RULE_INTERNAL_ERROR = "monitor.internal_error"
+RULE_NO_ANSWER = "monitor.no_answer"
+RULE_OVERLOAD = "monitor.overload"
+
+MAX_ERRORS_NAMED = 5
+
+
+class InputError(ValueError):
+    """A proposal the monitor refuses to judge; the message names the problem."""
+
+    def __init__(self, message: str, kind: str):
+        super().__init__(message)
+        self.kind = kind  # short tag for counting: json, schema, size, vehicle, order
+
+
+def describe_validation_error(exc: ValidationError) -> str:
+    """'scene.objects.3.class: Input should be ... (got 'ufo')' for each problem, the first few."""
+    parts = []
+    errors = exc.errors(include_url=False)
+    for err in errors[:MAX_ERRORS_NAMED]:
+        loc = ".".join(str(p) for p in err["loc"])
+        msg = err["msg"]
+        if err["type"] != "json_invalid" and "input" in err and not isinstance(err["input"], (dict, list)):
+            got = repr(err["input"])
+            msg += f" (got {got[:60]})"
+        parts.append(f"{loc}: {msg}" if loc else msg)
+    more = len(errors) - MAX_ERRORS_NAMED
+    if more > 0:
+        parts.append(f"... and {more} more")
+    return "; ".join(parts)
+
+
+def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
+    """Validate a proposal that arrived on ``discern/<key_vehicle>/...``.
+
+    The key names the vehicle; a payload that names another one is refused, one
+    that names none takes the key's.
+    """
+    if not VEHICLE_PATTERN.match(key_vehicle):
+        raise InputError(
+            f"vehicle {key_vehicle[:140]!r} in the key is not a valid vehicle id ([A-Za-z0-9_-], 1-128 chars)",
+            "vehicle",
+        )
+    try:
+        proposal = Proposal.model_validate_json(payload)
+    except ValidationError as exc:
+        kind = "json" if any(e["type"] == "json_invalid" for e in exc.errors()) else "schema"
+        prefix = "malformed JSON" if kind == "json" else "schema violation"
+        raise InputError(f"{prefix}: {describe_validation_error(exc)}", kind) from None
+    if "vehicle" not in proposal.model_fields_set:
+        proposal.vehicle = key_vehicle
+    elif proposal.vehicle != key_vehicle:
+        raise InputError(
+            f"vehicle: payload names {proposal.vehicle!r} but it was sent on the key of {key_vehicle!r}",
+            "vehicle",
+        )
+    return proposal
+
+
+def most_cautious(permitted: Iterable[Action]) -> Action:
+    allowed = set(permitted)
+    for action in CAUTION_ORDER:
+        if action in allowed:
+            return action
+    return Action.brake
+
+
+def failsafe_verdict(
+    vehicle: str,
+    reason: str,
+    rule: str,
+    *,
+    proposed: Optional[Action] = None,
+    frame_id: Optional[int] = None,
+    timestamp: Optional[float] = None,
+    permitted: Iterable[Action] = (),
+    shadow: bool = False,
+) -> Verdict:
+    """The conservative answer owed when no proper decision can be made in time.
+
+    Bad input always brakes; a late or failed decision takes the most cautious
+    action known to be permitted for this vehicle, else brakes.
+    """
+    action = Action.brake if rule == RULE_BAD_INPUT else most_cautious(permitted)
+    summary = f"fail-safe {action.value}: {reason}"
+    return Verdict(
+        vehicle=vehicle[:140],
+        frame_id=frame_id,
+        timestamp=timestamp,
+        decision=Decision.override,
+        proposed=proposed,
+        action=action,
+        recommended=action,
+        permitted=list(permitted),
+        rules=[rule],
+        justification=Justification(summary=summary, text=summary),
+        failsafe=True,
+        error=reason,
+        shadow=shadow,
+    )
+
+
+def encode(model: BaseModel) -> bytes:
+    return model.model_dump_json(by_alias=True).encode()
+
+
+def decode_verdict(payload: bytes) -> Verdict:
+    return Verdict.model_validate_json(payload)
+
+
+def json_schemas() -> dict[str, dict]:
+    """The published JSON Schemas, keyed by file name; generated from the one set of models."""
+    return {
+        "proposal.schema.json": Proposal.model_json_schema(by_alias=True),
+        "verdict.schema.json": Verdict.model_json_schema(by_alias=True),
+    }

@@ -1,0 +1,110 @@
+"""Health of a running monitor: decision counts and latency, answered on its status key and logged."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import Counter
+from typing import Literal, Optional
+
+import numpy as np
+from pydantic import BaseModel, Field
+
+from discern.rules.verdict import Decision, Verdict
+
+LATENCY_SAMPLES = 8192  # percentiles cover the most recent decisions
+
+
+class LatencySummary(BaseModel):
+    samples: int = 0
+    p50_ms: Optional[float] = None
+    p90_ms: Optional[float] = None
+    p99_ms: Optional[float] = None
+    max_ms: Optional[float] = None
+
+
+class MonitorStatus(BaseModel):
+    version: Literal[1] = 1
+    monitor_id: str
+    vehicles_filter: str = Field(description="key chunk of the vehicles this monitor serves")
+    uptime_s: float
+    budget_ms: float
+    proposals: int = 0
+    approvals: int = 0
+    vetoes: int = 0
+    overrides: int = 0
+    failsafes: int = Field(0, description="verdicts flagged failsafe, bad input included")
+    errors: int = Field(0, description="proposals refused as bad input")
+    errors_by_kind: dict[str, int] = Field(default_factory=dict)
+    deadline_misses: int = 0
+    internal_errors: int = 0
+    late_decisions: int = Field(0, description="decisions that finished after their fail-safe was sent")
+    vehicles: int = Field(0, description="vehicles seen so far")
+    latency_ms: LatencySummary = Field(default_factory=LatencySummary)
+    log_files: list[str] = Field(default_factory=list)
+    log_records: int = 0
+    log_dropped: int = 0
+
+
+class StatusCounters:
+    """Thread-safe counters fed by every answered proposal."""
+
+    def __init__(self, monitor_id: str, vehicles_filter: str, budget_ms: float):
+        self._lock = threading.Lock()
+        self._started = time.monotonic()
+        self._fixed = dict(monitor_id=monitor_id, vehicles_filter=vehicles_filter, budget_ms=budget_ms)
+        self._counts: Counter[str] = Counter()
+        self._errors: Counter[str] = Counter()
+        self._latency = np.zeros(LATENCY_SAMPLES)
+        self._latency_n = 0
+
+    def verdict_sent(self, verdict: Verdict, error_kind: Optional[str]) -> None:
+        with self._lock:
+            c = self._counts
+            c["proposals"] += 1
+            if verdict.decision is Decision.approve:
+                c["approvals"] += 1
+            elif verdict.decision is Decision.veto:
+                c["vetoes"] += 1
+            else:
+                c["overrides"] += 1
+            if verdict.failsafe:
+                c["failsafes"] += 1
+            if error_kind is not None:
+                c["errors"] += 1
+                self._errors[error_kind] += 1
+            if verdict.latency_ms is not None:
+                self._latency[self._latency_n % LATENCY_SAMPLES] = verdict.latency_ms
+                self._latency_n += 1
+
+    def input_refused(self, kind: str) -> None:
+        """A proposal refused without a verdict (it named no vehicle to answer)."""
+        with self._lock:
+            self._counts["errors"] += 1
+            self._errors[kind] += 1
+
+    def count(self, name: str) -> None:
+        with self._lock:
+            self._counts[name] += 1
+
+    def snapshot(self, **extra) -> MonitorStatus:
+        with self._lock:
+            n = min(self._latency_n, LATENCY_SAMPLES)
+            latency = LatencySummary(samples=self._latency_n)
+            if n:
+                p50, p90, p99 = np.percentile(self._latency[:n], [50, 90, 99])
+                latency = LatencySummary(
+                    samples=self._latency_n,
+                    p50_ms=round(float(p50), 3),
+                    p90_ms=round(float(p90), 3),
+                    p99_ms=round(float(p99), 3),
+                    max_ms=round(float(self._latency[:n].max()), 3),
+                )
+            return MonitorStatus(
+                **self._fixed,
+                uptime_s=round(time.monotonic() - self._started, 3),
+                errors_by_kind=dict(self._errors),
+                latency_ms=latency,
+                **{k: v for k, v in self._counts.items() if k in MonitorStatus.model_fields},
+                **extra,
+            )

@@ -1,0 +1,45 @@
+"""The scenario file format: a sequence of frames with the verdicts they should get."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from discern.rules.scene import Action, Scene
+from discern.rules.verdict import Decision
+
+
+class Expectation(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    decision: Optional[Decision] = None
+    action: Optional[Action] = Field(None, description="the action the verdict executes")
+    recommended: Optional[Action] = None
+    rules: list[str] = Field(default_factory=list, description="rule ids that must appear in verdict.rules")
+    text_contains: list[str] = Field(default_factory=list, description="phrases the justification must contain")
+
+
+class ScenarioFrame(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    scene: Scene
+    proposed: Action
+    expect: Expectation
+
+
+class Scenario(BaseModel):
+    """Frames run in order; earlier frames are the history of later ones."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str
+    description: str
+    source: str
+    jurisdiction: str = "us"
+    frames: list[ScenarioFrame] = Field(min_length=1)
+
+    @classmethod
+    def load(cls, path: Path) -> "Scenario":
+        return cls.model_validate_json(Path(path).read_text(encoding="utf-8"))

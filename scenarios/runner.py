@@ -1,0 +1,83 @@
+"""Run scenario files against the rules and report where verdicts differ from expectations."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable
+
+from pydantic import ValidationError
+
+from discern.rules.engine import Reasoner
+from discern.rules.scene import describe_errors
+from discern.rules.verdict import Verdict
+
+from .model import Expectation, Scenario
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot be read."""
+
+
+@dataclass
+class FrameOutcome:
+    scenario: str
+    index: int
+    verdict: Verdict
+    problems: list[str] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return not self.problems
+
+
+def check(verdict: Verdict, expect: Expectation) -> list[str]:
+    problems = []
+    if expect.decision is not None and verdict.decision is not expect.decision:
+        problems.append(f"decision {verdict.decision.value}, expected {expect.decision.value}")
+    if expect.action is not None and verdict.action is not expect.action:
+        problems.append(f"action {verdict.action.value}, expected {expect.action.value}")
+    if expect.recommended is not None and verdict.recommended is not expect.recommended:
+        got = verdict.recommended.value if verdict.recommended else "none"
+        problems.append(f"recommended {got}, expected {expect.recommended.value}")
+    for rule in expect.rules:
+        if rule not in verdict.rules:
+            problems.append(f"rule {rule} not among {verdict.rules}")
+    for phrase in expect.text_contains:
+        if phrase not in verdict.justification.text:
+            problems.append(f"justification lacks {phrase!r}")
+    return problems
+
+
+def load(path: Path) -> Scenario:
+    try:
+        return Scenario.load(path)
+    except ValidationError as exc:
+        raise ScenarioError(f"{path}:\n{describe_errors(exc)}") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: {exc.strerror}") from None
+
+
+def run(scenario: Scenario, reasoner: Reasoner) -> list[FrameOutcome]:
+    outcomes = []
+    history = []
+    for index, frame in enumerate(scenario.frames):
+        verdict = reasoner.decide(frame.scene, frame.proposed, history=tuple(history), explain=True)
+        outcomes.append(FrameOutcome(scenario.name, index, verdict, check(verdict, frame.expect)))
+        history.append(frame.scene)
+    return outcomes
+
+
+def scenario_files(directory: Path) -> list[Path]:
+    files = sorted(Path(directory).rglob("*.json"))
+    if not files:
+        raise ScenarioError(f"{directory}: no scenario files (*.json)")
+    return files
+
+
+def run_files(files: Iterable[Path], reasoner_for: Callable[[str], Reasoner]) -> list[FrameOutcome]:
+    outcomes: list[FrameOutcome] = []
+    for path in files:
+        scenario = load(path)
+        outcomes.extend(run(scenario, reasoner_for(scenario.jurisdiction)))
+    return outcomes

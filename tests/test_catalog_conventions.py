@@ -1,0 +1,43 @@
+import pytest
+
+from discern.rules.catalog import CatalogError, load_catalog
+
+
+def test_catalog_has_at_least_35_driving_rules_each_with_english_and_source(reasoner):
+    rules = reasoner.catalog.driving_rules()
+    assert len(rules) >= 35
+    for rule in reasoner.catalog.rules:
+        assert rule.id and rule.says.endswith(".") and rule.source
+
+
+def test_every_predicate_in_a_rule_head_has_an_english_template(reasoner):
+    catalog = reasoner.catalog
+    missing = {r.signature for r in catalog.compiled} - set(catalog.templates)
+    assert missing == set()
+
+
+def write_rules(tmp_path, text):
+    (tmp_path / "r.lp").write_text(text)
+    return [tmp_path]
+
+
+def test_rule_without_annotation_is_rejected(tmp_path):
+    with pytest.raises(CatalogError, match="r.lp:1: rule has no '%! rule' annotation"):
+        load_catalog(write_rules(tmp_path, "a :- b.\n"))
+
+
+def test_duplicate_rule_id_is_rejected(tmp_path):
+    text = "%! rule x.a\n%! says A.\n%! source s\na :- b.\n%! rule x.a\n%! says B.\n%! source s\nc :- d.\n"
+    with pytest.raises(CatalogError, match="rule id x.a is used twice"):
+        load_catalog(write_rules(tmp_path, text))
+
+
+def test_choice_rules_are_rejected_because_they_cannot_be_justified(tmp_path):
+    with pytest.raises(CatalogError, match="only normal rules"):
+        load_catalog(write_rules(tmp_path, "%! rule x.c\n%! says C.\n%! source s\n{ a } :- b.\n"))
+
+
+def test_a_rule_through_its_own_negation_is_rejected_as_unstratified(tmp_path):
+    text = "%! rule x.loop\n%! says L.\n%! source s\na :- not b.\nb :- not a.\n"
+    with pytest.raises(CatalogError, match="must be stratified"):
+        load_catalog(write_rules(tmp_path, text))

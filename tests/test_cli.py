@@ -1,0 +1,114 @@
+import json
+import subprocess
+import sys
+
+import pytest
+
+from discern.monitor.cli import main
+from tests.scenes import obj, scene
+
+GOOD = scene(speed=12, lane=2, lanes=3, limit=20, objects=[obj("car", -3.5, 2, lane=1)])
+
+
+def write(tmp_path, data, name="scene.json"):
+    path = tmp_path / name
+    path.write_text(data if isinstance(data, str) else json.dumps(data))
+    return str(path)
+
+
+def good_dict():
+    return json.loads(GOOD.model_dump_json(by_alias=True))
+
+
+def test_check_prints_verdict_and_justification(tmp_path, capsys):
+    assert main(["check", write(tmp_path, good_dict()), "--proposed", "change_lane_left"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("override change_lane_left with")
+    assert "cll.lane_taken" in out and "car 1 is 2.0 m ahead and 3.5 m to the left" in out
+
+
+def test_check_json_is_a_verdict(tmp_path, capsys):
+    main(["check", write(tmp_path, good_dict()), "--proposed", "accelerate", "--explain", "json"])
+    verdict = json.loads(capsys.readouterr().out)
+    assert verdict["decision"] == "approve" and verdict["justification"]["tree"]
+
+
+def test_check_html_writes_a_page(tmp_path, capsys):
+    out = tmp_path / "v.html"
+    main(["check", write(tmp_path, good_dict()), "--proposed", "change_lane_left", "--explain", "html", "--out", str(out)])
+    page = out.read_text()
+    assert page.startswith("<!doctype html>") and "<details" in page and "cll.lane_taken" in page
+
+
+def test_check_accepts_a_proposal_message(tmp_path, capsys):
+    data = {"version": 1, "vehicle": "v1", "action": "change_lane_left", "scene": good_dict()}
+    assert main(["check", write(tmp_path, data)]) == 0
+    assert "override change_lane_left" in capsys.readouterr().out
+
+
+def test_shadow_mode_vetoes_without_replacing(tmp_path, capsys):
+    main(["check", write(tmp_path, good_dict()), "--proposed", "change_lane_left", "--shadow", "--explain", "json"])
+    verdict = json.loads(capsys.readouterr().out)
+    assert verdict["decision"] == "veto" and verdict["action"] == "change_lane_left" and verdict["shadow"]
+
+
+def mutate(path, value):
+    data = good_dict()
+    node = data
+    for key in path[:-1]:
+        node = node[key]
+    if value is KeyError:
+        del node[path[-1]]
+    else:
+        node[path[-1]] = value
+    return data
+
+
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        (mutate(["objects", 0, "class"], "unicorn"), "objects.0.class: unknown value 'unicorn'"),
+        ('{"frame_id": 1, "ego": {"speed": NaN, "lane": 1}}', "ego.speed: Input should be a finite number"),
+        (mutate(["ego", "speed"], -4), "ego.speed: Input should be greater than or equal to 0"),
+        (mutate(["ego"], KeyError), "ego: is required but missing"),
+        (mutate(["ego", "lane"], 7), "ego.lane 7 does not exist: current lanes are [1, 2, 3]"),
+        (mutate(["sensors"], [{"side": "left", "distance": -1}]), "sensors.0.distance: Input should be greater than or equal to 0"),
+        (mutate(["objects", 0, "position", "y"], "far"), "objects.0.position.y"),
+        ("{not json", "invalid JSON at line 1 column 2"),
+        ("[1, 2]", "expected a JSON object"),
+    ],
+)
+def test_invalid_input_exits_2_naming_the_field(tmp_path, capsys, data, message):
+    code = main(["check", write(tmp_path, data), "--proposed", "brake"])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and "Traceback" not in err
+
+
+def test_missing_file_and_missing_action_are_user_errors(tmp_path, capsys):
+    assert main(["check", str(tmp_path / "nope.json"), "--proposed", "brake"]) == 2
+    assert "cannot read" in capsys.readouterr().err
+    assert main(["check", write(tmp_path, good_dict())]) == 2
+    assert "needs --proposed" in capsys.readouterr().err
+
+
+def test_catalog_lists_rules_with_english_and_source(capsys):
+    assert main(["catalog"]) == 0
+    out = capsys.readouterr().out
+    assert "brake.obstacle_ahead" in out and "source: AUTO-DISCERN (obstacle ahead)" in out
+
+
+def test_scenarios_run_kitti_prints_the_paper_table(avcsr_dir, capsys):
+    assert main(["scenarios", "run", str(avcsr_dir), "--repeats", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "paper s(CASP) avg ms" in out and "agreement with expected_action: 24/24 frames" in out
+
+
+def test_scenarios_run_on_an_empty_directory_is_an_error(tmp_path, capsys):
+    assert main(["scenarios", "run", str(tmp_path)]) == 2
+    assert "no scenario files" in capsys.readouterr().err
+
+
+def test_console_script_runs_as_a_process(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "discern.monitor.cli", "check", write(tmp_path, good_dict()),
+                             "--proposed", "cruise"], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0 and result.stdout.startswith("approve cruise")

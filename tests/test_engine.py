@@ -1,0 +1,69 @@
+import random
+
+import clingo
+from clingo import ast
+
+from discern.rules.engine import _FACT_NAME
+from discern.rules.scene import Action
+from discern.rules.facts import scene_facts
+from tests.scenes import obj, scene
+
+CLASSES = ["car", "truck", "pedestrian", "bicycle", "plastic_bag", "roadblock", "unknown"]
+
+
+def random_scene(rng: random.Random):
+    lanes = rng.randint(1, 4)
+    objects = [obj(rng.choice(CLASSES), rng.uniform(-8, 8), rng.uniform(-30, 60), lane=rng.randint(1, lanes),
+                   vy=rng.choice([None, rng.uniform(0, 30)])) for _ in range(rng.randint(0, 6))]
+    extra = {}
+    if rng.random() < 0.4:
+        extra["intersection"] = {"type": "four_way", "stage": rng.choice(["arriving", "at", "enter"])}
+    return scene(speed=rng.uniform(0, 30), lane=rng.randint(1, lanes), lanes=lanes, limit=rng.choice([None, 15, 30]),
+                 objects=objects, light=rng.choice([None, "red", "green", "yellow"]),
+                 sensors=rng.choice([None, {"left": rng.uniform(0, 3)}]),
+                 intent=rng.choice(["continue_in_lane", "merge_into_left_lane", "enter_right_lane"]), **extra)
+
+
+def full_model(reasoner, sc):
+    ctl = clingo.Control(["--warn=none"])
+    with ast.ProgramBuilder(ctl) as b:
+        for stm in reasoner.catalog.facts + [r.statement for r in reasoner.catalog.compiled]:
+            b.add(stm)
+    ctl.add("base", [], reasoner._param_facts + scene_facts(sc, Action.cruise))
+    ctl.ground([("base", [])])
+    atoms = []
+    ctl.solve(on_model=lambda m: atoms.extend(m.symbols(atoms=True)))
+    return set(atoms)
+
+
+def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program(reasoner):
+    rng = random.Random(7)
+    for _ in range(40):
+        sc = random_scene(rng)
+        assert set(reasoner.solve(sc, "cruise").answer.all()) == full_model(reasoner, sc)
+
+
+def test_fact_names_found_for_slicing_include_zero_arity_facts():
+    assert set(_FACT_NAME.findall("a(1).stop_line.b(x,2).")) == {"a", "stop_line", "b"}
+
+
+def test_recommended_action_is_always_permitted(reasoner):
+    rng = random.Random(11)
+    for _ in range(60):
+        verdict = reasoner.decide(random_scene(rng), "accelerate")
+        assert verdict.recommended in verdict.permitted
+        assert verdict.action in verdict.permitted
+
+
+def test_stopping_gap_grows_with_speed(reasoner):
+    box = [obj("roadblock", 0, 40, lane=1)]
+    assert reasoner.decide(scene(speed=10, limit=40, objects=box), "cruise").decision.value == "approve"
+    fast = reasoner.decide(scene(speed=25, limit=40, objects=box), "cruise")
+    assert fast.decision.value == "override" and "brake.obstacle_ahead" in fast.rules
+    assert "braking from 25.0 m/s takes 77.1 m" in reasoner.decide(scene(speed=25, limit=40, objects=box), "cruise",
+                                                                     explain=True).justification.text
+
+
+def test_latency_and_frame_are_reported(reasoner):
+    verdict = reasoner.decide(scene(frame=42), "cruise", vehicle="car7")
+    assert verdict.frame_id == 42 and verdict.vehicle == "car7" and verdict.latency_ms > 0

@@ -1,0 +1,29 @@
+from pathlib import Path
+
+import pytest
+
+from discern.rules.scene import Action
+from discern.scenarios import runner
+
+ROOT = Path(__file__).resolve().parents[1] / "scenarios"
+FILES = sorted(ROOT.rglob("*.json"))
+
+
+@pytest.mark.parametrize("path", FILES, ids=[str(p.relative_to(ROOT)) for p in FILES])
+def test_scenario_gets_its_expected_verdicts(path, reasoner):
+    scenario = runner.load(path)
+    outcomes = runner.run(scenario, reasoner)
+    assert [(o.index, o.problems) for o in outcomes if not o.passed] == []
+
+
+def test_paper_synthetic_and_walkthrough_scenarios_are_present():
+    names = {p.stem for p in (ROOT / "paper").glob("*.json")}
+    assert {"boxed_in", "object_enters_lane_next_lane_clear", "object_enters_lane_next_lanes_taken",
+            "lane_ends_merge_right", "kitti_merge_left_heavy_traffic", "kitti_wait_for_pedestrians_right_turn"} <= names
+
+
+def test_a_wrong_expectation_is_reported_as_a_failure(reasoner):
+    scenario = runner.load(ROOT / "paper" / "boxed_in.json")
+    scenario.frames[0].expect.action = Action.accelerate
+    outcome = runner.run(scenario, reasoner)[0]
+    assert not outcome.passed and "expected accelerate" in outcome.problems[0]
