@@ -8,9 +8,10 @@ and tallies merge in the parent, so every figure here must be mergeable.
 Odometry: a log has no odometer, so distance is integrated from the scenes.
 For each vehicle, consecutive frames with 0 < dt <= MAX_GAP_S add
 (v0 + v1) / 2 * dt metres (trapezoid rule on ego.speed) and dt seconds of
-driving; dt is taken from the scene timestamps when the planner sets them
-(> 0), else from the proposals' arrival times. A larger gap or a clock going
-back (a new episode) starts a new stretch instead of being bridged.
+driving. dt is the difference of the scene timestamps when the later frame
+has one (> 0; the earlier may be a simulation's t = 0), else of the
+proposals' arrival times at the monitor. A larger gap or a clock going back
+(a new episode) starts a new stretch instead of being bridged.
 """
 
 from __future__ import annotations
@@ -151,16 +152,20 @@ class Disagreement:
 class Odometer:
     distance_m: dict[str, float] = field(default_factory=dict)
     driving_s: dict[str, float] = field(default_factory=dict)
-    _last: dict[str, tuple[float, float]] = field(default_factory=dict)
+    _last: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # scene time, arrival, speed
 
-    def add(self, vehicle: str, t: float, speed: float) -> None:
+    def warm(self, vehicle: str, scene_time: float, arrival: float, speed: float) -> None:
+        """Start from a frame already counted elsewhere (the previous file's)."""
+        self._last[vehicle] = (scene_time, arrival, speed)
+
+    def add(self, vehicle: str, scene_time: float, arrival: float, speed: float) -> None:
         last = self._last.get(vehicle)
-        self._last[vehicle] = (t, speed)
+        self._last[vehicle] = (scene_time, arrival, speed)
         if last is None:
             return
-        dt = t - last[0]
+        dt = scene_time - last[0] if scene_time > 0 else arrival - last[1]
         if 0 < dt <= MAX_GAP_S:
-            self.distance_m[vehicle] = self.distance_m.get(vehicle, 0.0) + (last[1] + speed) / 2 * dt
+            self.distance_m[vehicle] = self.distance_m.get(vehicle, 0.0) + (last[2] + speed) / 2 * dt
             self.driving_s[vehicle] = self.driving_s.get(vehicle, 0.0) + dt
 
     def merge(self, other: "Odometer") -> None:
@@ -196,6 +201,10 @@ class Tally:
             return
         verdict = frame.verdict
         scene = frame.proposal.scene if frame.proposal is not None else None
+        if frame.lead_in:  # the previous file's last frames start this file's odometry
+            if scene is not None:
+                self.odometer.warm(frame.vehicle, scene.timestamp, frame.arrived_ns / 1e9, scene.ego.speed)
+            return
         kind = disagreement_kind(verdict)
         scenario = scenario_kind(scene)
         self.frames += 1
@@ -208,8 +217,7 @@ class Tally:
         if verdict.latency_ms is not None:
             self.latencies_ms.append(verdict.latency_ms)
         if scene is not None:
-            clock = scene.timestamp if scene.timestamp > 0 else frame.arrived_ns / 1e9
-            self.odometer.add(frame.vehicle, clock, scene.ego.speed)
+            self.odometer.add(frame.vehicle, scene.timestamp, frame.arrived_ns / 1e9, scene.ego.speed)
         if kind is not None and filters.disagreement_selected(kind, verdict.rules):
             self.disagreements.append(
                 Disagreement(

@@ -83,6 +83,7 @@ def _run(args: argparse.Namespace) -> int:
     from . import report
 
     tally = audit_logs(paths, filters, args.workers)
+    _warn_unreadable(tally.recovery)
     agg = Aggregates.of(tally)
     sys.stdout.write(report.render_text(tally, agg, filters, listing=not args.quiet))
     _write(args.csv, lambda: report.render_csv(tally))
@@ -108,6 +109,7 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         result = replay_logs(paths, args.rules, filters, args.workers, args.window)
     except CatalogError as exc:
         raise UsageError(f"rules catalog: {exc}") from None
+    _warn_unreadable(result.tally.recovery)
     text = replay_report.render_text(result)
     if args.quiet:
         text = "\n".join(replay_report.headline(result)) + "\n"
@@ -116,6 +118,14 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     _write(args.json, lambda: replay_report.render_json(result))
     _write(args.html, lambda: replay_report.render_html(result))
     return EXIT_CHANGED if result.tally.changes else EXIT_OK
+
+
+def _warn_unreadable(files) -> None:
+    from .report import file_state
+
+    for f in files:
+        if file_state(f) == "unreadable":
+            print(f"discern audit: warning: nothing could be read from {f.path}: {f.stopped_by}", file=sys.stderr)
 
 
 def _log_paths(logs: Sequence[str]) -> list[str]:

@@ -39,6 +39,7 @@ class Frame:
     proposal: Optional[Proposal] = None  # None when the payload was refused before it parsed
     arrived_ns: Optional[int] = None  # log time of the proposal: when it reached the monitor
     history: Optional[tuple[Scene, ...]] = None  # the monitor's window, when rebuilt; None if it refused the frame
+    lead_in: bool = False  # from the previous file: context for this file's frames, not one of them
 
 
 @dataclass
@@ -155,14 +156,19 @@ def _same_sequence(before: str, after: str) -> bool:
 
 
 def read_frames(task: FrameTask, report: RecoveryReport, window_s: Optional[float] = None) -> tuple[Iterator[Frame], Pairing]:
-    """The frames whose verdict is in `task.path`; the Pairing holds the counts once iteration ends."""
+    """The lead-in's frames (flagged), then those whose verdict is in `task.path`.
+
+    The Pairing holds this file's counts once iteration ends.
+    """
     pairing = Pairing(window_s)
 
     def frames() -> Iterator[Frame]:
         if task.lead_in is not None:
             for record in read_log(task.lead_in, RecoveryReport()):
-                pairing.feed(record)
-            pairing.pending = {v: q for v, q in pairing.pending.items() if q}
+                frame = pairing.feed(record)
+                if frame is not None:
+                    frame.lead_in = True
+                    yield frame
             pairing.counts = PairingCounts()
         for record in read_log(task.path, report):
             frame = pairing.feed(record)

@@ -119,7 +119,8 @@ def histogram(values: Sequence[float], label: str, unit: str, markers: dict[str,
             continue
         x = left + plot_w * (value - lo) / (hi - lo)
         body.append(f"<line x1='{x:.1f}' y1='{top}' x2='{x:.1f}' y2='{top + plot_h}' stroke='#1d2330' stroke-dasharray='3,3'/>")
-        body.append(_text(x + 3, top + 10 + 12 * j, f"{name} {value:.2f} {unit}"))
+        right_half = x > left + plot_w / 2
+        body.append(_text(x - 3 if right_half else x + 3, top + 10 + 12 * j, f"{name} {value:.2f} {unit}", "end" if right_half else "start"))
     body += _y_axis(left, top, plot_h, peak)
     body.append(f"<line x1='{left}' y1='{top + plot_h}' x2='{left + plot_w}' y2='{top + plot_h}' stroke='{AXIS}'/>")
     body.append(_text(left, height - 18, f"{lo:g} {unit}", "start", AXIS))

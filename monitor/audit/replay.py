@@ -9,9 +9,10 @@ rules and are counted, not replayed.
 Work is split by file and, when there are fewer files than workers, by a
 hash of the frame's content, so one worker process sees every copy of a
 scene. Identical frames are decided once per worker: the content key is the
-scene, the action, the shadow flag and the history, with frame ids and
-timestamps made relative to the frame (a decision does not depend on the
-wall clock, only on time differences). Only changed decisions get the full
+scene, the action, the shadow flag and, when the reasoner has fact providers
+(the sanity layer, the only readers of the history), the history; frame ids
+and timestamps enter it relative to the frame, since a decision depends on
+time differences, not on the wall clock. Only changed decisions get the full
 justification tree.
 """
 
@@ -82,7 +83,7 @@ class ReplayTally:
     rules_only_examples: Counter = field(default_factory=Counter)  # (recorded rules, replayed rules)
     transitions: Counter = field(default_factory=Counter)
     skipped_failsafe: int = 0  # fail-safe verdicts: the rules did not decide them
-    skipped_refused: int = 0  # inputs refused before they parsed: no scene to replay
+    skipped_refused: int = 0  # verdicts without a logged proposal (refused or still queued): no scene to replay
     solve_s: float = 0.0  # worker time spent in the reasoner
     counts: PairingCounts = field(default_factory=PairingCounts)
     recovery: list[FileRecovery] = field(default_factory=list)
@@ -146,7 +147,7 @@ class _Worker:
         h = hashlib.blake2b(digest_size=16)
         h.update(self.digest(scene))
         h.update(f"|{action.value}|{int(shadow)}".encode())
-        for past in history:
+        for past in history if self.reasoner.providers else ():  # only fact providers read the history
             h.update(self.digest(past))
             h.update(f"|{past.frame_id - scene.frame_id}|{past.timestamp - scene.timestamp:.6f}".encode())
         return h.digest()
@@ -168,7 +169,7 @@ def replay_file(job: ReplayJob) -> ReplayTally:
     tally = ReplayTally()
     first_shard = job.shard == 0
     for frame in frames:
-        if not job.filters.frame_selected(frame):
+        if frame.lead_in or not job.filters.frame_selected(frame):
             continue
         recorded = frame.verdict
         if frame.proposal is None:

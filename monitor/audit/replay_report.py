@@ -8,7 +8,7 @@ import json
 from html import escape
 
 from .replay import Change, ReplayResult
-from .report import table, files_html, page, recovery_lines, verdict_html
+from .report import files_html, page, plural, recovery_lines, table, verdict_html
 from .timefmt import iso
 
 CSV_FIELDS = [
@@ -38,19 +38,19 @@ def headline(result: ReplayResult) -> list[str]:
     ]
     skipped = []
     if t.skipped_failsafe:
-        skipped.append(f"{t.skipped_failsafe} fail-safe verdicts")
+        skipped.append(plural(t.skipped_failsafe, "fail-safe verdict"))
     if t.skipped_refused:
-        skipped.append(f"{t.skipped_refused} refused inputs")
+        skipped.append(plural(t.skipped_refused, "verdict") + " without a logged proposal")
     if t.unanswered:
-        skipped.append(f"{t.unanswered} proposals without a logged verdict")
+        skipped.append(plural(t.unanswered, "proposal") + " without a logged verdict")
     if skipped:
         lines.append("not replayed (the rules did not decide them): " + ", ".join(skipped))
     if t.changes:
-        lines.append(f"{len(t.changes)} decisions would change")
+        lines.append(f"{plural(len(t.changes), 'decision')} would change")
     else:
         lines.append("no decision would change")
     if t.rules_only:
-        lines.append(f"{t.rules_only} frames keep their decision but cite other rules")
+        lines.append(f"{plural(t.rules_only, 'frame')} would keep the decision but cite other rules")
     return lines
 
 

@@ -35,7 +35,11 @@ CSV_FIELDS = [
 
 
 def file_state(f: FileRecovery) -> str:
-    return "complete" if f.complete else ("empty" if f.size_bytes == 0 else "truncated")
+    if f.complete:
+        return "complete"
+    if f.size_bytes == 0:
+        return "empty" if f.stopped_by is None else "unreadable"
+    return "unreadable" if f.recovered_bytes == 0 else "truncated"
 
 
 def recovery_lines(files: list[FileRecovery]) -> list[str]:
@@ -47,7 +51,7 @@ def recovery_lines(files: list[FileRecovery]) -> list[str]:
             share = 100.0 * f.recovered_bytes / f.size_bytes
             line += f", {f.recovered_bytes}/{f.size_bytes} bytes recovered ({share:.1f}%)"
         if f.skipped:
-            line += f", {f.skipped} messages skipped (unknown channel or bad payload)"
+            line += f", {plural(f.skipped, 'message')} skipped (unknown channel or bad payload)"
         if f.stopped_by:
             line += f"; stopped: {f.stopped_by}"
         out.append(line)
@@ -58,13 +62,17 @@ def _rate(value: Optional[float], unit: str) -> str:
     return f"{value:.2f} per {unit}" if value is not None else f"n/a per {unit}"
 
 
+def plural(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def gaps_line(tally: Tally) -> str:
     """What the log holds beside whole frames, if anything."""
     extra = []
     if tally.unanswered:
-        extra.append(f"{tally.unanswered} proposals without a logged verdict")
+        extra.append(plural(tally.unanswered, "proposal") + " without a logged verdict")
     if tally.counts.rejected:
-        extra.append(f"{tally.counts.rejected} refused inputs (logged on /discern/<vehicle>/rejected)")
+        extra.append(plural(tally.counts.rejected, "refused input") + " (logged on /discern/<vehicle>/rejected)")
     return "; ".join(extra)
 
 
