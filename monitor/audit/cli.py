@@ -109,6 +109,8 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         result = replay_logs(paths, args.rules, filters, args.workers, args.window)
     except CatalogError as exc:
         raise UsageError(f"rules catalog: {exc}") from None
+    except RuntimeError as exc:  # clingo's parser: name the file and line it could not read
+        raise UsageError(f"rules catalog: {_syntax_error(args.rules or []) or exc}") from None
     _warn_unreadable(result.tally.recovery)
     text = replay_report.render_text(result)
     if args.quiet:
@@ -118,6 +120,20 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     _write(args.json, lambda: replay_report.render_json(result))
     _write(args.html, lambda: replay_report.render_html(result))
     return EXIT_CHANGED if result.tally.changes else EXIT_OK
+
+
+def _syntax_error(dirs: Sequence[str]) -> Optional[str]:
+    """clingo's message for the first rules file it cannot parse, with the file's name in it."""
+    from clingo import ast
+
+    for path in sorted(p for d in dirs for p in Path(d).glob("*.lp")):
+        messages: list[str] = []
+        try:
+            ast.parse_string(path.read_text(encoding="utf-8"), lambda _s: None, logger=lambda _c, m: messages.append(m))
+        except RuntimeError:
+            first = messages[0].strip() if messages else "syntax error"
+            return first.replace("<string>", str(path), 1)
+    return None
 
 
 def _warn_unreadable(files) -> None:
