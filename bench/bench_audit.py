@@ -1,0 +1,207 @@
+"""Audit and replay throughput on monitor-format MCAP logs, across worker processes.
+
+Run: python bench/bench_audit.py [--frames 8000] [--vehicles 16] [--workers 2]
+(writes the "Audit replay" section of docs/benchmarks.md)
+
+The logs are written by the monitor's own McapLogWriter with verdicts from the
+real Reasoner, rotated into several files like a long-running monitor's. Two
+fleets are measured: every scene distinct (highway traffic, with the monitor's example
+planner's action cycle), and half the vehicles waiting at a red light, whose scenes
+repeat frame after frame (the replay decides each distinct scene once).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import random
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench.report import machine, write_section  # noqa: E402
+from discern.monitor.audit.aggregate import audit_logs  # noqa: E402
+from discern.monitor.audit.replay import replay_logs  # noqa: E402
+from discern.monitor.config import LogSettings  # noqa: E402
+from discern.monitor.example_planner import planner_action  # noqa: E402
+from discern.monitor.log import McapLogWriter, read_log, vehicle_topic  # noqa: E402
+from discern.rules.engine import Reasoner  # noqa: E402
+from discern.rules.scene import (  # noqa: E402
+    Action,
+    DetectedObject,
+    Ego,
+    Lane,
+    LaneKind,
+    LaneRef,
+    LightColour,
+    ObjectClass,
+    Proposal,
+    Scene,
+    TrafficLight,
+    Vec2,
+)
+
+PERIOD_S = 0.1  # 10 Hz planner
+
+
+def traffic_scene(frame_id: int, vehicle: int) -> Scene:
+    """Highway traffic around the ego, different every frame: a lead car, cars in the lanes beside."""
+    rng = random.Random(vehicle * 1_000_003 + frame_id)
+    t = frame_id * PERIOD_S
+    speed = 26.0 + 3.0 * math.sin(t / 7.0 + vehicle)
+    objects = [
+        DetectedObject(id=1, cls=ObjectClass.car, position=Vec2(x=rng.uniform(-0.2, 0.2), y=45.0 + 15.0 * math.sin(t / 5.0 + vehicle)),
+                       lane=LaneRef(kind=LaneKind.current, id=2), velocity=Vec2(x=0.0, y=speed + rng.uniform(-1, 1)))
+    ]
+    for i in range(2, 2 + rng.randint(1, 5)):
+        lane = rng.choice((1, 3))
+        objects.append(
+            DetectedObject(id=i, cls=rng.choice((ObjectClass.car, ObjectClass.car, ObjectClass.truck)),
+                           position=Vec2(x=(lane - 2) * 3.5 + rng.uniform(-0.3, 0.3), y=rng.uniform(-40, 80)),
+                           lane=LaneRef(kind=LaneKind.current, id=lane), velocity=Vec2(x=0.0, y=rng.uniform(20, 32)))
+        )
+    return Scene(
+        frame_id=frame_id,
+        timestamp=round(1.0 + t, 6),
+        ego=Ego(speed=round(speed, 3), lane=2, zone="highway"),
+        speed_limit=33.3,
+        lanes=[Lane(kind=LaneKind.current, id=i, speed_limit=33.3) for i in (1, 2, 3)],
+        objects=objects,
+    )
+
+
+def red_light_scene(frame_id: int, vehicle: int) -> Scene:
+    """Stopped at a red light behind a queue: the same scene every frame, only the frame id and time move."""
+    queue = [
+        DetectedObject(id=i + 1, cls=ObjectClass.car, position=Vec2(x=0.0, y=7.0 + 6.5 * i),
+                       lane=LaneRef(kind=LaneKind.current, id=1), velocity=Vec2(x=0.0, y=0.0))
+        for i in range(1 + vehicle % 3)
+    ]
+    return Scene(
+        frame_id=frame_id,
+        timestamp=round(1.0 + frame_id * PERIOD_S, 6),
+        ego=Ego(speed=0.0, lane=1, zone="city"),
+        speed_limit=13.9,
+        lanes=[Lane(kind=LaneKind.current, id=1), Lane(kind=LaneKind.current, id=2)],
+        objects=queue,
+        traffic_lights=[TrafficLight(colour=LightColour.red)],
+    )
+
+
+def write_fleet(directory: Path, frames: int, vehicles: int, waiting_share: float, rotate_mb: float) -> list[Path]:
+    """A fleet's log as the monitor writes it: proposal then verdict, per frame, per vehicle."""
+    reasoner = Reasoner()
+    decided: dict[str, object] = {}
+    writer = McapLogWriter(LogSettings(directory=directory, rotate_bytes=int(rotate_mb * 2**20), flush_seconds=0.2), "bench")
+    waiting = int(round(vehicles * waiting_share))
+    t0 = time.time_ns()
+    per_vehicle = frames // vehicles
+    for f in range(per_vehicle):
+        for v in range(vehicles):
+            name = f"car_{v:03d}"
+            if v < waiting:
+                scene, action = red_light_scene(f, v), (Action.brake if f % 4 else Action.cruise)
+            else:
+                scene, action = traffic_scene(f, v), planner_action(f + v)
+            key = scene.model_dump_json(exclude={"frame_id", "timestamp"}) + action.value
+            verdict = decided.get(key) if v < waiting else None
+            if verdict is None:
+                verdict = reasoner.decide(scene, action)
+                if v < waiting:
+                    decided[key] = verdict
+            verdict = verdict.model_copy(update={"vehicle": name, "frame_id": f, "timestamp": scene.timestamp})
+            arrived = t0 + int((f * PERIOD_S + v * 1e-4) * 1e9)
+            writer.write(vehicle_topic(name, "proposal"), "proposal", Proposal(vehicle=name, action=action, scene=scene), arrived)
+            writer.write(vehicle_topic(name, "verdict"), "verdict", verdict, arrived + 3_000_000)
+    writer.close()
+    assert writer.dropped == 0, writer.dropped
+    return writer.files
+
+
+def measure(files: list[Path], workers: int) -> dict:
+    load = os.getloadavg()[0]
+    start = time.perf_counter()
+    tally = audit_logs([str(f) for f in files], workers=workers)
+    audit_s = time.perf_counter() - start
+    result = replay_logs([str(f) for f in files], workers=workers)
+    t = result.tally
+    assert not t.changes, "the shipped rules must reproduce their own log"
+    return {
+        "frames": tally.frames,
+        "disagreements": len(tally.disagreements),
+        "audit_s": audit_s,
+        "replayed": t.frames,
+        "decided": t.solved,
+        "reused": t.reused,
+        "wall_s": result.wall_s,
+        "fps": result.frames_per_s,
+        "solve_ms": 1000 * t.solve_s / max(1, t.solved),
+        "workers": result.workers,
+        "load": load,
+    }
+
+
+def read_cost(files: list[Path]) -> float:
+    """Seconds to read and validate every record once, in this process (the part every worker repeats per file)."""
+    start = time.perf_counter()
+    for _ in read_log([str(f) for f in files]):
+        pass
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=8000)
+    parser.add_argument("--vehicles", type=int, default=16)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--rotate-mb", type=float, default=2.0, help="log file size: more files, more parallel jobs")
+    parser.add_argument("--no-write", action="store_true", help="print the section instead of writing docs/benchmarks.md")
+    args = parser.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, share in (("every scene distinct (highway traffic)", 0.0), ("half the fleet waiting at a red light", 0.5)):
+            directory = Path(tmp) / f"share{share}"
+            files = write_fleet(directory, args.frames, args.vehicles, share, args.rotate_mb)
+            size_mb = sum(f.stat().st_size for f in files) / 2**20
+            reading = read_cost(files)
+            for workers in sorted({1, args.workers}):
+                m = measure(files, workers)
+                rows.append((label, len(files), size_mb, reading, m))
+                print(label, workers, m, flush=True)
+    command = f"python bench/bench_audit.py --frames {args.frames} --vehicles {args.vehicles} --workers {args.workers} --rotate-mb {args.rotate_mb:g}"
+    lines = [
+        "## Audit replay",
+        "",
+        f"Command: `{command}`  ",
+        f"Machine: {machine()}; logs written by the monitor's McapLogWriter (zstd), verdicts from the shipped catalog.",
+        "",
+        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s | decided / reused | reasoner ms per decided frame | load avg before |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for label, nfiles, size_mb, reading, m in rows:
+        lines.append(
+            f"| {label} | {nfiles} ({size_mb:.1f}) | {m['workers']} | {m['replayed']} ({m['disagreements']}) | {m['audit_s']:.2f} "
+            f"({m['frames'] / m['audit_s']:.0f}) | {m['wall_s']:.2f} | **{m['fps']:.0f}** | {m['decided']} / {m['reused']} | "
+            f"{m['solve_ms']:.2f} | {m['load']:.2f} |"
+        )
+    lines.append("")
+    lines.append(
+        "Reading and validating every record once, in one process: "
+        + ", ".join(f"{label}: {reading:.2f} s" for label, _, _, reading, _ in rows[:: len({1, args.workers})])
+        + f". Python {platform.python_version()}."
+    )
+    body = "\n".join(lines)
+    if args.no_write:
+        print(body)
+    else:
+        write_section("audit", body)
+        print(body)
+
+
+if __name__ == "__main__":
+    main()
