@@ -17,10 +17,11 @@ proposals' arrival times at the monitor. A larger gap or a clock going back
 from __future__ import annotations
 
 import fnmatch
+from array import array
 from collections import Counter
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Iterable, Optional
+from typing import Iterable, Optional, Sequence
 
 from discern.monitor.log import FileRecovery, RecoveryReport
 from discern.rules.scene import Intent, ObjectClass, Scene
@@ -141,7 +142,7 @@ class Disagreement:
     scenario: str
     latency_ms: Optional[float]
     error: Optional[str]
-    verdict: dict  # the full verdict as logged (JSON), justification tree included
+    verdict_json: str  # the full verdict as logged, justification tree included (kept as text: compact)
 
     @property
     def pair(self) -> str:
@@ -189,7 +190,7 @@ class Tally:
     vehicle_frames: Counter = field(default_factory=Counter)
     scenario_frames: Counter = field(default_factory=Counter)
     disagreements: list[Disagreement] = field(default_factory=list)
-    latencies_ms: list[float] = field(default_factory=list)
+    latencies_ms: array = field(default_factory=lambda: array("d"))
     odometer: Odometer = field(default_factory=Odometer)
     first_ns: Optional[int] = None
     last_ns: Optional[int] = None
@@ -235,7 +236,7 @@ class Tally:
                     scenario=scenario,
                     latency_ms=verdict.latency_ms,
                     error=verdict.error,
-                    verdict=verdict.model_dump(mode="json"),
+                    verdict_json=verdict.model_dump_json(),
                 )
             )
 
@@ -309,7 +310,7 @@ class Aggregates:
         )
 
 
-def latency_summary(values: list[float]) -> dict[str, Optional[float]]:
+def latency_summary(values: Sequence[float]) -> dict[str, Optional[float]]:
     if not values:
         return {"samples": 0, "p50_ms": None, "p90_ms": None, "p99_ms": None, "max_ms": None}
     ordered = sorted(values)

@@ -98,9 +98,9 @@ class Pairing:
             self.counts.status += 1
         return None
 
-    def finish(self) -> None:
-        """Count the proposals left without a verdict."""
-        self.counts.unanswered += sum(len(q) for q in self.pending.values())
+    def finish(self, path: str) -> None:
+        """Count the proposals of `path` left without a verdict (the lead-in's were counted with their file)."""
+        self.counts.unanswered += sum(str(r.path) == path for q in self.pending.values() for r in q)
         self.pending.clear()
 
     def _frame(self, record: LogRecord) -> Frame:
@@ -174,6 +174,6 @@ def read_frames(task: FrameTask, report: RecoveryReport, window_s: Optional[floa
             frame = pairing.feed(record)
             if frame is not None:
                 yield frame
-        pairing.finish()
+        pairing.finish(task.path)
 
     return frames(), pairing

@@ -189,7 +189,9 @@ def render_json(tally: Tally, agg: Aggregates, filters: Filters) -> str:
         "over_time": [
             {"start": iso(start), "seconds": width / 1e9, **counts} for start, width, counts in agg.over_time
         ],
-        "disagreements": [{**_row(d), "rules": d.rules, "verdict_json": d.verdict} for d in tally.disagreements],
+        "disagreements": [
+            {**_row(d), "rules": d.rules, "verdict_json": json.loads(d.verdict_json)} for d in tally.disagreements
+        ],
     }
     return json.dumps(doc, indent=2) + "\n"
 
@@ -363,4 +365,4 @@ def _disagreement_html(i: int, d: Disagreement) -> str:
         f"<span class='rule'>{escape(', '.join(d.rules))}</span> &mdash; {escape(d.summary)}"
     )
     where = f"<p class='meta'>scenario {escape(d.scenario)} &middot; {escape(d.file)}</p>"
-    return f"<details class='dis' id='d{i}'><summary>{head}</summary>{where}{verdict_html(d.verdict)}</details>"
+    return f"<details class='dis' id='d{i}'><summary>{head}</summary>{where}{verdict_html(json.loads(d.verdict_json))}</details>"
