@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
@@ -67,6 +68,9 @@ def run(args: argparse.Namespace) -> int:
         return _run(args)
     except UsageError as exc:
         print(f"discern audit: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except BrokenProcessPool as exc:
+        print(f"discern audit: a worker process died ({exc}); --workers 1 runs in this process", file=sys.stderr)
         return EXIT_USAGE
 
 

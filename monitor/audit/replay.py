@@ -31,7 +31,7 @@ from discern.monitor.log import FileRecovery, RecoveryReport
 from discern.rules.catalog import catalog_dirs, load_catalog
 from discern.rules.engine import Reasoner
 from discern.rules.scene import Action, Scene
-from discern.rules.verdict import Decision, Verdict
+from discern.rules.verdict import Verdict
 
 from .aggregate import Filters, scenario_kind
 from .frames import FrameTask, PairingCounts, plan_tasks, read_frames
@@ -128,7 +128,8 @@ class _Worker:
 
     def __init__(self, rules_dirs: Sequence[str]):
         self.reasoner = Reasoner(catalog=load_catalog([Path(d) for d in rules_dirs]))
-        self.decided: OrderedDict[bytes, tuple[Outcome, Verdict]] = OrderedDict()
+        self.decided: OrderedDict[bytes, Outcome] = OrderedDict()
+        self.explained: OrderedDict[bytes, Verdict] = OrderedDict()  # changed frames, with their full tree
         self.digests: OrderedDict[int, tuple[Scene, bytes]] = OrderedDict()
 
     def digest(self, scene: Scene) -> bytes:
@@ -183,22 +184,18 @@ def replay_file(job: ReplayJob) -> ReplayTally:
         if job.shards > 1 and int.from_bytes(key[:4], "big") % job.shards != job.shard:
             continue
         tally.frames += 1
-        hit = worker.decided.get(key)
-        if hit is None:
+        outcome = worker.decided.get(key)
+        if outcome is None:
             start = time.perf_counter()
-            verdict = worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow)
+            outcome = Outcome.of(worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow))
             tally.solve_s += time.perf_counter() - start
             tally.solved += 1
-            hit = (Outcome.of(verdict), verdict)
-            worker.decided[key] = hit
-            if len(worker.decided) > CACHE_LIMIT:
-                worker.decided.popitem(last=False)
+            _remember(worker.decided, key, outcome)
         else:
             tally.reused += 1
-        outcome, verdict = hit
         before = Outcome.of(recorded)
         if (outcome.decision, outcome.action) != (before.decision, before.action):
-            tally.changes.append(_change(worker, frame, verdict))
+            tally.changes.append(_change(worker, key, frame))
             tally.transitions[f"{action.value}: {before.describe()} -> {outcome.describe()}"] += 1
         elif outcome.rules != before.rules:
             tally.rules_only += 1
@@ -209,14 +206,22 @@ def replay_file(job: ReplayJob) -> ReplayTally:
     return tally
 
 
-def _change(worker: _Worker, frame, decided: Verdict) -> Change:
-    """The changed frame, with the full justification tree (an approval is decided again to get it)."""
+def _remember(cache: OrderedDict, key: bytes, value) -> None:
+    cache[key] = value
+    if len(cache) > CACHE_LIMIT:
+        cache.popitem(last=False)
+
+
+def _change(worker: _Worker, key: bytes, frame) -> Change:
+    """The changed frame, decided again with the full justification tree (once per distinct frame)."""
     scene = frame.proposal.scene
-    if decided.decision is Decision.approve:
-        decided = worker.reasoner.decide(
+    explained = worker.explained.get(key)
+    if explained is None:
+        explained = worker.reasoner.decide(
             scene, frame.proposal.action, history=frame.history, explain=True, shadow=frame.verdict.shadow
         )
-    replayed = decided.model_dump(mode="json")
+        _remember(worker.explained, key, explained)
+    replayed = explained.model_dump(mode="json")
     replayed.update(frame_id=scene.frame_id, timestamp=scene.timestamp, vehicle=frame.vehicle)
     return Change(
         time_ns=frame.log_time_ns,
