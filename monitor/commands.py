@@ -1,4 +1,4 @@
-"""CLI subcommands of the sidecar: serve, status, router, planner-example, schema.
+"""CLI subcommands of the sidecar: serve, status, router, planner-example.
 
 `register(subparsers)` adds them to the `discern` command (monitor/cli.py).
 """
@@ -6,7 +6,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import signal
 import sys
@@ -32,7 +31,7 @@ def register(subparsers) -> None:
     serve.add_argument("--budget-ms", type=float, default=50.0, help="decision budget; later = fail-safe (default: 50)")
     serve.add_argument("--window-s", type=float, default=2.0, help="per-vehicle history window (default: 2)")
     serve.add_argument("--max-payload-bytes", type=int, default=1024 * 1024, help="larger proposals are refused")
-    serve.add_argument("--workers", type=int, default=2, help="decision threads (default: 2)")
+    serve.add_argument("--workers", type=int, default=1, help="decision threads (default: 1; scale out with processes)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
     serve.add_argument("--log-dir", type=Path, default=None, help="write the MCAP log here (default: no log)")
     serve.add_argument("--log-rotate-mb", type=float, default=256.0, help="start a new log file past this size")
@@ -67,10 +66,6 @@ def register(subparsers) -> None:
 
     add_arguments(planner)
     planner.set_defaults(func=cmd_planner_example)
-
-    schema = subparsers.add_parser("schema", help="write the JSON Schemas of the protocol (Proposal, Verdict)")
-    schema.add_argument("--out", type=Path, default=Path("."), help="directory to write into (default: .)")
-    schema.set_defaults(func=cmd_schema)
 
 
 def _zenoh_arguments(parser, *, listen_default, connect_default=None, modes=True) -> None:
@@ -119,6 +114,9 @@ def _wait_for_signal() -> None:
 def cmd_serve(args) -> int:
     from .server import MonitorServer
 
+    # The worker holds the GIL while it reasons; the default 5 ms switch interval would let it
+    # sit on arriving proposals that long. 0.5 ms keeps the zenoh threads' latency low.
+    sys.setswitchinterval(0.0005)
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
@@ -153,9 +151,9 @@ def cmd_serve(args) -> int:
         return _fail("serve", f"{type(exc).__name__}: {exc}")
     try:
         chunk = server.vehicles_chunk
-        listen = config.zenoh.listen if config.zenoh.listen is not None else [DEFAULT_ENDPOINT]
         print(
-            f"discern serve: monitor {config.monitor_id} ready; listening on {', '.join(listen) or 'nothing'}; "
+            f"discern serve: monitor {config.monitor_id} ready; "
+            f"listening on {', '.join(server.listen_endpoints) or 'nothing'}; "
             f"serving {keys.proposal_key(chunk)} and {keys.check_key(chunk)}; budget {config.budget_ms:g} ms"
             + (f"; logging to {config.log.directory}" if config.log else ""),
             flush=True,
@@ -221,14 +219,18 @@ def _status_text(s) -> str:
 
 
 def cmd_router(args) -> int:
-    from .router import open_router
+    import zenoh
+
+    from .config import listen_endpoints
+    from .router import router_config
 
     try:
-        session = open_router(_zenoh_settings(args, mode="router"))
+        config = router_config(_zenoh_settings(args, mode="router"))
+        listen = listen_endpoints(config)
+        session = zenoh.open(config)
     except Exception as exc:
         return _fail("router", str(exc))
     try:
-        listen = args.listen or [DEFAULT_ENDPOINT]
         print(f"discern router: zenoh router {session.zid()} ready; listening on {', '.join(listen)}", flush=True)
         _wait_for_signal()
     finally:
@@ -240,20 +242,6 @@ def cmd_planner_example(args) -> int:
     from .example_planner import run
 
     return 1 if run(args.vehicle, args.frames, args.rate, args.connect or [DEFAULT_ENDPOINT], args.style, args.explain) else 0
-
-
-def cmd_schema(args) -> int:
-    from .protocol import json_schemas
-
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-        for name, schema in json_schemas().items():
-            path = args.out / name
-            path.write_text(json.dumps(schema, indent=2) + "\n")
-            print(path)
-    except OSError as exc:
-        return _fail("schema", str(exc))
-    return 0
 
 
 def main(argv=None) -> int:

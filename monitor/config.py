@@ -75,6 +75,15 @@ class ZenohSettings:
         return config
 
 
+def listen_endpoints(config: zenoh.Config) -> list[str]:
+    """The endpoints a config listens on; zenoh may give them per mode ({"peer": [...], ...})."""
+    value = config.get_json("listen/endpoints")
+    value = json.loads(value) if isinstance(value, str) else value
+    if isinstance(value, dict):
+        value = [e for eps in value.values() for e in eps]
+    return list(value or [])
+
+
 def _insert(config: zenoh.Config, key: str, endpoints: list[str]) -> None:
     try:
         config.insert_json5(key, json.dumps(list(endpoints)))
@@ -101,7 +110,7 @@ class MonitorConfig:
     budget_ms: float = 50.0
     window_s: float = 2.0
     max_payload_bytes: int = 1024 * 1024
-    workers: int = 2
+    workers: int = 1  # the GIL makes more threads slower: scale out with processes (--vehicles)
     shadow: bool = False
     log: Optional[LogSettings] = None
     status_period_s: float = 1.0

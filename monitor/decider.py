@@ -15,7 +15,7 @@ from discern.rules.verdict import Verdict
 
 class Decide(Protocol):
     def __call__(
-        self, scene: Scene, action: Action, *, history: Sequence[Scene], explain: bool, shadow: bool
+        self, scene: Scene, action: Action, *, history: Sequence[Scene], explain: bool, shadow: bool, vehicle: str
     ) -> Verdict: ...
 
 
@@ -26,12 +26,7 @@ def reasoner_factory() -> Decide:
     """A fresh Reasoner (rule catalogs loaded once) for one worker thread."""
     from discern.rules.engine import Reasoner
 
-    reasoner = Reasoner()
-
-    def decide(scene: Scene, action: Action, *, history: Sequence[Scene], explain: bool, shadow: bool) -> Verdict:
-        return reasoner.decide(scene, action, history=history, explain=explain, shadow=shadow)
-
-    return decide
+    return Reasoner().decide
 
 
 def with_delay(factory: DecideFactory, delay_s: float) -> DecideFactory:

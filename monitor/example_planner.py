@@ -29,8 +29,12 @@ def highway_scene(frame_id: int, n_objects: int = 8, *, lanes: int = 3, seed: in
     ego_lane = (lanes + 1) // 2
     objects = []
     for i in range(n_objects):
-        lane = 1 + i % lanes
-        ahead = 8.0 + 12.0 * (i // lanes) - 6.0 * (i % 2) - (t * 2.0 if i == 0 else 0.0)
+        lane, row = 1 + i % lanes, i // lanes
+        # Rows of traffic alternately ahead of and behind the ego, 20 m apart;
+        # the car ahead in the ego's lane is slowly being caught up.
+        ahead = (row // 2 + 1) * 20.0 * (1 if row % 2 == 0 else -1)
+        if lane == ego_lane and row == 0:
+            ahead = max(6.0, 40.0 - t * 3.0)
         objects.append(
             DetectedObject(
                 id=i + 1,

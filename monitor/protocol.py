@@ -12,7 +12,7 @@ from typing import Iterable, Optional
 
 from pydantic import BaseModel, ValidationError
 
-from discern.rules.scene import Action, Proposal
+from discern.rules.scene import Action, Proposal, describe_errors
 from discern.rules.verdict import Decision, Justification, Verdict
 
 from .keys import VEHICLE_PATTERN
@@ -47,20 +47,11 @@ class InputError(ValueError):
 
 
 def describe_validation_error(exc: ValidationError) -> str:
-    """'scene.objects.3.class: Input should be ... (got 'ufo')' for each problem, the first few."""
-    parts = []
-    errors = exc.errors(include_url=False)
-    for err in errors[:MAX_ERRORS_NAMED]:
-        loc = ".".join(str(p) for p in err["loc"])
-        msg = err["msg"]
-        if err["type"] != "json_invalid" and "input" in err and not isinstance(err["input"], (dict, list)):
-            got = repr(err["input"])
-            msg += f" (got {got[:60]})"
-        parts.append(f"{loc}: {msg}" if loc else msg)
-    more = len(errors) - MAX_ERRORS_NAMED
-    if more > 0:
-        parts.append(f"... and {more} more")
-    return "; ".join(parts)
+    """The core's one-line-per-problem description, first few problems, on one line."""
+    lines = describe_errors(exc).splitlines()
+    if len(lines) > MAX_ERRORS_NAMED:
+        lines = lines[:MAX_ERRORS_NAMED] + [f"... and {len(lines) - MAX_ERRORS_NAMED} more"]
+    return "; ".join(lines)
 
 
 def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
@@ -140,10 +131,3 @@ def encode(model: BaseModel) -> bytes:
 def decode_verdict(payload: bytes) -> Verdict:
     return Verdict.model_validate_json(payload)
 
-
-def json_schemas() -> dict[str, dict]:
-    """The published JSON Schemas, keyed by file name; generated from the one set of models."""
-    return {
-        "proposal.schema.json": Proposal.model_json_schema(by_alias=True),
-        "verdict.schema.json": Verdict.model_json_schema(by_alias=True),
-    }

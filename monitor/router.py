@@ -12,7 +12,7 @@ import zenoh
 from .config import DEFAULT_ENDPOINT, ZenohSettings
 
 
-def open_router(settings: ZenohSettings) -> zenoh.Session:
-    """A session in router mode; by default on Discern's loopback endpoint, no multicast."""
+def router_config(settings: ZenohSettings) -> zenoh.Config:
+    """Router mode; by default on Discern's loopback endpoint, no multicast."""
     settings.mode = "router"
-    return zenoh.open(settings.to_zenoh(default_mode="router", default_listen=[DEFAULT_ENDPOINT]))
+    return settings.to_zenoh(default_mode="router", default_listen=[DEFAULT_ENDPOINT])

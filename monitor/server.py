@@ -28,7 +28,7 @@ from discern.rules.scene import Proposal
 from discern.rules.verdict import Verdict
 
 from . import keys
-from .config import DEFAULT_ENDPOINT, MonitorConfig
+from .config import DEFAULT_ENDPOINT, MonitorConfig, listen_endpoints
 from .decider import Decide, DecideFactory, reasoner_factory, with_delay
 from .log import McapLogWriter, RejectedInput, vehicle_topic
 from .log.channels import STATUS_TOPIC
@@ -95,6 +95,7 @@ class MonitorServer:
         self._publishers_lock = threading.Lock()
         self._declared: list = []
         self.session: Optional[zenoh.Session] = None
+        self.listen_endpoints: list[str] = []
         self.log: Optional[McapLogWriter] = None
 
     # -- lifecycle -----------------------------------------------------------
@@ -103,7 +104,9 @@ class MonitorServer:
         deciders = [self._decide_factory() for _ in range(self.config.workers)]  # fail before going live
         if self.config.log is not None:
             self.log = McapLogWriter(self.config.log, self.config.monitor_id)
-        self.session = zenoh.open(self.config.zenoh.to_zenoh(default_listen=[DEFAULT_ENDPOINT]))
+        zenoh_config = self.config.zenoh.to_zenoh(default_listen=[DEFAULT_ENDPOINT])
+        self.listen_endpoints = listen_endpoints(zenoh_config)
+        self.session = zenoh.open(zenoh_config)
         for i, decide in enumerate(deciders):
             self._spawn(f"discern-worker-{i}", self._work, i, decide)
         self._spawn("discern-watchdog", self._watch)
@@ -112,8 +115,8 @@ class MonitorServer:
         chunk = self.vehicles_chunk
         s = self.session
         self._declared = [
-            s.declare_subscriber(keys.proposal_key(chunk), self._on_sample),
-            s.declare_queryable(keys.check_key(chunk), self._on_query),
+            s.declare_subscriber(keys.proposal_key(chunk), _direct(self._on_sample)),
+            s.declare_queryable(keys.check_key(chunk), _direct(self._on_query)),
             s.declare_queryable(keys.status_key(self.config.monitor_id), self._on_status_query),
         ]
         return self
@@ -223,12 +226,15 @@ class MonitorServer:
             state = states[req.vehicle] = VehicleState(self.config.window_s)
         scene = proposal.scene
         history = state.admit(scene, req.arrived)
-        verdict = decide(scene, proposal.action, history=history, explain=proposal.explain, shadow=self.config.shadow)
+        verdict = decide(
+            scene,
+            proposal.action,
+            history=history,
+            explain=proposal.explain,
+            shadow=self.config.shadow,
+            vehicle=req.vehicle,
+        )
         state.remember_permitted(verdict.permitted, req.arrived)
-        verdict.vehicle = req.vehicle
-        verdict.frame_id = scene.frame_id
-        verdict.timestamp = scene.timestamp
-        verdict.proposed = proposal.action
         return verdict
 
     # -- deadline --------------------------------------------------------------
@@ -321,6 +327,12 @@ class MonitorServer:
     def _log_status(self) -> None:
         while not self._stopping.wait(self.config.status_period_s):
             self.log.write(STATUS_TOPIC, "status", self.status())
+
+
+def _direct(callback):
+    """Run `callback` on the zenoh thread itself: it only enqueues, and skipping the hop to a
+    Python thread saves about a millisecond per proposal."""
+    return zenoh.handlers.Callback(callback, indirect=False)
 
 
 def _topic_safe(vehicle: str) -> str:

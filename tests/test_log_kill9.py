@@ -1,0 +1,45 @@
+"""`kill -9` of a real `discern serve` loses at most about a second of log, and the rest reads back."""
+
+from __future__ import annotations
+
+import time
+
+from discern.monitor.client import Monitor
+from discern.monitor.example_planner import highway_scene
+from discern.monitor.log import RecoveryReport, read_log
+from tests.monitor_process import serve
+
+FLUSH_S = 0.25
+LOSS_BOUND_S = 1.0
+
+
+def test_sigkill_leaves_a_log_readable_up_to_the_last_second(tmp_path):
+    proc, ep = serve("--id", "victim", "--log-dir", str(tmp_path), "--log-flush-s", str(FLUSH_S))
+    answered: dict[int, float] = {}
+    try:
+        with Monitor("doomed", connect=[ep], timeout=5) as monitor:
+            frame, stop_at = 0, time.monotonic() + 2.5
+            while time.monotonic() < stop_at:
+                verdict = monitor.check(highway_scene(frame, 8), "cruise")
+                assert not verdict.failsafe
+                answered[frame] = time.monotonic()
+                frame += 1
+                time.sleep(0.02)
+            killed_at = time.monotonic()
+            proc.kill9()
+    finally:
+        proc.stop()
+    assert proc.proc.returncode == -9
+
+    report = RecoveryReport()
+    records = list(read_log(tmp_path, report))
+    [recovery] = report.files
+    assert recovery.truncated and not recovery.complete  # no summary: it was killed
+    assert 0 < recovery.recovered_bytes <= recovery.size_bytes
+    verdict_frames = {r.verdict.frame_id for r in records if r.kind == "verdict" and r.vehicle == "doomed"}
+    proposal_frames = {r.proposal.scene.frame_id for r in records if r.kind == "proposal"}
+    must_have = {f for f, t in answered.items() if killed_at - t > LOSS_BOUND_S}
+    assert len(must_have) > 10
+    assert must_have <= verdict_frames and must_have <= proposal_frames
+    assert any(r.kind == "status" for r in records)
+    assert "truncated" in report.summary()

@@ -1,0 +1,168 @@
+"""The MCAP log: what the writer records reads back typed, from whole, rotated, cut and foreign files."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from discern.monitor.config import LogSettings
+from discern.monitor.example_planner import highway_scene
+from discern.monitor.log import McapLogWriter, RecoveryReport, RejectedInput, read_log, vehicle_topic
+from discern.monitor.log.channels import STATUS_TOPIC
+from discern.monitor.protocol import RULE_BAD_INPUT, failsafe_verdict
+from discern.monitor.status import StatusCounters
+from discern.rules.engine import Reasoner
+from discern.rules.scene import Proposal
+
+
+def write_session(directory, frames=5, **settings) -> list[Proposal]:
+    reasoner = Reasoner()
+    writer = McapLogWriter(LogSettings(directory=directory, **settings), "unit")
+    proposals = []
+    for f in range(frames):
+        p = Proposal(vehicle="car_1", action="cruise", scene=highway_scene(f, 6))
+        writer.write(vehicle_topic("car_1", "proposal"), "proposal", p)
+        writer.write(vehicle_topic("car_1", "verdict"), "verdict", reasoner.decide(p.scene, p.action, vehicle="car_1"))
+        proposals.append(p)
+    writer.write(
+        vehicle_topic("car_2", "rejected"),
+        "rejected",
+        RejectedInput(vehicle="car_2", key="discern/car_2/check", size=3, error="malformed JSON", excerpt="{{{"),
+    )
+    writer.write(vehicle_topic("car_2", "verdict"), "verdict", failsafe_verdict("car_2", "malformed JSON", RULE_BAD_INPUT))
+    writer.write(STATUS_TOPIC, "status", StatusCounters("unit", "*", 50).snapshot())
+    writer.close()
+    return proposals
+
+
+def test_written_records_read_back_as_the_same_models(tmp_path):
+    proposals = write_session(tmp_path)
+    report = RecoveryReport()
+    records = list(read_log(tmp_path, report))
+    assert [r.proposal for r in records if r.kind == "proposal"] == proposals
+    verdicts = [r.verdict for r in records if r.kind == "verdict"]
+    assert [v.frame_id for v in verdicts[:5]] == list(range(5)) and verdicts[-1].failsafe
+    [rejected] = [r for r in records if r.kind == "rejected"]
+    assert rejected.vehicle == "car_2" and rejected.rejected.excerpt == "{{{"
+    assert records[-1].kind == "status" and records[-1].vehicle is None
+    assert all(r.log_time_ns > 0 for r in records)
+    [f] = report.files
+    assert f.complete and not f.truncated and f.records == len(records) == 13 and f.recovered_bytes == f.size_bytes
+
+
+def test_channels_are_json_with_json_schemas_foxglove_can_open(tmp_path):
+    write_session(tmp_path, frames=1)
+    [path] = tmp_path.glob("*.mcap")
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()  # the standard reader: indexed, finished file
+    channels = {c.topic: c for c in summary.channels.values()}
+    assert set(channels) == {
+        "/discern/car_1/proposal", "/discern/car_1/verdict", "/discern/car_2/rejected",
+        "/discern/car_2/verdict", "/discern/status",
+    }
+    for channel in channels.values():
+        schema = summary.schemas[channel.schema_id]
+        assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
+        body = json.loads(schema.data)
+        assert body["type"] == "object" and body["properties"] and "$ref" not in schema.data.decode()
+    proposal_schema = json.loads(summary.schemas[channels["/discern/car_1/proposal"].schema_id].data)
+    objects = proposal_schema["properties"]["scene"]["properties"]["objects"]["items"]["properties"]
+    assert "class" in objects  # the wire name, not the Python one
+
+
+def test_a_cut_file_is_recovered_up_to_its_last_complete_chunk(tmp_path):
+    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.05), "cut")
+    for f in range(6):
+        p = Proposal(vehicle="v", action="cruise", scene=highway_scene(f, 4))
+        writer.write(vehicle_topic("v", "proposal"), "proposal", p)
+        time.sleep(0.15)  # one chunk per proposal
+    writer.close()
+    [path] = tmp_path.glob("*.mcap")
+    data = path.read_bytes()
+    whole = list(read_log(path))
+    assert len(whole) == 6
+    cut = tmp_path / "cut.mcap"
+    previous = -1
+    for size in range(len(data) // 3, len(data), max(1, len(data) // 40)):
+        cut.write_bytes(data[:size])
+        report = RecoveryReport()
+        records = list(read_log(cut, report))
+        frames = [r.proposal.scene.frame_id for r in records]
+        assert frames == list(range(len(frames)))  # a prefix, never a damaged record
+        assert len(frames) >= previous  # more file, never fewer records
+        previous = len(frames)
+        [f] = report.files
+        assert f.truncated and f.records == len(frames) and f.recovered_bytes <= size
+    assert previous >= 5
+
+
+def test_files_rotate_by_size_and_read_back_in_order(tmp_path):
+    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_bytes=4096), "rot")
+    for f in range(12):
+        writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 8)))
+        time.sleep(0.05)
+    writer.close()
+    assert len(writer.files) >= 3 and all(p.exists() for p in writer.files)
+    report = RecoveryReport()
+    frames = [r.proposal.scene.frame_id for r in read_log(tmp_path, report)]
+    assert frames == list(range(12)) and all(f.complete for f in report.files)
+
+
+def test_files_rotate_by_age(tmp_path):
+    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_seconds=0.1), "age")
+    writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(0, 2)))
+    time.sleep(0.4)
+    writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(1, 2)))
+    writer.close()
+    assert len(writer.files) >= 2
+    assert [r.proposal.scene.frame_id for r in read_log(writer.files)] == [0, 1]
+
+
+def test_merge_interleaves_files_by_log_time(tmp_path):
+    for name, frames in (("a", (0, 2, 4)), ("b", (1, 3))):
+        writer = McapLogWriter(LogSettings(directory=tmp_path / name), name)
+        for f in frames:
+            p = Proposal(vehicle=name, action="cruise", scene=highway_scene(f, 2))
+            writer.write(vehicle_topic(name, "proposal"), "proposal", p, log_time_ns=1_000 + f)
+        writer.close()
+    merged = [r.proposal.scene.frame_id for r in read_log([tmp_path / "a", tmp_path / "b"], merge=True)]
+    assert merged == [0, 1, 2, 3, 4]
+
+
+def test_unknown_channels_are_skipped_with_a_warning(tmp_path, caplog):
+    path = tmp_path / "mixed.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        other = w.register_schema("camera.Image", "jsonschema", b'{"type":"object"}')
+        ours = w.register_schema("discern.Proposal", "jsonschema", b'{"type":"object"}')
+        cam = w.register_channel("/camera/front", "json", other)
+        prop = w.register_channel("/discern/v/proposal", "json", ours)
+        w.add_message(cam, log_time=1, publish_time=1, data=b'{"pixels": []}')
+        p = Proposal(vehicle="v", action="brake", scene=highway_scene(0, 2))
+        w.add_message(prop, log_time=2, publish_time=2, data=p.model_dump_json(by_alias=True).encode())
+        w.add_message(prop, log_time=3, publish_time=3, data=b'{"not": "a proposal"}')
+        w.finish()
+    report = RecoveryReport()
+    with caplog.at_level(logging.WARNING, logger="discern.monitor.log.reader"):
+        records = list(read_log(path, report))
+    assert [r.proposal for r in records] == [p]
+    assert report.skipped == 2
+    assert "unknown channel '/camera/front'" in caplog.text and "fails its schema" in caplog.text
+
+
+def test_empty_missing_and_foreign_files_yield_nothing_but_are_reported(tmp_path):
+    (tmp_path / "empty.mcap").write_bytes(b"")
+    (tmp_path / "junk.mcap").write_bytes(b"this is not an mcap file at all")
+    report = RecoveryReport()
+    records = list(read_log([tmp_path / "empty.mcap", tmp_path / "junk.mcap", tmp_path / "gone.mcap"], report))
+    assert records == []
+    empty, junk, gone = report.files
+    assert empty.size_bytes == 0 and not empty.truncated and empty.stopped_by is None
+    assert junk.truncated and "magic" in junk.stopped_by
+    assert "cannot open" in gone.stopped_by
+    assert "empty" in report.summary()

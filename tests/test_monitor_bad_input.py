@@ -1,0 +1,148 @@
+"""Bad input gets a fail-safe verdict naming the problem, is counted, and the monitor keeps serving."""
+
+from __future__ import annotations
+
+import json
+import threading
+
+import pytest
+import zenoh
+
+from discern.monitor.config import ZenohSettings
+from discern.monitor.example_planner import highway_scene
+from discern.monitor.protocol import CAUTION_ORDER, most_cautious
+from discern.rules.scene import Action, Proposal
+from discern.rules.verdict import Decision, Verdict
+from tests.monitor_process import serve, status, wait_until
+
+MAX_PAYLOAD = 8192
+
+
+@pytest.fixture(scope="module")
+def monitor():
+    proc, ep = serve("--id", "bad", "--max-payload-bytes", str(MAX_PAYLOAD))
+    yield ep, proc
+    assert proc.stop() == 0, proc.output
+
+
+@pytest.fixture(scope="module")
+def session(monitor):
+    s = zenoh.open(ZenohSettings(listen=[], connect=[monitor[0]]).to_zenoh())
+    yield s
+    s.close()
+
+
+def ask(session, key: str, payload: bytes) -> Verdict:
+    replies = [r.ok for r in session.get(key, payload=payload, timeout=10) if r.ok is not None]
+    assert len(replies) == 1, f"expected one verdict on {key}, got {len(replies)}"
+    return Verdict.model_validate_json(replies[0].payload.to_bytes())
+
+
+def proposal(vehicle: str, frame: int = 1, action: str = "cruise", **override) -> dict:
+    data = json.loads(Proposal(vehicle=vehicle, action=action, scene=highway_scene(frame, 3)).model_dump_json(by_alias=True))
+    data.update(override)
+    return data
+
+
+def with_scene(vehicle: str, path: tuple, value) -> bytes:
+    data = proposal(vehicle)
+    node = data["scene"]
+    for part in path[:-1]:
+        node = node[part]
+    node[path[-1]] = value
+    return json.dumps(data).encode()
+
+
+BAD = {
+    "malformed_json": (b'{"action": "cruise", "scene": {', "malformed JSON", "json"),
+    "not_json": (b"\xff\xfe\x00garbage", "malformed JSON", "json"),
+    "empty": (b"", "empty payload", "json"),
+    "unknown_class": (
+        lambda v: with_scene(v, ("objects", 0, "class"), "ufo"),
+        "scene.objects.0.class: unknown value 'ufo'",
+        "schema",
+    ),
+    "nan": (
+        lambda v: with_scene(v, ("ego", "speed"), "NaN").replace(b'"NaN"', b"NaN"),
+        "scene.ego.speed: Input should be a finite number",
+        "schema",
+    ),
+    "infinity": (
+        lambda v: with_scene(v, ("objects", 1, "position", "y"), 1).replace(b'"y": 1}', b'"y": 1e999}'),
+        "scene.objects.1.position.y: Input should be a finite number",
+        "schema",
+    ),
+    "missing_action": (
+        lambda v: json.dumps({k: x for k, x in proposal(v).items() if k != "action"}).encode(),
+        "action: is required but missing",
+        "schema",
+    ),
+    "unknown_action": (lambda v: json.dumps(proposal(v, action="cruise") | {"action": "fly"}).encode(), "action: unknown value 'fly'", "schema"),
+    "wrong_version": (lambda v: json.dumps(proposal(v) | {"version": 2}).encode(), "version", "schema"),
+    "oversized": (lambda v: json.dumps(proposal(v) | {"pad": "x" * MAX_PAYLOAD}).encode(), f"exceeds the limit of {MAX_PAYLOAD} bytes", "size"),
+    "other_vehicle": (lambda v: json.dumps(proposal("somebody_else")).encode(), "payload names 'somebody_else'", "vehicle"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input_gets_a_failsafe_brake_naming_the_problem(session, case):
+    payload, expected, _ = BAD[case]
+    vehicle = f"bad_{case}"
+    verdict = ask(session, f"discern/{vehicle}/check", payload(vehicle) if callable(payload) else payload)
+    assert verdict.decision is Decision.override and verdict.action is Action.brake and verdict.failsafe
+    assert expected in verdict.error, verdict.error
+    assert verdict.vehicle == vehicle and verdict.rules == ["monitor.bad_input"]
+    assert verdict.justification.summary.startswith("fail-safe brake")
+
+
+def test_duplicate_and_out_of_order_frames_are_refused(session):
+    key = "discern/replayer/check"
+    assert not ask(session, key, json.dumps(proposal("replayer", frame=5)).encode()).failsafe
+    duplicate = ask(session, key, json.dumps(proposal("replayer", frame=5)).encode())
+    older = ask(session, key, json.dumps(proposal("replayer", frame=3)).encode())
+    assert duplicate.failsafe and "duplicate frame 5" in duplicate.error
+    assert older.failsafe and "out-of-order frame 3" in older.error and older.frame_id == 3
+    assert not ask(session, key, json.dumps(proposal("replayer", frame=6)).encode()).failsafe
+
+
+def test_an_invalid_vehicle_in_the_key_is_answered_on_that_key(session):
+    verdict = ask(session, "discern/not.a.vehicle/check", json.dumps(proposal("x")).encode())
+    assert verdict.failsafe and "not a valid vehicle id" in verdict.error
+
+
+def test_bad_published_proposal_gets_its_verdict_on_the_vehicle_key(session):
+    got = []
+    arrived = threading.Event()
+    sub = session.declare_subscriber(
+        "discern/pub_bad/verdict", lambda s: (got.append(s.payload.to_bytes()), arrived.set())
+    )
+    try:
+        wait_until(lambda: False, timeout=0.3)  # let the subscription reach the monitor
+        session.put("discern/pub_bad/proposal", b"{not json")
+        assert arrived.wait(10)
+    finally:
+        sub.undeclare()
+    verdict = Verdict.model_validate_json(got[0])
+    assert verdict.failsafe and verdict.vehicle == "pub_bad" and "malformed JSON" in verdict.error
+
+
+def test_refusals_are_counted_and_good_proposals_still_judged(session, monitor):
+    ep, proc = monitor
+    for case in ("malformed_json", "unknown_class", "other_vehicle"):  # make sure some refusals happened whatever ran before
+        payload = BAD[case][0]
+        ask(session, f"discern/count_{case}/check", payload(f"count_{case}") if callable(payload) else payload)
+    session.put("discern/**/proposal", b"{}")  # names no vehicle: counted, never broadcast an answer to
+    good = ask(session, "discern/still_fine/check", json.dumps(proposal("still_fine")).encode())
+    assert good.decision is Decision.approve and not good.failsafe
+    report = wait_until(lambda: [r for r in status(ep, "bad") if r["errors_by_kind"].get("vehicle", 0) >= 2])
+    [report] = report
+    assert report["errors"] >= 3 and report["errors_by_kind"]["json"] >= 1 and report["errors_by_kind"]["schema"] >= 1
+    assert report["failsafes"] >= 2 and report["approvals"] >= 1
+    assert proc.proc.poll() is None
+
+
+def test_failsafe_picks_the_most_cautious_permitted_action():
+    assert most_cautious([Action.accelerate, Action.change_lane_left, Action.cruise]) is Action.cruise
+    assert most_cautious([Action.accelerate]) is Action.accelerate
+    assert most_cautious([]) is Action.brake
+    assert CAUTION_ORDER[0] is Action.brake and len(set(CAUTION_ORDER)) == len(Action)

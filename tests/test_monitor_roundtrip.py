@@ -1,0 +1,110 @@
+"""A real `discern serve` process judging proposals from planners in this process, over zenoh on loopback."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from discern.monitor.client import Monitor
+from discern.monitor.example_planner import highway_scene
+from discern.rules.engine import Reasoner
+from discern.rules.verdict import Decision
+from tests.monitor_process import REPO, endpoint, free_port, serve, status, wait_until
+
+
+@pytest.fixture(scope="module")
+def monitor():
+    proc, ep = serve("--id", "rt")
+    yield ep
+    assert proc.stop() == 0, proc.output
+
+
+@pytest.fixture
+def client(monitor):
+    clients = []
+
+    def make(vehicle="ego", **kwargs):
+        c = Monitor(vehicle, connect=[monitor], timeout=5.0, **kwargs)
+        clients.append(c)
+        return c
+
+    yield make
+    for c in clients:
+        c.close()
+
+
+def test_query_returns_the_cores_verdict(client):
+    scene = highway_scene(300, 8)  # the car ahead is close: cruise is forbidden
+    verdict = client("car_q").check(scene, "cruise")
+    expected = Reasoner().decide(scene, "cruise")
+    assert (verdict.decision, verdict.action, verdict.rules) == (expected.decision, expected.action, expected.rules)
+    assert verdict.decision is Decision.override and not verdict.failsafe and verdict.error is None
+    assert verdict.vehicle == "car_q" and verdict.frame_id == 300 and verdict.proposed.value == "cruise"
+    assert verdict.justification.summary.startswith("override cruise") and verdict.justification.tree
+    assert 0 < verdict.latency_ms < 5000
+
+
+def test_pubsub_verdict_arrives_on_the_verdict_key(client):
+    seen = []
+    monitor = client("car_p", style="pubsub", on_verdict=seen.append)
+    verdict = monitor.check(highway_scene(0, 8), "cruise")
+    assert verdict.decision is Decision.approve and verdict.frame_id == 0 and not verdict.failsafe
+    assert wait_until(lambda: seen) and seen[0].vehicle == "car_p"
+
+
+def test_explain_asks_for_the_proof_tree_of_an_approval(client):
+    monitor = client("car_e")
+    plain = monitor.check(highway_scene(1, 8), "cruise")
+    explained = monitor.check(highway_scene(2, 8), "cruise", explain=True)
+    assert plain.decision is explained.decision is Decision.approve
+    assert not plain.justification.tree and explained.justification.tree and explained.justification.text
+
+
+def test_many_vehicles_are_served_concurrently_each_in_frame_order(client):
+    results: dict[str, list] = {}
+
+    def drive(vehicle):
+        monitor = client(vehicle)
+        results[vehicle] = [monitor.check(highway_scene(f, 8, seed=hash(vehicle) % 7), "cruise") for f in range(8)]
+
+    threads = [threading.Thread(target=drive, args=(f"fleet_{i}",)) for i in range(6)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    assert sorted(results) == [f"fleet_{i}" for i in range(6)]
+    for vehicle, verdicts in results.items():
+        assert [v.frame_id for v in verdicts] == list(range(8))
+        assert all(v.vehicle == vehicle and not v.failsafe for v in verdicts)
+
+
+def test_status_reports_counts_and_latency(client, monitor):
+    client("car_s").check(highway_scene(0, 8), "cruise")
+    [report] = status(monitor, "rt")
+    assert report["monitor_id"] == "rt" and report["proposals"] >= 1 and report["approvals"] >= 1
+    assert report["latency_ms"]["p50_ms"] > 0 and report["latency_ms"]["p99_ms"] >= report["latency_ms"]["p50_ms"]
+    assert report["vehicles"] >= 1
+
+
+def test_planner_example_drives_against_the_monitor(monitor):
+    run = subprocess.run(
+        [sys.executable, "-m", "discern.monitor.commands", "planner-example", "--connect", monitor,
+         "--vehicle", "example", "--frames", "4", "--rate", "50"],
+        cwd=REPO, capture_output=True, text=True, timeout=60,
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    lines = [l for l in run.stdout.splitlines() if l.startswith("frame")]
+    assert len(lines) == 4 and "approve" in lines[0]
+
+
+def test_without_a_monitor_the_client_returns_a_failsafe_in_time():
+    with Monitor("lonely", connect=[endpoint(free_port())], timeout=0.2) as monitor:
+        started = time.monotonic()
+        verdict = monitor.check(highway_scene(0, 4), "accelerate")
+        elapsed = time.monotonic() - started
+    assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
+    assert "no verdict" in verdict.error and elapsed < 2.0

@@ -1,0 +1,55 @@
+"""A fleet split across monitor processes behind one zenoh router (`discern router`, as zenohd would)."""
+
+from __future__ import annotations
+
+import pytest
+
+from discern.monitor.client import Monitor
+from discern.monitor.example_planner import highway_scene
+from tests.monitor_process import DiscernProcess, endpoint, free_port, status, wait_until
+
+
+@pytest.fixture(scope="module")
+def fleet():
+    router_ep = endpoint(free_port())
+    started = []
+    try:
+        router = DiscernProcess("router", "--listen", router_ep).wait_ready()
+        started.append(router)
+        for shard in ("a", "b"):
+            started.append(
+                DiscernProcess(
+                    "serve", "--mode", "client", "--connect", router_ep, "--id", f"shard_{shard}",
+                    "--vehicles", f"fleet_{shard}_*",
+                ).wait_ready()
+            )
+        # Both monitors' declarations must have reached the router before planners ask.
+        wait_until(lambda: len(status(router_ep)) == 2, timeout=15)
+        yield router_ep
+    finally:
+        for proc in reversed(started):
+            proc.stop()
+
+
+def test_each_vehicle_is_judged_by_the_monitor_of_its_shard(fleet):
+    for vehicle, frames in (("fleet_a_1", 3), ("fleet_a_2", 1), ("fleet_b_1", 2)):
+        with Monitor(vehicle, connect=[fleet], mode="client", timeout=5) as monitor:
+            verdicts = [monitor.check(highway_scene(f, 8), "cruise") for f in range(frames)]
+        assert all(v.vehicle == vehicle and not v.failsafe for v in verdicts)
+    counts = {s["monitor_id"]: s["proposals"] for s in status(fleet)}
+    assert counts == {"shard_a": 4, "shard_b": 2}
+
+
+def test_publish_subscribe_works_through_the_router(fleet):
+    with Monitor("fleet_b_7", connect=[fleet], mode="client", style="pubsub", timeout=5) as monitor:
+        frames = iter(range(10, 1000))
+        # the first frames may race the verdict subscription's propagation; later ones must not
+        verdict = wait_until(lambda: (v := monitor.check(highway_scene(next(frames), 8), "cruise", timeout=1)) and not v.failsafe and v)
+        later = monitor.check(highway_scene(next(frames), 8), "cruise")
+    assert verdict and verdict.vehicle == "fleet_b_7" and not later.failsafe and later.frame_id == verdict.frame_id + 1
+
+
+def test_a_vehicle_no_monitor_serves_gets_a_client_side_failsafe(fleet):
+    with Monitor("fleet_c_1", connect=[fleet], mode="client", timeout=0.3) as monitor:
+        verdict = monitor.check(highway_scene(0, 4), "cruise")
+    assert verdict.failsafe and verdict.rules == ["monitor.no_answer"]
