@@ -159,7 +159,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=8000)
     parser.add_argument("--vehicles", type=int, default=16)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--rotate-mb", type=float, default=2.0, help="log file size: more files, more parallel jobs")
+    parser.add_argument("--rotate-mb", type=float, default=1.0, help="log file size: more files, more parallel jobs")
     parser.add_argument("--no-write", action="store_true", help="print the section instead of writing docs/benchmarks.md")
     args = parser.parse_args()
     rows = []

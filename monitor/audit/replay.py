@@ -222,7 +222,8 @@ def _change(worker: _Worker, key: bytes, frame) -> Change:
         )
         _remember(worker.explained, key, explained)
     replayed = explained.model_dump(mode="json")
-    replayed.update(frame_id=scene.frame_id, timestamp=scene.timestamp, vehicle=frame.vehicle)
+    # the frame's own identity; no latency: this decision was not made by a monitor in time
+    replayed.update(frame_id=scene.frame_id, timestamp=scene.timestamp, vehicle=frame.vehicle, latency_ms=None)
     return Change(
         time_ns=frame.log_time_ns,
         vehicle=frame.vehicle,
