@@ -141,6 +141,7 @@ def measure(files: list[Path], workers: int) -> dict:
         "wall_s": result.wall_s,
         "fps": result.frames_per_s,
         "solve_ms": 1000 * t.solve_s / max(1, t.solved),
+        "cpu_ms": 1000 * t.cpu_s / max(1, t.frames),
         "workers": result.workers,
         "load": load,
     }
@@ -180,14 +181,14 @@ def main() -> None:
         f"Command: `{command}`  ",
         f"Machine: {machine()}; logs written by the monitor's McapLogWriter (zstd), verdicts from the shipped catalog.",
         "",
-        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s | decided / reused | reasoner ms per decided frame | load avg before |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s | decided / reused | reasoner ms per decided frame | worker CPU ms per frame | load avg before |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for label, nfiles, size_mb, reading, m in rows:
         lines.append(
             f"| {label} | {nfiles} ({size_mb:.1f}) | {m['workers']} | {m['replayed']} ({m['disagreements']}) | {m['audit_s']:.2f} "
             f"({m['frames'] / m['audit_s']:.0f}) | {m['wall_s']:.2f} | **{m['fps']:.0f}** | {m['decided']} / {m['reused']} | "
-            f"{m['solve_ms']:.2f} | {m['load']:.2f} |"
+            f"{m['solve_ms']:.2f} | {m['cpu_ms']:.2f} | {m['load']:.2f} |"
         )
     lines.append("")
     lines.append(

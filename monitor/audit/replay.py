@@ -84,12 +84,13 @@ class ReplayTally:
     transitions: Counter = field(default_factory=Counter)
     skipped_failsafe: int = 0  # fail-safe verdicts: the rules did not decide them
     skipped_refused: int = 0  # verdicts without a logged proposal (refused or still queued): no scene to replay
-    solve_s: float = 0.0  # worker time spent in the reasoner
+    solve_s: float = 0.0  # worker wall time spent in the reasoner
+    cpu_s: float = 0.0  # worker CPU time for the whole job (reading included)
     counts: PairingCounts = field(default_factory=PairingCounts)
     recovery: list[FileRecovery] = field(default_factory=list)
 
     def merge(self, other: "ReplayTally") -> None:
-        for name in ("frames", "solved", "reused", "rules_only", "skipped_failsafe", "skipped_refused", "solve_s"):
+        for name in ("frames", "solved", "reused", "rules_only", "skipped_failsafe", "skipped_refused", "solve_s", "cpu_s"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.changes.extend(other.changes)
         self.rules_only_examples.update(other.rules_only_examples)
@@ -165,6 +166,7 @@ def _init_worker(rules_dirs: Sequence[str]) -> None:
 def replay_file(job: ReplayJob) -> ReplayTally:
     """Re-decide one file's frames of this job's shard (runs in a worker process)."""
     worker = _worker
+    cpu_start = time.process_time()
     report = RecoveryReport()
     frames, pairing = read_frames(job.task, report, window_s=job.window_s)
     tally = ReplayTally()
@@ -203,6 +205,7 @@ def replay_file(job: ReplayJob) -> ReplayTally:
     if first_shard:
         tally.counts = pairing.counts
         tally.recovery = report.files
+    tally.cpu_s = time.process_time() - cpu_start
     return tally
 
 

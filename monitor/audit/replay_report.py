@@ -114,6 +114,7 @@ def render_json(result: ReplayResult) -> str:
         "decided": t.solved,
         "reused": t.reused,
         "wall_s": result.wall_s,
+        "worker_cpu_s": t.cpu_s,
         "frames_per_s": result.frames_per_s,
         "workers": result.workers,
         "skipped_failsafe": t.skipped_failsafe,
