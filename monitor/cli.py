@@ -11,10 +11,11 @@ from typing import Optional, Sequence
 
 from pydantic import ValidationError
 
-from discern.rules.catalog import CatalogError, load_catalog
-from discern.rules.engine import Reasoner
+from discern.rules.catalog import CatalogError, catalog_dirs, load_catalog
+from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import Action, Proposal, Scene, describe_errors
+from discern.sanity.jurisdiction import reasoner_for
 
 # Parts that add subcommands through a `register(subparsers)` function.
 PARTS: list[str] = ["discern.monitor.demo"]
@@ -38,13 +39,16 @@ def _read_json(path: str) -> dict:
     return data
 
 
-def _reasoner(args: argparse.Namespace) -> Reasoner:
-    if getattr(args, "rules", None):
-        try:
-            return Reasoner(catalog=load_catalog([Path(args.rules)]))
-        except CatalogError as exc:
-            raise UserError(str(exc)) from None
-    return Reasoner()
+def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> Reasoner:
+    """The shipped catalog, or `--rules DIR` in place of the driving rules; sanity rules and the pack still apply."""
+    jurisdiction = jurisdiction or getattr(args, "jurisdiction", "us")
+    try:
+        if getattr(args, "rules", None):
+            catalog = load_catalog([Path(args.rules)] + catalog_dirs()[1:], extra_files=[jurisdiction_pack(jurisdiction)])
+            return Reasoner(catalog=catalog, jurisdiction=jurisdiction)
+        return reasoner_for(jurisdiction)
+    except (CatalogError, ValueError) as exc:
+        raise UserError(str(exc)) from None
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -115,7 +119,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
     from discern.scenarios import runner
 
     try:
-        outcomes = runner.run_files(runner.scenario_files(directory), lambda _j: _reasoner(args))
+        outcomes = runner.run_files(runner.scenario_files(directory), lambda j: _reasoner(args, j))
     except runner.ScenarioError as exc:
         raise UserError(str(exc)) from None
     for outcome in outcomes:
@@ -146,13 +150,15 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--explain", choices=["text", "json", "html"], default="text")
     check.add_argument("--out", help="write the output to this file")
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")
-    check.add_argument("--rules", help="use the rules catalog in this directory instead of the shipped one")
+    check.add_argument("--rules", help="use the driving rules in this directory instead of the shipped ones")
+    check.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
     check.set_defaults(func=cmd_check)
 
     catalog = sub.add_parser("catalog", help="list the rules with their English and sources")
     catalog.add_argument("--all", action="store_true", help="include definitions and entity rules")
     catalog.add_argument("--json", action="store_true")
-    catalog.add_argument("--rules", help="list the catalog in this directory instead of the shipped one")
+    catalog.add_argument("--rules", help="list the driving rules in this directory instead of the shipped ones")
+    catalog.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack to list with the catalog")
     catalog.set_defaults(func=cmd_catalog)
 
     scenarios = sub.add_parser("scenarios", help="run scenario files or the paper's KITTI frames")
@@ -160,7 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = scen_sub.add_parser("run", help="run a directory of scenario JSON files or AV-CSR .pl frames")
     run.add_argument("dir")
     run.add_argument("--repeats", type=int, default=5, help="timing repeats per KITTI frame (median)")
-    run.add_argument("--rules", help="use the rules catalog in this directory")
+    run.add_argument("--rules", help="use the driving rules in this directory")
     run.set_defaults(func=cmd_scenarios)
 
     schema = sub.add_parser("schema", help="write the JSON Schemas of the message models")

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import re
 import time
+from importlib import resources
+from pathlib import Path
 from typing import Callable, Iterable, Optional, Protocol, Sequence
 
 import clingo
@@ -35,6 +37,17 @@ RANK = [
 ]
 
 
+JURISDICTIONS = ("us", "uk")
+
+
+def jurisdiction_pack(name: str) -> Path:
+    """The rule pack of a jurisdiction (rules/jurisdictions/<name>.lp): traffic side, zone limits, turn on red."""
+    key = str(name).strip().lower()
+    if key not in JURISDICTIONS:
+        raise ValueError(f"unknown jurisdiction {name!r}: choose from {', '.join(JURISDICTIONS)}")
+    return Path(str(resources.files("discern.rules") / "jurisdictions" / f"{key}.lp"))
+
+
 class FactProvider(Protocol):
     """Adds facts derived from more than the current frame (the sanity layer's window)."""
 
@@ -59,8 +72,11 @@ class Reasoner:
         params: Params = Params(),
         providers: Iterable[FactProvider] | None = None,
         solve_hook: Callable[[], None] | None = None,
+        jurisdiction: str = "us",
     ):
-        self.catalog = catalog if catalog is not None else load_catalog()
+        """`jurisdiction` picks the rule pack loaded with the shipped catalog; a given catalog is used as is."""
+        self.jurisdiction = jurisdiction
+        self.catalog = catalog if catalog is not None else load_catalog(extra_files=[jurisdiction_pack(jurisdiction)])
         self.params = params
         self._param_facts = params.facts()
         self.providers = list(providers) if providers is not None else _default_providers()
@@ -119,6 +135,17 @@ class Reasoner:
             tree.append(prover.why(_atom("recommended", recommended)))
 
         summary = _summary(decision, proposed, action, recommended, rules)
+        notes = solved.answer.of("noted", 1)
+        brief = Prover(self.catalog, solved.answer, negative_depth=0) if notes and explain else prover
+        for note in notes:
+            # What the sanity layer set aside or doubted (noted/1): its rules with every verdict, its proof on request.
+            if explain:
+                node = brief.why(note.arguments[0])
+                tree.append(node)
+                found = rule_ids(node)
+            else:
+                found = [rule.info.id for rule, _ in prover.derivations(note.arguments[0])]
+            rules.extend(r for r in found if r not in rules)
         justification = Justification(summary=summary, tree=tree)
         justification.text = render_text(justification)
         return Verdict(

@@ -24,12 +24,13 @@ def random_scene(rng: random.Random):
                  intent=rng.choice(["continue_in_lane", "merge_into_left_lane", "enter_right_lane"]), **extra)
 
 
-def full_model(reasoner, sc):
+def full_model(reasoner, sc, history=()):
     ctl = clingo.Control(["--warn=none"])
     with ast.ProgramBuilder(ctl) as b:
         for stm in reasoner.catalog.facts + [r.statement for r in reasoner.catalog.compiled]:
             b.add(stm)
-    ctl.add("base", [], reasoner._param_facts + scene_facts(sc, Action.cruise))
+    provided = "".join(p.facts(sc, history) for p in reasoner.providers)
+    ctl.add("base", [], reasoner._param_facts + scene_facts(sc, Action.cruise) + provided)
     ctl.ground([("base", [])])
     atoms = []
     ctl.solve(on_model=lambda m: atoms.extend(m.symbols(atoms=True)))
@@ -38,9 +39,12 @@ def full_model(reasoner, sc):
 
 def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program(reasoner):
     rng = random.Random(7)
+    previous = random_scene(rng)
     for _ in range(40):
         sc = random_scene(rng)
-        assert set(reasoner.solve(sc, "cruise").answer.all()) == full_model(reasoner, sc)
+        history = (previous.model_copy(update={"frame_id": sc.frame_id - 1, "timestamp": sc.timestamp - 0.1}),)
+        assert set(reasoner.solve(sc, "cruise", history).answer.all()) == full_model(reasoner, sc, history)
+        previous = sc
 
 
 def test_fact_names_found_for_slicing_include_zero_arity_facts():

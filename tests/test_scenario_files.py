@@ -3,6 +3,7 @@ from pathlib import Path
 import pytest
 
 from discern.rules.scene import Action
+from discern.sanity.jurisdiction import reasoner_for
 from discern.scenarios import runner
 
 ROOT = Path(__file__).resolve().parents[1] / "scenarios"
@@ -10,9 +11,9 @@ FILES = sorted(ROOT.rglob("*.json"))
 
 
 @pytest.mark.parametrize("path", FILES, ids=[str(p.relative_to(ROOT)) for p in FILES])
-def test_scenario_gets_its_expected_verdicts(path, reasoner):
+def test_scenario_gets_its_expected_verdicts(path):
     scenario = runner.load(path)
-    outcomes = runner.run(scenario, reasoner)
+    outcomes = runner.run(scenario, reasoner_for(scenario.jurisdiction))
     assert [(o.index, o.problems) for o in outcomes if not o.passed] == []
 
 

@@ -1,0 +1,186 @@
+"""Per-frame decision time with the sanity layer and a 2 s frame window, against the core alone.
+
+Run: python bench/bench_sanity.py [--repeats 30]   (one process; writes the "Sanity layer" section of docs/benchmarks.md)
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench.report import machine, write_section  # noqa: E402
+from discern.adapters.avcsr import read_dir  # noqa: E402
+from discern.rules.catalog import catalog_dirs, load_catalog  # noqa: E402
+from discern.rules.engine import Reasoner, jurisdiction_pack  # noqa: E402
+from discern.rules.scene import Scene  # noqa: E402
+from discern.sanity import WindowConfig  # noqa: E402
+from discern.scenarios.model import Scenario  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+KITTI = ROOT.parent / "shared" / "avcsr" / "kitti"
+SCENARIOS = ROOT / "scenarios" / "sanity"
+RATE_HZ = 10.0  # frames per second of the synthetic window: 2 s = 20 frames of history
+CLASSES = ["car", "truck", "bus", "pedestrian", "bicycle", "roadblock", "unknown"]
+
+
+def pct(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
+
+
+def timed(fn, repeats: int) -> list[float]:
+    out = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        out.append((time.perf_counter() - start) * 1000)
+    return out
+
+
+def window_before(scene: Scene, seconds: float) -> tuple[Scene, ...]:
+    """The frames before `scene` at RATE_HZ, objects moved back along their velocities (oldest first)."""
+    frames = []
+    for k in range(int(seconds * RATE_HZ), 0, -1):
+        dt = k / RATE_HZ
+        data = scene.model_dump(by_alias=True)
+        data["frame_id"] = max(scene.frame_id - k, 0)
+        data["timestamp"] = scene.timestamp - dt
+        for obj in data["objects"]:
+            v = obj.get("velocity") or {"x": 0.0, "y": scene.ego.speed}
+            obj["position"]["x"] -= v["x"] * dt
+            obj["position"]["y"] -= (v["y"] - scene.ego.speed) * dt
+        data["notes"] = []
+        frames.append(Scene.model_validate(data))
+    return tuple(frames)
+
+
+def load_average() -> str:
+    try:
+        return Path("/proc/loadavg").read_text().split()[0]
+    except OSError:
+        return "?"
+
+
+def random_scene(rng: random.Random, n: int, frame: int) -> Scene:
+    lanes = 4
+    objects = []
+    for i in range(1, n + 1):
+        kind = rng.choice(["current"] * 4 + ["oncoming", "sidewalk_right"])
+        objects.append({
+            "id": i, "class": rng.choice(CLASSES),
+            "position": {"x": rng.uniform(-12, 12), "y": rng.uniform(-60, 120)},
+            "lane": {"kind": kind, "id": rng.randint(1, lanes) if kind == "current" else 1},
+            "velocity": {"x": rng.uniform(-1, 1), "y": rng.uniform(0, 30)} if rng.random() < 0.7 else None,
+            "sources": rng.choice([["camera", "radar"], ["camera", "radar"], ["camera"], ["radar"]]),
+        })
+    return Scene.model_validate({
+        "frame_id": frame + 100, "timestamp": 10.0 + frame,
+        "ego": {"speed": rng.uniform(0, 30), "lane": rng.randint(1, lanes), "zone": "highway"},
+        "speed_limit": 30.0, "map_speed_limit": 30.0,
+        "lanes": [{"kind": "current", "id": i} for i in range(1, lanes + 1)]
+        + [{"kind": "oncoming", "id": 1}, {"kind": "sidewalk_right", "id": 1}],
+        "objects": objects,
+        "signs": [{"kind": "speed_limit", "value": 30.0, "source": "camera"}],
+        "sensors": [{"side": "left", "distance": rng.uniform(0.2, 5)}, {"side": "front", "distance": rng.uniform(5, 100)}],
+    })
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--repeats", type=int, default=30, help="timed decisions per KITTI frame and case")
+    parser.add_argument("--window", type=float, default=2.0, help="seconds of history")
+    args = parser.parse_args()
+
+    load_before = load_average()
+    core = Reasoner(catalog=load_catalog([catalog_dirs()[0]], extra_files=[jurisdiction_pack("us")]), providers=[])
+    sanity = Reasoner()
+    assert sanity.providers and sanity.providers[0].config == WindowConfig(seconds=args.window)
+    frames = read_dir(KITTI)
+    windows = [window_before(f.scene, args.window) for f in frames]
+    agree = sum(sanity.decide(f.scene, f.expected, history=w).recommended is f.expected for f, w in zip(frames, windows))
+
+    cases: dict[str, list[float]] = {k: [] for k in ("core", "sanity", "sanity_window", "sanity_window_tree", "provider")}
+    for _ in range(2):  # warm-up: slices and caches
+        for f, w in zip(frames, windows):
+            core.decide(f.scene, f.expected)
+            sanity.decide(f.scene, f.expected, history=w)
+    provider = sanity.providers[0]
+    for f, w in zip(frames, windows):
+        # Interleaved so that load on the machine hits every case alike.
+        for _ in range(args.repeats):
+            cases["core"] += timed(lambda: core.decide(f.scene, f.expected), 1)
+            cases["sanity"] += timed(lambda: sanity.decide(f.scene, f.expected), 1)
+            cases["sanity_window"] += timed(lambda: sanity.decide(f.scene, f.expected, history=w), 1)
+            cases["provider"] += timed(lambda: provider.facts(f.scene, w), 1)
+        cases["sanity_window_tree"] += timed(lambda: sanity.decide(f.scene, f.expected, history=w, explain=True),
+                                             max(args.repeats // 5, 1))
+
+    scenario_times: list[float] = []
+    scenario_frames = 0
+    for path in sorted(SCENARIOS.glob("*.json")):
+        scenario = Scenario.load(path)
+        reasoner = sanity if scenario.jurisdiction == "us" else Reasoner(jurisdiction=scenario.jurisdiction)
+        history: list[Scene] = []
+        for frame in scenario.frames:
+            scenario_times += timed(lambda: reasoner.decide(frame.scene, frame.proposed, history=tuple(history),
+                                                            explain=True), 5)
+            history.append(frame.scene)
+            scenario_frames += 1
+
+    rng = random.Random(2026)
+    scaling: dict[int, tuple[list[float], list[float]]] = {}
+    for n in (10, 50):
+        scenes = [random_scene(rng, n, i) for i in range(30)]
+        hists = [window_before(sc, args.window) for sc in scenes]
+        for sc, h in zip(scenes[:3], hists[:3]):
+            core.decide(sc, "cruise")
+            sanity.decide(sc, "cruise", history=h)
+        plain, windowed = [], []
+        for sc, h in zip(scenes, hists):
+            for _ in range(3):
+                plain += timed(lambda: core.decide(sc, "cruise"), 1)
+                windowed += timed(lambda: sanity.decide(sc, "cruise", history=h), 1)
+        scaling[n] = (plain, windowed)
+
+    def row(name: str, values: list[float], base: list[float] | None = None) -> str:
+        extra = f"{statistics.median(values) - statistics.median(base):+.2f}" if base else "-"
+        return (f"| {name} | {len(values)} | {statistics.median(values):.2f} | {pct(values, 99):.2f} | "
+                f"{max(values):.2f} | {extra} |")
+
+    history_frames = int(args.window * RATE_HZ)
+    body = "\n".join([
+        "## Sanity layer",
+        "",
+        f"Command: `python bench/bench_sanity.py --repeats {args.repeats} --window {args.window:g}`  ",
+        f"Machine: {machine()}; one process, wall-clock per decision, cases interleaved frame by frame; "
+        f"1-minute load average {load_before} at the start and {load_average()} at the end of the run.  ",
+        f"\"core\" is the driving catalog with the US pack and no sanity rules or provider; \"sanity\" is the default "
+        f"Reasoner (catalog + sanity rules + US pack + WindowProvider). The window is {args.window:g} s of history at "
+        f"{RATE_HZ:g} Hz ({history_frames} earlier frames, objects moved back along their velocities). "
+        f"KITTI agreement with the sanity layer and the window: {agree}/{len(frames)}.",
+        "",
+        "| case | decisions | median ms | p99 ms | max ms | median vs core ms |",
+        "|---|---|---|---|---|---|",
+        row("24 KITTI frames, core alone (approve, summary + rule ids)", cases["core"]),
+        row("24 KITTI frames, sanity layer, no history", cases["sanity"], cases["core"]),
+        row(f"24 KITTI frames, sanity layer, {args.window:g} s window", cases["sanity_window"], cases["core"]),
+        row(f"24 KITTI frames, sanity layer, {args.window:g} s window, full proof tree", cases["sanity_window_tree"]),
+        row(f"WindowProvider.facts alone, {history_frames}-frame window (KITTI)", cases["provider"]),
+        row(f"{scenario_frames} frames of scenarios/sanity, history, full proof tree", scenario_times),
+        row("random scenes, 10 objects, core alone", scaling[10][0]),
+        row(f"random scenes, 10 objects, sanity layer, {args.window:g} s window", scaling[10][1], scaling[10][0]),
+        row("random scenes, 50 objects, core alone", scaling[50][0]),
+        row(f"random scenes, 50 objects, sanity layer, {args.window:g} s window", scaling[50][1], scaling[50][0]),
+    ])
+    write_section("sanity", body)
+    print(body)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,351 @@
+"""One worked example per sanity and jurisdiction rule: where it fires, and a near miss where it does not.
+
+The tests check every example against the engine, and docs/sanity.md shows
+each one with the engine's own justification, regenerated with
+
+    python -m discern.sanity.examples docs/sanity.md
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+from discern.rules.engine import Reasoner
+from discern.rules.justify import Prover
+from discern.rules.scene import Action, Scene
+from discern.rules.verdict import JustificationNode, Verdict
+
+MPH = 0.44704
+
+
+def scene(frame: int = 1, speed: float = 10.0, lane: int = 1, lanes: int = 1, zone: str = "city",
+          limit: Optional[float] = 13.0, objects: tuple = (), signs: tuple = (), lights: tuple = (),
+          sensors: tuple = (), intersection: Optional[dict] = None, intent: str = "continue_in_lane",
+          other_lanes: tuple = (), **extra) -> Scene:
+    """A validated Scene from a few keywords; frames are 0.1 s apart."""
+    data = {
+        "frame_id": frame,
+        "timestamp": round(0.1 * frame, 3),
+        "ego": {"speed": speed, "lane": lane, "zone": zone, "intent": intent},
+        "speed_limit": limit,
+        "lanes": [{"kind": "current", "id": i} for i in range(1, lanes + 1)] + [{"kind": k, "id": 1} for k in other_lanes],
+        "objects": list(objects),
+        "signs": list(signs),
+        "traffic_lights": list(lights),
+        "sensors": list(sensors),
+        "intersection": intersection,
+        **extra,
+    }
+    return Scene.model_validate(data)
+
+
+def obj(oid: int, cls: str, x: float, y: float, lane: Optional[int] = None, kind: str = "current",
+        vy: Optional[float] = None, vx: float = 0.0, sources: tuple = ("camera", "radar"), **extra) -> dict:
+    data = {"id": oid, "class": cls, "position": {"x": x, "y": y}, "sources": list(sources), **extra}
+    if lane is not None:
+        data["lane"] = {"kind": kind, "id": lane}
+    if vy is not None:
+        data["velocity"] = {"x": vx, "y": vy}
+    return data
+
+
+def limit_sign(mph: float) -> dict:
+    return {"kind": "speed_limit", "value": round(mph * MPH, 3), "source": "camera"}
+
+
+def sensor(side: str, distance: float, kind: str = "radar") -> dict:
+    return {"side": side, "distance": distance, "kind": kind}
+
+
+@dataclass(frozen=True)
+class Example:
+    rule: str
+    situation: str  # what happens, in a sentence
+    frames: tuple[Scene, ...]  # the window, oldest first; the last one is decided
+    proposed: Action
+    blocked: Optional[tuple[Scene, ...]]  # a near miss where the rule does not fire
+    jurisdiction: str = "us"
+    blocked_jurisdiction: Optional[str] = None
+
+    def reasoners(self) -> tuple[Reasoner, Reasoner]:
+        from .jurisdiction import reasoner_for
+
+        return reasoner_for(self.jurisdiction), reasoner_for(self.blocked_jurisdiction or self.jurisdiction)
+
+
+def fired(reasoner: Reasoner, frames: tuple[Scene, ...], proposed: Action = Action.cruise) -> set[str]:
+    """Ids of the rules with an instance whose body holds in the last frame's answer set."""
+    solved = reasoner.solve(frames[-1], proposed, history=frames[:-1])
+    return Prover(reasoner.catalog, solved.answer).fired_rules()
+
+
+def conclusion(reasoner: Reasoner, frames: tuple[Scene, ...], proposed: Action, rule: str) -> Optional[JustificationNode]:
+    """The proof of the first atom `rule` derives in the last frame (None for facts and rules that did not fire)."""
+    solved = reasoner.solve(frames[-1], proposed, history=frames[:-1])
+    prover = Prover(reasoner.catalog, solved.answer)
+    for compiled in reasoner.catalog.compiled:
+        if compiled.info.id != rule:
+            continue
+        for sym in solved.answer.of(*compiled.signature):
+            for candidate, env in prover.derivations(sym):
+                if candidate.info.id == rule:
+                    return prover.node_for(candidate, env, sym)
+    facts = [sym for sym, owner in reasoner.catalog.fact_rule.items() if owner == rule]
+    if facts:
+        phrases = prover.phrases
+        return JustificationNode(literal=rule, holds=True, rule=rule, kind="fact",
+                                 text="; ".join(sorted(phrases.atom(s) for s in facts)))
+    return None
+
+
+def render(node: JustificationNode, depth: int = 0, max_depth: int = 4) -> list[str]:
+    """The proof as indented lines, cut below `max_depth`."""
+    rule = f"  [{node.rule}]" if node.rule and node.kind != "blocked" else ""
+    lines = ["  " * depth + "- " + node.text + rule]
+    if depth < max_depth:
+        for child in node.children:
+            lines.extend(render(child, depth + 1, max_depth))
+    elif node.children:
+        lines.append("  " * (depth + 1) + "- ...")
+    return lines
+
+
+def decide(example: Example) -> Verdict:
+    reasoner, _ = example.reasoners()
+    return reasoner.decide(example.frames[-1], example.proposed, history=example.frames[:-1], explain=True)
+
+
+BEGIN, END = "<!-- examples: python -m discern.sanity.examples docs/sanity.md -->", "<!-- /examples -->"
+
+
+def markdown(examples: list[Example]) -> str:
+    out = []
+    for example in examples:
+        reasoner, _ = example.reasoners()
+        verdict = decide(example)
+        node = conclusion(reasoner, example.frames, example.proposed, example.rule)
+        info = reasoner.catalog.by_id[example.rule]
+        window = f" ({len(example.frames)} frames)" if len(example.frames) > 1 else ""
+        out += [
+            f"### `{example.rule}`",
+            "",
+            f"*{info.says}* Source: {info.source}.",
+            "",
+            f"{example.situation}{window} Jurisdiction: {example.jurisdiction.upper()}. "
+            f"Proposed: `{example.proposed.value}`.",
+            "",
+            "```",
+            verdict.justification.summary,
+            "what the rule concludes:",
+            *(render(node) if node is not None else ["(no instance)"]),
+            "```",
+            "",
+        ]
+    return "\n".join(out)
+
+
+def _examples() -> list[Example]:
+    city_85 = (scene(speed=16.0, limit=85 * MPH, signs=[limit_sign(85)]),)
+    road_45 = [scene(frame=i, speed=20.2, zone="road", limit=45 * MPH, signs=[limit_sign(45)]) for i in (1, 2)]
+    road_55 = scene(frame=3, speed=20.2, zone="road", limit=55 * MPH, signs=[limit_sign(55)])
+    stop_line = {"type": "unsignaled", "stage": "arriving", "distance": 30.0, "stop_line": True}
+    at_stop = {"type": "four_way", "stage": "at", "distance": 0.0}
+    arriving = {"type": "four_way", "stage": "arriving", "distance": 25.0}
+    radar_car = obj(2, "car", -3.5, 40.0, 1, vy=15.0)
+    phantom = obj(9, "car", 0.0, 16.0, 2, vy=5.0, sources=("camera",))
+    real_ahead = obj(9, "car", 0.0, 16.0, 2, vy=5.0)
+    hw = {"zone": "highway", "limit": 29.0, "lanes": 2, "lane": 2, "speed": 15.0}
+    truck = obj(2, "truck", 0.0, 30.0, 1, vy=12.0, size={"length": 12.0, "width": 2.5})
+    flashing_red = [scene(frame=i + 1, speed=8.0 - i, limit=11.0, lights=[{"colour": "red"}] if i % 2 == 0 else [],
+                          intersection=arriving) for i in range(4)]
+    red_then_dark = tuple(flashing_red[:2])
+    steady_red = (scene(frame=1, speed=8.0, limit=11.0, lights=[{"colour": "red"}], intersection=arriving),
+                  scene(frame=2, speed=7.0, limit=11.0, lights=[{"colour": "red"}], intersection=arriving))
+    ambulance = [scene(frame=i + 1, speed=12.0, lanes=2, limit=15.0,
+                       objects=[obj(4, "emergency_vehicle", 0.0, -40.0 + 2 * i, 1, vy=20.0, emergency_lights=on)])
+                 for i, on in enumerate([True, True, False])]
+    glint = (scene(frame=1, speed=12.0, lanes=2, limit=15.0, objects=[obj(4, "car", 0.0, -40.0, 1, vy=20.0)]),
+             scene(frame=2, speed=12.0, lanes=2, limit=15.0,
+                   objects=[obj(4, "car", 0.0, -38.0, 1, vy=20.0, emergency_lights=True)]))
+    left_car = [scene(frame=i + 1, speed=12.0, lane=2, lanes=2, limit=15.0,
+                      objects=[obj(7, "car", -3.5, -12.8 + 0.8 * i, 1, vy=20.0)]) for i in range(3)]
+    lost = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0)
+    lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)])
+    walker = obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5, sources=("camera", "lidar"))
+    stroller = obj(3, "pedestrian", 5.5, 22.0, vy=1.2, vx=0.0, sources=("camera", "lidar"))
+    stop_sign = {"kind": "stop", "source": "camera"}
+    return [
+        # --- speed limits
+        Example("san.limit.sign", "No limit in the perceived state, but the camera reads a 25 mph sign; the ego drives 12 m/s.",
+                (scene(speed=12.0, limit=None, signs=[limit_sign(25)]),), Action.accelerate,
+                (scene(speed=12.0, limit=None),)),
+        Example("san.limit.remembered", "A 30 mph sign was read for two frames and has left the view; the ego drives 13.5 m/s.",
+                (scene(frame=1, speed=13.5, limit=None, signs=[limit_sign(30)]),
+                 scene(frame=2, speed=13.5, limit=None, signs=[limit_sign(30)]), scene(frame=3, speed=13.5, limit=None)),
+                Action.accelerate,
+                (scene(frame=2, speed=13.5, limit=None, signs=[limit_sign(30)]), scene(frame=3, speed=13.5, limit=None))),
+        Example("san.limit.map_bound", "On a road the sign reads 24 m/s but the map gives 20 m/s; the ego drives 21 m/s.",
+                (scene(speed=21.0, zone="road", limit=24.0, map_speed_limit=20.0),), Action.accelerate,
+                (scene(speed=21.0, zone="road", limit=24.0),)),
+        Example("san.limit.implausible", "A taped sign in the city is read as 85 mph; the ego drives 16 m/s.",
+                city_85, Action.accelerate, (scene(speed=16.0, limit=35 * MPH, signs=[limit_sign(35)]),)),
+        Example("san.limit.unconfirmed", "A single frame reads 45 mph in the city, above the usual 35 mph; the ego drives 17 m/s.",
+                (scene(speed=17.0, limit=45 * MPH),), Action.accelerate,
+                (scene(frame=1, speed=17.0, limit=45 * MPH), scene(frame=2, speed=17.0, limit=45 * MPH))),
+        Example("san.limit.debounce", "On a 45 mph road the reader shows 55 mph for one frame; the ego drives 20.2 m/s.",
+                (*road_45, road_55), Action.accelerate,
+                (road_45[1], road_55.model_copy(update={"frame_id": 4, "timestamp": 0.4}), road_55.model_copy(update={"frame_id": 5, "timestamp": 0.5}))),
+        Example("san.limit.fallback_prior", "The one-frame 55 mph reading is doubted, so the 45 mph read before stays in force.",
+                (*road_45, road_55), Action.accelerate, (road_55,)),
+        Example("san.limit.fallback_zone", "The taped 85 mph city sign, with no map and nothing read before.",
+                city_85, Action.accelerate, (scene(speed=16.0, limit=85 * MPH, map_speed_limit=15.0),)),
+        Example("san.limit.zone_default", "Nothing tells the limit in a city; the ego drives 16 m/s.",
+                (scene(speed=16.0, limit=None),), Action.accelerate, (scene(speed=16.0, limit=15.0),)),
+        # --- stop signs
+        Example("san.stop.evidence_map", "The map marks the approach stop-controlled.",
+                (scene(limit=11.0, intersection={"type": "four_way", "stage": "arriving", "stop_controlled": True}),),
+                Action.cruise, (scene(limit=11.0, intersection=arriving),)),
+        Example("san.stop.evidence_line", "A stop line at an intersection with no traffic lights.",
+                (scene(limit=11.0, intersection=stop_line),), Action.cruise,
+                (scene(limit=11.0, intersection=stop_line, traffic_lights=[{"colour": "green"}]),)),
+        Example("san.stop.evidence_traffic", "Cross traffic drives through an unsignalised intersection ahead.",
+                (scene(limit=11.0, intersection=arriving, other_lanes=("cross_left",),
+                       objects=[obj(5, "car", -15.0, 25.0, 1, kind="cross_left", vy=0.0, vx=10.0)]),),
+                Action.cruise,
+                (scene(limit=11.0, intersection=arriving, other_lanes=("cross_left",),
+                       objects=[obj(5, "car", -15.0, 25.0, 1, kind="cross_left", vy=0.0, vx=0.0)]),)),
+        Example("san.stop.misread_sign", "Stickers make the camera read a stop sign as \"speed limit 45\" at a stop line.",
+                (scene(limit=25 * MPH, signs=[limit_sign(45)], intersection=stop_line),), Action.accelerate,
+                (scene(limit=25 * MPH, signs=[limit_sign(45)], intersection={**stop_line, "stop_line": False}),)),
+        Example("san.stop.misread_limit", "The misread stop sign's \"45\" is not taken as a limit.",
+                (scene(limit=None, signs=[limit_sign(45)], intersection=stop_line),), Action.accelerate,
+                (scene(limit=None, signs=[limit_sign(45)]),)),
+        Example("san.stop.map_controlled", "No stop sign is seen, but the map marks the approach stop-controlled.",
+                (scene(limit=11.0, intersection={"type": "four_way", "stage": "arriving", "stop_controlled": True}),),
+                Action.cruise, (scene(limit=11.0, intersection={"type": "four_way", "stage": "at", "stop_controlled": True}),)),
+        Example("san.memory.stop_sign", "A stop sign seen two frames ago is hidden by a truck now.",
+                (scene(frame=1, limit=11.0, signs=[stop_sign], intersection=arriving),
+                 scene(frame=2, limit=11.0, intersection=arriving)), Action.cruise,
+                (scene(frame=1, limit=11.0, intersection=arriving), scene(frame=2, limit=11.0, intersection=arriving))),
+        # --- range sensors over the camera
+        Example("san.radar.confirmed_earlier", "Only the camera reports the car ahead now, but the radar reported it a frame ago.",
+                (scene(frame=1, **hw, objects=[radar_car, real_ahead]),
+                 scene(frame=2, **hw, objects=[radar_car, phantom])), Action.cruise,
+                (scene(frame=1, **hw, objects=[radar_car, phantom]), scene(frame=2, **hw, objects=[radar_car, phantom]))),
+        Example("san.radar.phantom", "The camera reports a slow car 16 m ahead that the running radar does not see.",
+                (scene(**hw, objects=[radar_car, phantom]),), Action.cruise, (scene(**hw, objects=[phantom]),)),
+        Example("san.radar.phantom_caution", "The possible phantom is in the ego's lane within the gap needed.",
+                (scene(**hw, objects=[radar_car, phantom]),), Action.accelerate,
+                (scene(**hw, objects=[radar_car, {**phantom, "position": {"x": 0.0, "y": 30.0}}]),)),
+        Example("san.caution.slow_down", "Caution for a possible phantom calls for slowing down.",
+                (scene(**hw, objects=[radar_car, phantom]),), Action.cruise, (scene(**hw, objects=[radar_car]),)),
+        Example("san.caution.no_speeding_up", "Caution for a possible phantom forbids accelerating.",
+                (scene(**hw, objects=[radar_car, phantom]),), Action.accelerate, (scene(**hw, objects=[radar_car]),)),
+        Example("san.radar.left_lane_taken", "The camera sees the left lane empty; the left radar reads 2.0 m.",
+                (scene(speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("left", 2.0)]),), Action.change_lane_left,
+                (scene(speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("left", 4.0)]),)),
+        Example("san.radar.right_lane_taken", "The camera sees the right lane empty; the rear-right radar reads 6 m.",
+                (scene(speed=12.0, lane=1, lanes=2, limit=15.0, sensors=[sensor("rear_right", 6.0)]),), Action.change_lane_right,
+                (scene(speed=12.0, lane=1, lanes=2, limit=15.0, sensors=[sensor("rear_right", 25.0)]),)),
+        Example("san.radar.side_contact", "The lane ends at a barrier the camera reads as a lane marking; the left sensor reads 0.4 m.",
+                (scene(speed=27.0, zone="highway", limit=29.0, lanes=2, sensors=[sensor("left", 0.4, "ultrasonic")]),),
+                Action.cruise,
+                (scene(speed=27.0, zone="highway", limit=29.0, lanes=2, sensors=[sensor("left", 0.8, "ultrasonic")]),)),
+        # --- multiple worlds
+        Example("san.world.elevated", "A car on a billboard: its base is 4.5 m above the road, 9 m ahead.",
+                (scene(speed=12.0, limit=15.0, objects=[obj(6, "car", 0.0, 9.0, 1, sources=("camera",), elevation=4.5)]),),
+                Action.cruise,
+                (scene(speed=12.0, limit=15.0, objects=[obj(6, "car", 0.0, 9.0, 1, sources=("camera",), elevation=0.2)]),)),
+        Example("san.world.picture_on_object", "A car painted on the back of a truck: only the camera sees it, inside the truck's outline.",
+                (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 24.5, 1, sources=("camera",))]),),
+                Action.accelerate,
+                (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 24.5, 1)]),)),
+        Example("san.world.size", "A toy-sized car, 0.7 m long, 8 m ahead.",
+                (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, size={"length": 0.7, "width": 0.3})]),),
+                Action.cruise,
+                (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, size={"length": 4.2, "width": 1.8})]),)),
+        Example("san.world.no_echo_off_lane", "A car only the camera sees, on no lane, while the radar is running (a roadside advert).",
+                (scene(speed=12.0, limit=15.0, objects=[obj(2, "car", 0.0, 40.0, 1, vy=12.0),
+                                                        obj(8, "car", 6.0, 9.0, sources=("camera",), predicted_path="op1")],
+                       path_crossings=[{"ego_path": "sp1", "object_path": "op1"}],
+                       ego={"speed": 12.0, "lane": 1, "predicted_path": "sp1"}),),
+                Action.cruise,
+                (scene(speed=12.0, limit=15.0, objects=[obj(8, "car", 6.0, 9.0, sources=("camera",), predicted_path="op1")],
+                       path_crossings=[{"ego_path": "sp1", "object_path": "op1"}],
+                       ego={"speed": 12.0, "lane": 1, "predicted_path": "sp1"}),)),
+        # --- the frame window
+        Example("san.lights.flashing", "A red light seen on, off, on, off over four frames.",
+                tuple(flashing_red), Action.cruise, steady_red),
+        Example("san.lights.flashing_not_steady", "The flashing red light is no steady red.",
+                tuple(flashing_red), Action.cruise, steady_red),
+        Example("san.lights.flashing_red_stop", "Arriving at an intersection whose light flashes red.",
+                tuple(flashing_red), Action.cruise,
+                tuple(s.model_copy(update={"intersection": scene(intersection=at_stop).intersection}) for s in flashing_red)),
+        Example("san.memory.red_light", "A red light seen a frame ago is dark now (not yet known to be flashing).",
+                red_then_dark, Action.cruise, steady_red),
+        Example("san.lights.flashing_yellow_caution", "A yellow light reported flashing.",
+                (scene(speed=9.0, limit=11.0, lights=[{"colour": "yellow", "flashing": True}]),), Action.accelerate,
+                (scene(speed=9.0, limit=11.0, lights=[{"colour": "green"}]),)),
+        Example("san.emergency.flashing", "An ambulance behind shows its lights in two of three frames.",
+                tuple(ambulance), Action.cruise, glint),
+        Example("san.emergency.give_way", "The ambulance on duty closes in from behind.",
+                tuple(ambulance), Action.cruise, glint),
+        Example("san.emergency.pull_over", "The ambulance on duty closes in from behind; the ego is in the kerb lane.",
+                tuple(s.model_copy(update={"ego": s.ego.model_copy(update={"lane": 2})}) for s in ambulance),
+                Action.cruise, glint),
+        Example("san.emergency.move_to_kerb", "The ambulance on duty closes in; the ego is in the left lane of two.",
+                tuple(ambulance), Action.cruise, glint),
+        Example("san.memory.object_permanence", "The camera loses a faster car in the left lane; the rear-left radar still reads it.",
+                (*left_car, lost_seen), Action.change_lane_left, (left_car[2], lost)),
+        Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",
+                (scene(speed=8.0, limit=11.0, objects=[walker]),), Action.cruise,
+                (scene(speed=8.0, limit=11.0, objects=[stroller]),)),
+        # --- jurisdictions
+        Example("jur.us", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),
+        Example("jur.right_hand_traffic", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),
+        Example("jur.us.kerb_side", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),
+        Example("jur.us.lane_preference", "A roadblock in the middle lane of three; both neighbouring lanes are free.",
+                (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), Action.cruise,
+                (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), "us", "uk"),
+        Example("jur.us.zone_limits", "Nothing tells the limit in a US city.", (scene(speed=16.0, limit=None),),
+                Action.accelerate, (scene(speed=16.0, limit=None),), "us", "uk"),
+        Example("jur.us.right_on_red", "Stopped at a red light with a right turn to make (US).",
+                (scene(speed=0.0, limit=11.0, intent="enter_right_lane", lights=[{"colour": "red"}], intersection=at_stop),),
+                Action.turn_right,
+                (scene(speed=4.0, limit=11.0, intent="enter_right_lane", lights=[{"colour": "red"}], intersection=at_stop),)),
+        Example("jur.uk", "Any scene under the UK pack.", (scene(),), Action.cruise, (scene(),), "uk", "us"),
+        Example("jur.left_hand_traffic", "A slower truck ahead on a UK motorway: overtake on the right.",
+                (scene(speed=20.0, zone="highway", limit=29.0, lanes=2, objects=[obj(1, "truck", 0.0, 30.0, 1, vy=15.0)]),),
+                Action.cruise, (scene(),), "uk", "us"),
+        Example("jur.uk.kerb_side", "An emergency vehicle on duty behind; the UK kerb is on the left.",
+                (scene(speed=12.0, lane=2, lanes=2, limit=13.0,
+                       objects=[obj(4, "emergency_vehicle", 0.0, -30.0, 2, vy=20.0, emergency_lights=True)]),),
+                Action.cruise, (scene(),), "uk", "us"),
+        Example("jur.uk.lane_preference", "A roadblock in the middle lane of three (UK).",
+                (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), Action.cruise,
+                (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), "uk", "us"),
+        Example("jur.uk.zone_limits", "Nothing tells the limit in a UK town; the ego drives 14 m/s.",
+                (scene(speed=14.0, limit=None),), Action.accelerate, (scene(speed=14.0, limit=None),), "uk", "us"),
+    ]
+
+
+EXAMPLES = _examples()
+
+
+def write_into(path: Path) -> None:
+    """Replace the examples block of a markdown file with freshly generated examples."""
+    text = path.read_text(encoding="utf-8")
+    start, end = text.find(BEGIN), text.find(END)
+    if start < 0 or end < start:
+        raise SystemExit(f"{path}: no examples block ({BEGIN} ... {END})")
+    path.write_text(text[: start + len(BEGIN)] + "\n\n" + markdown(EXAMPLES) + "\n" + text[end:], encoding="utf-8")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1:
+        write_into(Path(sys.argv[1]))
+    else:
+        sys.stdout.write(markdown(EXAMPLES))

@@ -1,0 +1,310 @@
+"""The temporal window: facts that need more than the current frame.
+
+The monitor passes the vehicle's recent scenes (oldest first) as `history`;
+this provider keeps those within `WindowConfig.seconds` of the current frame
+and turns them into facts the sanity rules reason over (sanity/catalog):
+how long a limit has been read, lights going on and off, objects the camera
+lost, and where tracked objects are heading. It also adds the few
+current-frame facts clingo is poor at computing (sizes, outlines, courses).
+
+Everything here is arithmetic on a few dozen objects; the decisions are made
+in the rules, where they are justified.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Optional, Sequence
+
+from discern.rules.facts import cm
+from discern.rules.scene import DetectedObject, LightColour, ObjectClass, Scene, SensorSide, SignKind, Source
+
+CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Source.annotation}
+EGO_LENGTH, EGO_WIDTH = 4.6, 2.0
+HALF_LANE = 1.75  # m: half a lane, the ego's corridor when predicting crossings
+# Typical footprint (length, width) per class when the detector gives no size.
+FOOTPRINT = {
+    ObjectClass.car: (4.5, 1.8),
+    ObjectClass.truck: (10.0, 2.5),
+    ObjectClass.bus: (12.0, 2.5),
+    ObjectClass.emergency_vehicle: (6.0, 2.2),
+    ObjectClass.motorcycle: (2.2, 0.8),
+    ObjectClass.bike: (2.2, 0.8),
+    ObjectClass.bicycle: (1.8, 0.6),
+    ObjectClass.pedestrian: (0.6, 0.6),
+    ObjectClass.animal: (1.5, 0.6),
+}
+DEFAULT_FOOTPRINT = (1.0, 1.0)
+
+
+@dataclass(frozen=True)
+class WindowConfig:
+    """How much history the sanity layer uses, and how much it asks of it."""
+
+    seconds: float = 2.0  # frames older than this are out of the window
+    max_frames: int = 40  # and at most this many of them (timestamps may be missing)
+    confirm_frames: int = 2  # frames in a row a reading needs before it is believed
+    track_frames: int = 3  # frames a lost object must have been tracked to be kept
+    horizon_s: float = 3.0  # how far ahead tracked courses are followed
+    sensor_margin: float = 2.0  # m a range reading may exceed a lost object's distance and still be it
+
+    def __post_init__(self) -> None:
+        if not self.seconds > 0 or self.max_frames < 1 or self.confirm_frames < 1 or self.track_frames < 1:
+            raise ValueError(
+                "window needs seconds > 0, max_frames >= 1, confirm_frames >= 1 and track_frames >= 1, "
+                f"got {self}"
+            )
+        if not self.horizon_s > 0:
+            raise ValueError(f"window horizon_s must be > 0, got {self.horizon_s}")
+
+
+class WindowProvider:
+    """FactProvider for the sanity rules (see discern.rules.engine.FactProvider)."""
+
+    def __init__(self, config: WindowConfig = WindowConfig()):
+        self.config = config
+
+    def facts(self, scene: Scene, history: Sequence[Scene]) -> str:
+        out: list[str] = []
+        out.extend(_world_facts(scene))
+        out.extend(_predicted_conflicts(scene, self.config.horizon_s))
+        window = self.window(scene, history)
+        if window:
+            c = self.config
+            out.append(
+                f"window_frames({len(window) + 1}).window_param(confirm_frames,{c.confirm_frames})."
+                f"window_param(track_frames,{c.track_frames})."
+            )
+            out.extend(_limit_facts(scene, window, c.confirm_frames))
+            out.extend(_light_facts(scene, window))
+            out.extend(_sign_facts(scene, window))
+            out.extend(_memory_facts(scene, window, c))
+            if any(s.ego.speed < 0.5 for s in window):
+                out.append("ego_stopped_recently.")
+        return "".join(out)
+
+    def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:
+        """The recent frames, oldest first: newer than `seconds` before this one and not from its future."""
+        kept: list[Scene] = []
+        for past in reversed(history):
+            age = scene.timestamp - past.timestamp
+            if age < 0 or age > self.config.seconds or len(kept) >= self.config.max_frames:
+                break
+            kept.append(past)
+        kept.reverse()
+        return kept
+
+
+# --- speed-limit readings ---------------------------------------------------
+
+
+def _readings(scene: Scene) -> set[int]:
+    values = {cm(s.value) for s in scene.signs if s.kind is SignKind.speed_limit and s.value is not None}
+    if scene.speed_limit is not None:
+        values.add(cm(scene.speed_limit))
+    return values
+
+
+def _primary(scene: Scene) -> Optional[int]:
+    """The one limit a frame reads: the perceived limit, else the lowest sign read."""
+    if scene.speed_limit is not None:
+        return cm(scene.speed_limit)
+    signs = [cm(s.value) for s in scene.signs if s.kind is SignKind.speed_limit and s.value is not None]
+    return min(signs) if signs else None
+
+
+def _runs(values: Iterable[Optional[int]]) -> list[tuple[int, int]]:
+    """Runs of equal readings, oldest first, skipping frames that read nothing."""
+    runs: list[tuple[int, int]] = []
+    for value in values:
+        if value is None:
+            continue
+        if runs and runs[-1][0] == value:
+            runs[-1] = (value, runs[-1][1] + 1)
+        else:
+            runs.append((value, 1))
+    return runs
+
+
+def _limit_facts(scene: Scene, window: list[Scene], confirm: int) -> list[str]:
+    out = []
+    now = _readings(scene)
+    past = [_readings(s) for s in window]
+    for value in sorted(now):
+        run = 1
+        for read in reversed(past):
+            if value not in read:
+                break
+            run += 1
+        out.append(f"reading_run({value},{run}).")
+    primary = _primary(scene)
+    runs = _runs(_primary(s) for s in window)
+    if primary is not None:
+        while runs and runs[-1][0] == primary:  # the current reading's own run
+            runs.pop()
+        settled = [value for value, length in runs if length >= confirm]
+        if settled:
+            out.append(f"prior_limit({settled[-1]}).")
+    else:
+        settled_runs = [(value, length) for value, length in runs if length >= confirm]
+        if settled_runs:
+            value, length = settled_runs[-1]
+            out.append(f"remembered_limit({value}).reading_run({value},{length}).")
+    return out
+
+
+# --- lights and signs ---------------------------------------------------------
+
+
+def _light_facts(scene: Scene, window: list[Scene]) -> list[str]:
+    frames = window + [scene]
+    out = []
+    for colour in (LightColour.red, LightColour.yellow):
+        on = [any(l.colour is colour for l in s.traffic_lights) for s in frames]
+        changes = sum(a != b for a, b in zip(on, on[1:]))
+        flagged = any(l.colour is colour and l.flashing for s in window for l in s.traffic_lights)
+        if (changes >= 2 and any(on)) or flagged:
+            out.append(f"light_flashes({colour.value}).")
+    if not scene.traffic_lights and any(l.colour is LightColour.red for s in window for l in s.traffic_lights):
+        out.append("light_seen_recently(red).")
+    return out
+
+
+def _sign_facts(scene: Scene, window: list[Scene]) -> list[str]:
+    """A stop sign seen before and hidden now (the only sign whose memory the rules use)."""
+    hidden = not any(s.kind is SignKind.stop for s in scene.signs)
+    if hidden and any(s.kind is SignKind.stop for past in window for s in past.signs):
+        return ["sign_seen_recently(stop)."]
+    return []
+
+
+# --- objects -------------------------------------------------------------------
+
+
+def _footprint(obj: DetectedObject) -> tuple[float, float]:
+    if obj.size is not None:
+        return obj.size.length, obj.size.width
+    return FOOTPRINT.get(obj.cls, DEFAULT_FOOTPRINT)
+
+
+def _relative_velocity(obj: DetectedObject, ego_speed: float) -> tuple[float, float]:
+    """Velocity relative to the ego; unknown speeds as the core assumes them (vehicles keep pace, the rest stand)."""
+    if obj.velocity is not None:
+        return obj.velocity.x, obj.velocity.y - ego_speed
+    if obj.cls in FOOTPRINT and obj.cls not in (ObjectClass.pedestrian, ObjectClass.animal):
+        return 0.0, 0.0
+    return 0.0, -ego_speed
+
+
+def _world_facts(scene: Scene) -> list[str]:
+    """Sizes, and camera-only vehicles that sit inside the outline of a confirmed object."""
+    out = [f"obj_size({o.id},{cm(o.size.length)},{cm(o.size.width)})." for o in scene.objects if o.size is not None]
+    camera_only = [o for o in scene.objects if o.sources == [Source.camera]]
+    if not camera_only:
+        return out
+    outlines = [(o.id, o.position.x, o.position.y, *_footprint(o))
+                for o in scene.objects if CONFIRMING.intersection(o.sources)]
+    for obj in camera_only:
+        x, y = obj.position.x, obj.position.y
+        out.extend(f"overlaps({obj.id},{oid})." for oid, ox, oy, length, width in outlines
+                   if abs(x - ox) <= width / 2 and abs(y - oy) <= length / 2 + 1.0)
+    return out
+
+
+def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
+    """Objects whose course, kept as it is, meets the ego's corridor within the horizon.
+
+    Objects already in the corridor are the lane rules' business; this looks
+    for those that will come into it ahead of the ego (crossing, cutting in).
+    """
+    out = []
+    for obj in scene.objects:
+        if obj.velocity is None:
+            continue
+        length, width = _footprint(obj)
+        reach_x = (EGO_WIDTH + width) / 2 + 0.3
+        reach_y = (EGO_LENGTH + length) / 2 + 0.5
+        x, y = obj.position.x, obj.position.y
+        if abs(x) < reach_x:
+            continue
+        vx, vy = _relative_velocity(obj, scene.ego.speed)
+        span_x = _inside(x, vx, reach_x)
+        span_y = _inside(y, vy, reach_y)
+        if span_x is None or span_y is None:
+            continue
+        start = max(span_x[0], span_y[0], 0.0)
+        end = min(span_x[1], span_y[1], horizon)
+        meet = y + vy * start
+        if 0.0 < start < end and meet > 0.0:  # from behind, braking would not help
+            out.append(f"predicted_conflict({obj.id},{int(round(start * 1000))},{cm(meet)}).")
+    return out
+
+
+def _inside(position: float, speed: float, reach: float) -> Optional[tuple[float, float]]:
+    """The times at which position + speed*t lies within (-reach, reach), or None."""
+    if speed == 0.0:
+        return (-math.inf, math.inf) if abs(position) < reach else None
+    a, b = (-reach - position) / speed, (reach - position) / speed
+    return (min(a, b), max(a, b))
+
+
+def _side_of(x: float, y: float) -> SensorSide:
+    if abs(x) < HALF_LANE:
+        return SensorSide.front if y > 0 else SensorSide.rear
+    left = x < 0
+    if abs(y) < EGO_LENGTH / 2:
+        return SensorSide.left if left else SensorSide.right
+    if y > 0:
+        return SensorSide.front_left if left else SensorSide.front_right
+    return SensorSide.rear_left if left else SensorSide.rear_right
+
+
+def _memory_facts(scene: Scene, window: list[Scene], config: WindowConfig) -> list[str]:
+    """Objects the camera lost, where their track puts them now, and what says they are still there;
+    earlier confirming sources of objects seen now; emergency lights over the window."""
+    out = []
+    present = {o.id: o for o in scene.objects}
+    unconfirmed = {o.id for o in scene.objects if not CONFIRMING.intersection(o.sources)}
+    last: dict[int, tuple[Scene, DetectedObject]] = {}
+    frames: dict[int, int] = {}
+    lights: dict[int, int] = {}
+    earlier: dict[int, set[Source]] = {}
+    for past in window:
+        for obj in past.objects:
+            oid = obj.id
+            if oid not in present:
+                last[oid] = (past, obj)
+                frames[oid] = frames.get(oid, 0) + 1
+            elif oid in unconfirmed:
+                earlier.setdefault(oid, set()).update(CONFIRMING.intersection(obj.sources))
+            if obj.emergency_lights:
+                lights[oid] = lights.get(oid, 0) + 1
+    for oid, found in earlier.items():
+        out.extend(f"obj_source_before({oid},{s.value})." for s in sorted(found, key=lambda s: s.value))
+    kept: set[int] = set()
+    for oid, (seen, obj) in last.items():
+        age = max(scene.timestamp - seen.timestamp, 0.0)
+        vx, vy = _relative_velocity(obj, seen.ego.speed)
+        x, y = obj.position.x + vx * age, obj.position.y + vy * age
+        tracked = max(frames[oid], obj.track_age or 0)
+        side = _side_of(x, y)
+        reach = math.hypot(x, y) + config.sensor_margin
+        reads = [r for r in scene.sensors if r.side is side and r.kind in CONFIRMING and r.distance <= reach]
+        if tracked < config.track_frames and not reads:
+            continue
+        kept.add(oid)
+        out.append(f"remembered({oid},{int(round(age * 1000))}).remembered_object({oid},{obj.cls.value}).")
+        out.append(f"remembered_pos({oid},{cm(x)},{cm(y)}).track_frames({oid},{tracked}).")
+        if obj.lane is not None:
+            out.append(f"remembered_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")
+        if obj.velocity is not None:
+            out.append(f"remembered_velocity({oid},{cm(obj.velocity.x)},{cm(obj.velocity.y)}).")
+        out.extend(f"remembered_source({oid},{source.value})." for source in obj.sources)
+        if reads:
+            out.append(f"sensor_still_reads({oid},{reads[0].side.value}).")
+    for oid, count in lights.items():
+        if oid in present or oid in kept:
+            now = 1 if oid in present and present[oid].emergency_lights else 0
+            out.append(f"lights_frames({oid},{count + now}).")
+    return out

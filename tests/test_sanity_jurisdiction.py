@@ -1,0 +1,120 @@
+"""Jurisdiction packs: the mirrored world gets the mirrored decision; what differs by law differs."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from discern.rules.engine import Reasoner, jurisdiction_pack
+from discern.rules.scene import Action, Scene
+from discern.sanity.examples import obj, scene, sensor
+from discern.sanity.jurisdiction import reasoner_for
+from discern.sanity.mirror import mirror_action, mirror_scene
+
+US, UK = reasoner_for("us"), reasoner_for("uk")
+
+
+def with_lane_end(sc: Scene, lane: int, metres: float) -> Scene:
+    data = sc.model_dump(by_alias=True)
+    data["lanes"][lane - 1]["ends_in"] = metres
+    return Scene.model_validate(data)
+
+AT = {"type": "four_way", "stage": "at"}
+
+MIRROR_CASES = {
+    "swerve around a roadblock": (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]), "cruise"),
+    "overtake a slower truck": (scene(speed=20.0, zone="highway", limit=29.0, lanes=2, lane=2,
+                                      objects=[obj(1, "truck", 0.0, 30.0, 2, vy=15.0)]), "cruise"),
+    "lane change away from the passing side": (scene(speed=20.0, zone="highway", limit=29.0, lanes=3, lane=2,
+                                                     objects=[obj(1, "truck", 0.0, 30.0, 2, vy=15.0)]), "change_lane_right"),
+    "lane change into a taken lane": (scene(lanes=2, lane=2, objects=[obj(1, "car", -3.5, 2.0, 1)]), "change_lane_left"),
+    "merge when the lane ends": (with_lane_end(scene(lanes=3, lane=2), lane=2, metres=80.0), "cruise"),
+    "turn across oncoming traffic": (scene(speed=3.0, limit=11.0, intent="enter_left_lane", intersection=AT,
+                                           other_lanes=("oncoming",), objects=[obj(1, "car", -3.0, 8.0, 1, kind="oncoming")]),
+                                     "turn_left"),
+    "turn on the kerb side": (scene(speed=3.0, limit=11.0, intent="enter_right_lane", intersection=AT,
+                                    other_lanes=("oncoming",), objects=[obj(1, "car", -3.0, 8.0, 1, kind="oncoming")]),
+                              "turn_right"),
+    "turn with a pedestrian crossing": (scene(speed=3.0, limit=11.0, intent="enter_right_lane", intersection=AT,
+                                              other_lanes=("cross_left",),
+                                              objects=[obj(1, "pedestrian", 4.0, 4.0, 1, kind="cross_left")]), "turn_right"),
+    "barrier on the passing side": (scene(speed=27.0, zone="highway", limit=29.0, lanes=2,
+                                          sensors=[sensor("left", 0.4, "ultrasonic")]), "cruise"),
+    "emergency vehicle behind": (scene(speed=12.0, lanes=2, limit=13.0,
+                                       objects=[obj(4, "emergency_vehicle", 0.0, -30.0, 1, vy=20.0, emergency_lights=True)]),
+                                 "cruise"),
+    "pull over from the wrong lane": (scene(lanes=2, lane=1, intent="pull_over"), "pull_over"),
+}
+
+
+def mirrored(verdict):
+    return (verdict.decision, mirror_action(verdict.action),
+            mirror_action(verdict.recommended) if verdict.recommended else None)
+
+
+def outcome(verdict):
+    return (verdict.decision, verdict.action, verdict.recommended)
+
+
+@pytest.mark.parametrize("case", sorted(MIRROR_CASES))
+def test_mirrored_scene_gets_the_mirrored_decision_in_the_uk(case):
+    sc, proposed = MIRROR_CASES[case]
+    us = US.decide(sc, proposed)
+    uk = UK.decide(mirror_scene(sc), mirror_action(proposed))
+    assert outcome(uk) == mirrored(us)
+
+
+def test_mirrored_random_scenes_get_mirrored_decisions():
+    rng = random.Random(5)
+    for _ in range(40):
+        lanes = rng.randint(1, 3)
+        objects = [obj(i, rng.choice(["car", "truck", "pedestrian", "roadblock"]), rng.uniform(-8, 8), rng.uniform(-25, 50),
+                       rng.randint(1, lanes), vy=rng.choice([None, rng.uniform(0, 25)])) for i in range(1, rng.randint(1, 5))]
+        sc = scene(speed=rng.uniform(0, 13), lane=rng.randint(1, lanes), lanes=lanes, limit=13.0, objects=objects,
+                   sensors=rng.choice([(), (sensor(rng.choice(["left", "front_right", "rear_left"]), rng.uniform(0.2, 6)),)]),
+                   intent=rng.choice(["continue_in_lane", "enter_left_lane", "stay_in_rightmost_lane"]),
+                   intersection=rng.choice([None, AT]))
+        proposed = rng.choice(list(Action))
+        assert outcome(UK.decide(mirror_scene(sc), mirror_action(proposed))) == mirrored(US.decide(sc, proposed))
+
+
+def test_mirroring_twice_gives_the_scene_back():
+    sc = MIRROR_CASES["turn with a pedestrian crossing"][0]
+    assert mirror_scene(mirror_scene(sc)).model_dump(exclude={"notes"}) == sc.model_dump(exclude={"notes"})
+
+
+def test_right_on_red_is_allowed_in_the_us_after_a_stop_and_never_in_the_uk():
+    stopped = scene(speed=0.0, limit=11.0, intent="enter_right_lane", lights=[{"colour": "red"}], intersection=AT)
+    rolling = stopped.model_copy(update={"ego": stopped.ego.model_copy(update={"speed": 4.0})})
+    signed = scene(speed=0.0, limit=11.0, intent="enter_right_lane", lights=[{"colour": "red"}], intersection=AT,
+                   signs=[{"kind": "no_turn_on_red"}])
+    assert US.decide(stopped, "turn_right").decision.value == "approve"
+    assert US.decide(rolling, "turn_right").decision.value == "override"
+    assert US.decide(signed, "turn_right").decision.value == "override"
+    assert UK.decide(stopped, "turn_right").decision.value == "override"
+    assert UK.decide(mirror_scene(stopped), "turn_left").rules[0] == "tl.red_light"
+
+
+def test_zone_limits_are_the_countrys():
+    sc = scene(speed=14.0, limit=None)  # 31 mph in a town, nothing posted
+    assert US.decide(sc, "accelerate").decision.value == "approve"  # US usual 35 mph
+    uk = UK.decide(sc, "accelerate")
+    assert uk.decision.value == "override" and "jur.uk.zone_limits" in uk.rules  # UK 30 mph
+
+
+def test_unknown_jurisdiction_is_rejected_naming_the_known_ones():
+    with pytest.raises(ValueError, match=r"unknown jurisdiction 'fr': choose from us, uk"):
+        reasoner_for("fr")
+    with pytest.raises(ValueError, match="unknown jurisdiction"):
+        Reasoner(jurisdiction="mars")
+
+
+def test_reasoner_for_builds_each_jurisdiction_once():
+    assert reasoner_for("uk") is UK and reasoner_for(" UK ") is not None
+    assert jurisdiction_pack("UK").name == "uk.lp"
+
+
+def test_default_reasoner_is_us_and_lists_the_pack_rules():
+    ids = {r.id for r in Reasoner().catalog.rules}
+    assert {"jur.us", "jur.right_hand_traffic", "jur.us.right_on_red"} <= ids and "jur.uk" not in ids

@@ -1,0 +1,133 @@
+"""The frame window provider: which frames it keeps and the facts it derives from them."""
+
+from __future__ import annotations
+
+import pytest
+
+from discern.sanity import WindowConfig, WindowProvider, default_providers
+from discern.sanity.examples import MPH, limit_sign, obj, scene, sensor
+
+PROVIDER = WindowProvider()
+
+
+def at(t: float, **kw):
+    sc = scene(**kw)
+    return sc.model_copy(update={"timestamp": t})
+
+
+def facts(frames, provider=PROVIDER) -> set[str]:
+    text = provider.facts(frames[-1], tuple(frames[:-1]))
+    return {f + "." for f in text.split(".") if f}
+
+
+def test_reasoner_picks_up_the_window_provider():
+    from discern.rules.engine import Reasoner
+
+    assert [type(p) for p in Reasoner().providers] == [WindowProvider]
+    assert isinstance(default_providers()[0], WindowProvider)
+
+
+def test_window_keeps_frames_within_its_seconds_oldest_first():
+    frames = [at(t) for t in (0.0, 1.0, 1.5, 2.5, 3.2)]
+    assert [s.timestamp for s in PROVIDER.window(frames[-1], frames[:-1])] == [1.5, 2.5]
+
+
+def test_window_stops_at_a_frame_from_the_future():
+    frames = [at(5.0), at(0.2), at(0.3)]  # the clock restarted after the first frame
+    assert [s.timestamp for s in PROVIDER.window(frames[-1], frames[:-1])] == [0.2]
+
+
+def test_window_caps_the_number_of_frames():
+    provider = WindowProvider(WindowConfig(max_frames=3))
+    frames = [at(0.0) for _ in range(10)]
+    assert len(provider.window(frames[-1], frames[:-1])) == 3
+
+
+def test_window_config_rejects_nonsense():
+    with pytest.raises(ValueError, match="confirm_frames >= 1"):
+        WindowConfig(confirm_frames=0)
+    with pytest.raises(ValueError, match="horizon_s must be > 0"):
+        WindowConfig(horizon_s=0)
+
+
+def test_a_plain_frame_without_history_adds_no_facts():
+    plain = scene(objects=[obj(1, "car", 0.0, 20.0, 1, vy=10.0)], sensors=[sensor("left", 1.0)])
+    assert PROVIDER.facts(plain, ()) == ""
+
+
+def test_reading_run_counts_the_frames_in_a_row():
+    frames = [at(0.1 * i, limit=v) for i, v in enumerate([20.0, 15.0, 15.0, 15.0])]
+    assert "reading_run(1500,3)." in facts(frames)
+
+
+def test_prior_limit_is_the_last_settled_reading_before_the_current_one():
+    frames = [at(0.1 * i, limit=v) for i, v in enumerate([20.0, 20.0, 25.0, 30.0])]
+    found = facts(frames)
+    assert "prior_limit(2000)." in found and "reading_run(3000,1)." in found
+
+
+def test_a_limit_read_over_frames_is_remembered_when_the_sign_has_gone():
+    frames = [at(0.0, limit=None, signs=[limit_sign(30)]), at(0.1, limit=None, signs=[limit_sign(30)]),
+              at(0.2, limit=None)]
+    assert f"remembered_limit({round(30 * MPH * 100)})." in facts(frames)
+
+
+def test_a_light_going_on_and_off_is_flashing_and_a_steady_one_is_not():
+    red = [{"colour": "red"}]
+    flashing = [at(0.0, lights=red), at(0.25), at(0.5, lights=red)]
+    steady = [at(0.0, lights=red), at(0.25, lights=red), at(0.5, lights=red)]
+    assert "light_flashes(red)." in facts(flashing)
+    assert not any(f.startswith("light_flashes") for f in facts(steady))
+
+
+def test_a_red_light_out_of_view_is_remembered():
+    assert "light_seen_recently(red)." in facts([at(0.0, lights=[{"colour": "red"}]), at(0.1)])
+
+
+def test_a_lost_object_is_remembered_where_its_track_puts_it():
+    seen = [at(0.1 * i, speed=10.0, objects=[obj(7, "car", -3.5, -10.0, 1, vy=20.0)]) for i in range(3)]
+    found = facts(seen + [at(0.4, speed=10.0)])
+    assert {"remembered(7,200).", "remembered_object(7,car).", "remembered_pos(7,-350,-800).",
+            "remembered_lane(7,current,1).", "track_frames(7,3)."} <= found
+
+
+def test_a_lost_object_a_range_sensor_still_reads_is_kept():
+    glimpse = at(0.0, speed=10.0, objects=[obj(7, "car", -3.5, -10.0, 1, vy=20.0)])
+    assert "sensor_still_reads(7,rear_left)." in facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("rear_left", 9.0)])])
+
+
+def test_a_one_frame_glimpse_with_no_sensor_is_forgotten():
+    glimpse = at(0.0, objects=[obj(7, "car", -3.5, -10.0, 1, vy=20.0)])
+    assert not any(f.startswith("remembered") for f in facts([glimpse, at(0.1)]))
+
+
+def test_earlier_range_sources_of_an_object_are_kept():
+    frames = [at(0.0, objects=[obj(9, "car", 0.0, 30.0, 1)]), at(0.1, objects=[obj(9, "car", 0.0, 29.0, 1, sources=("camera",))])]
+    assert "obj_source_before(9,radar)." in facts(frames)
+
+
+def test_emergency_lights_are_counted_over_the_window():
+    frames = [at(0.1 * i, objects=[obj(4, "emergency_vehicle", 0.0, -30.0, 1, emergency_lights=on)])
+              for i, on in enumerate([True, False, True])]
+    assert "lights_frames(4,2)." in facts(frames)
+
+
+def test_a_pedestrian_walking_into_the_road_meets_the_ego_path():
+    walker = scene(speed=8.0, objects=[obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5)])
+    (conflict,) = [f for f in facts([walker]) if f.startswith("predicted_conflict")]
+    assert conflict.startswith("predicted_conflict(3,26")
+
+
+def test_objects_walking_along_in_the_ego_lane_or_coming_from_behind_get_no_predicted_crossing():
+    along = scene(speed=8.0, objects=[obj(3, "pedestrian", 5.5, 22.0, vy=1.2)])
+    ahead = scene(speed=8.0, objects=[obj(4, "car", 0.0, 20.0, 1, vy=2.0)])
+    behind = scene(speed=8.0, lanes=2, objects=[obj(5, "car", 3.5, -7.0, 2, vy=12.0, vx=-1.0)])
+    assert not facts([along]) and not facts([ahead]) and not facts([behind])
+
+
+def test_a_camera_only_vehicle_inside_a_confirmed_outline_overlaps_it():
+    truck = obj(2, "truck", 0.0, 30.0, 1, size={"length": 12.0, "width": 2.5})
+    picture = obj(5, "car", 0.3, 24.5, 1, sources=("camera",))
+    apart = obj(6, "car", 3.5, 24.5, 2, sources=("camera",))
+    found = facts([scene(lanes=2, objects=[truck, picture, apart])])
+    assert "overlaps(5,2)." in found and not any(f.startswith("overlaps(6") for f in found)

@@ -1,0 +1,18 @@
+import json
+from pathlib import Path
+
+from discern.rules.schema import MODELS, schema_of, write_schemas
+
+PUBLISHED = Path(__file__).resolve().parents[1] / "rules" / "schema"
+
+
+def test_published_schemas_match_the_models():
+    for name in MODELS:
+        published = json.loads((PUBLISHED / f"{name}.schema.json").read_text())
+        assert published == schema_of(name), f"run: discern schema --out rules/schema ({name} drifted)"
+
+
+def test_schema_command_writes_all_three(tmp_path):
+    written = write_schemas(tmp_path)
+    assert sorted(p.name for p in written) == ["proposal.schema.json", "scene.schema.json", "verdict.schema.json"]
+    assert json.loads((tmp_path / "scene.schema.json").read_text())["properties"]["ego"]
