@@ -8,7 +8,7 @@ from datetime import datetime, timezone
 
 import pytest
 
-from tests.audit_logs import FLEET_A_FRAMES, PEDESTRIAN_FRAMES, SHADOW_FRAMES, SLOW_FRAMES, audit, monitor_logs
+from tests.audit_logs import CLEAR_FRAMES, FLEET_A_FRAMES, FRAMES, PEDESTRIAN_FRAMES, SHADOW_FRAMES, SLOW_FRAMES, audit, monitor_logs
 
 
 @pytest.fixture(scope="module")
@@ -50,11 +50,11 @@ def test_filters_by_vehicle_rule_verdict_and_time(capsys, tmp_path, all_logs):
     by_vehicle = export(capsys, tmp_path, *all_logs, "--vehicle", "car_b")
     assert {d["vehicle"] for d in by_vehicle["disagreements"]} == {"car_b"}
     assert len(by_vehicle["disagreements"]) == PEDESTRIAN_FRAMES + 1
-    assert by_vehicle["frames"] == 21  # the vehicle filter applies to frames too
+    assert by_vehicle["frames"] == PEDESTRIAN_FRAMES + 1  # the vehicle filter applies to frames too
 
     by_rule = export(capsys, tmp_path, *all_logs, "--rule", "acc.*")
     assert len(by_rule["disagreements"]) == FLEET_A_FRAMES // 2 + SHADOW_FRAMES
-    assert by_rule["frames"] == 74  # rule and verdict filters only narrow the listing
+    assert by_rule["frames"] == FRAMES  # rule and verdict filters only narrow the listing
 
     vetoes = export(capsys, tmp_path, *all_logs, "--verdict", "veto", "--verdict", "failsafe")
     assert {d["verdict"] for d in vetoes["disagreements"]} == {"veto", "failsafe"}
@@ -79,22 +79,22 @@ def test_aggregates_per_rule_action_pair_scenario_and_time(capsys, tmp_path, all
     }
     scenarios = {s["scenario"]: (s["disagreements"], s["frames"]) for s in doc["per_scenario"]}
     assert scenarios["city/vulnerable_road_user"] == (PEDESTRIAN_FRAMES, PEDESTRIAN_FRAMES)
-    assert scenarios["city/open_road"] == (0, 10)
+    assert scenarios["city/open_road"] == (0, CLEAR_FRAMES)
     assert sum(b["veto"] + b["override"] + b["failsafe"] for b in doc["over_time"]) == len(doc["disagreements"])
-    assert doc["latency_ms"]["samples"] == doc["frames"] == 74
+    assert doc["latency_ms"]["samples"] == doc["frames"] == FRAMES
 
 
 def test_odometry_integrates_scene_speed_over_scene_time(capsys, tmp_path, all_logs):
     doc = export(capsys, tmp_path, *all_logs)
     km = {v["vehicle"]: v["km"] for v in doc["per_vehicle"]}
-    # 0.1 s between frames: car_a 39 steps at 31 m/s, car_s 9 at 32 m/s, car_b 19 at 8 m/s
+    # 0.1 s between frames: car_a 39 steps at 31 m/s, car_s 29 at 32 m/s, car_b and car_c 9 each at 8 m/s
     assert km["car_a"] == pytest.approx(39 * 0.1 * 31 / 1000)
-    assert km["car_s"] == pytest.approx(9 * 0.1 * 32 / 1000)
-    assert km["car_b"] == pytest.approx(19 * 0.1 * 8 / 1000)
+    assert km["car_s"] == pytest.approx(29 * 0.1 * 32 / 1000)
+    assert km["car_b"] == km["car_c"] == pytest.approx(9 * 0.1 * 8 / 1000)
     total_km = sum(km.values())
     assert doc["odometry"]["km"] == pytest.approx(total_km)
     assert doc["odometry"]["per_km"] == pytest.approx(len(doc["disagreements"]) / total_km)
-    assert doc["odometry"]["driving_hours"] == pytest.approx((39 + 9 + 19) * 0.1 / 3600)
+    assert doc["odometry"]["driving_hours"] == pytest.approx((39 + 29 + 9 + 9) * 0.1 / 3600)
 
 
 def test_csv_export_has_one_row_per_disagreement(capsys, tmp_path, all_logs):

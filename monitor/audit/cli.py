@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Callable, Optional, Sequence
 
 from discern.rules.catalog import CatalogError, load_catalog
+from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
 
 from .aggregate import Aggregates, Filters, Kind, audit_logs
 from .parallel import default_workers
@@ -44,6 +45,11 @@ def register(subparsers) -> None:
         metavar="DIR",
         help="with --replay: a driving-rules directory (*.lp) to use instead of the shipped rules/catalog "
         "(the sanity rules stay); repeatable",
+    )
+    p.add_argument(
+        "--jurisdiction",
+        choices=JURISDICTIONS,
+        help="with --replay: the rule pack the monitor ran with (default: us, the monitor's)",
     )
     p.add_argument("--vehicle", action="append", default=[], metavar="PATTERN", help="only these vehicles (shell pattern)")
     p.add_argument("--since", metavar="TIME", help="only frames logged at or after TIME (ISO 8601, UTC default, or epoch s)")
@@ -81,7 +87,7 @@ def _run(args: argparse.Namespace) -> int:
     filters = _filters(args)
     if args.replay:
         return _replay(args, paths, filters)
-    for flag in ("rules", "window"):
+    for flag in ("rules", "window", "jurisdiction"):
         if getattr(args, flag) is not None:
             raise UsageError(f"--{flag} only applies with --replay")
     from . import report
@@ -107,10 +113,11 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         if not any(Path(d).glob("*.lp")):
             raise UsageError(f"--rules {d}: no *.lp rule files in it")
     from . import replay_report
-    from .replay import replay_logs
+    from .replay import ReplayCatalog, replay_logs
 
     try:
-        result = replay_logs(paths, args.rules, filters, args.workers, args.window)
+        catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us")
+        result = replay_logs(paths, catalog, filters, args.workers, args.window)
     except CatalogError as exc:
         raise UsageError(f"rules catalog: {exc}") from None
     except RuntimeError as exc:  # clingo's parser: name the file and line it could not read
@@ -191,8 +198,8 @@ def _write(path: Optional[str], render: Callable[[], str]) -> None:
 
 
 def _rule_text() -> dict[str, str]:
-    """What each shipped rule says, for the report's per-rule table."""
-    return {r.id: r.says for r in load_catalog().rules}
+    """What each shipped rule says (with the monitor's default rule pack), for the report's per-rule table."""
+    return {r.id: r.says for r in load_catalog(extra_files=[jurisdiction_pack("us")]).rules}
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -28,8 +28,8 @@ from typing import Optional, Sequence
 
 from discern.monitor.config import MonitorConfig
 from discern.monitor.log import FileRecovery, RecoveryReport
-from discern.rules.catalog import catalog_dirs, load_catalog
-from discern.rules.engine import Reasoner
+from discern.rules.catalog import Catalog, catalog_dirs, load_catalog
+from discern.rules.engine import Reasoner, jurisdiction_pack
 from discern.rules.scene import Action, Scene
 from discern.rules.verdict import Verdict
 
@@ -106,7 +106,7 @@ class ReplayTally:
 @dataclass
 class ReplayResult:
     tally: ReplayTally
-    catalog: list[str]  # the rules directories replayed with
+    catalog: "ReplayCatalog"
     wall_s: float
     workers: int
 
@@ -127,8 +127,8 @@ class ReplayJob:
 class _Worker:
     """Per-process state: one Reasoner, the decided frames, the scene digests."""
 
-    def __init__(self, rules_dirs: Sequence[str]):
-        self.reasoner = Reasoner(catalog=load_catalog([Path(d) for d in rules_dirs]))
+    def __init__(self, catalog: "ReplayCatalog"):
+        self.reasoner = Reasoner(catalog=catalog.load(), jurisdiction=catalog.jurisdiction)
         self.decided: OrderedDict[bytes, Outcome] = OrderedDict()
         self.explained: OrderedDict[bytes, Verdict] = OrderedDict()  # changed frames, with their full tree
         self.digests: OrderedDict[int, tuple[Scene, bytes]] = OrderedDict()
@@ -158,9 +158,9 @@ class _Worker:
 _worker: Optional[_Worker] = None
 
 
-def _init_worker(rules_dirs: Sequence[str]) -> None:
+def _init_worker(catalog: "ReplayCatalog") -> None:
     global _worker
-    _worker = _Worker(rules_dirs)
+    _worker = _Worker(catalog)
 
 
 def replay_file(job: ReplayJob) -> ReplayTally:
@@ -238,32 +238,49 @@ def _change(worker: _Worker, key: bytes, frame) -> Change:
     )
 
 
-def replay_catalog_dirs(rules: Optional[Sequence[str]]) -> list[str]:
-    """The catalog to replay with: the shipped one, or the given driving-rules dirs plus the shipped sanity rules."""
-    shipped = [str(d) for d in catalog_dirs()]
-    if not rules:
-        return shipped
-    return [str(Path(d)) for d in rules] + shipped[1:]
+@dataclass(frozen=True)
+class ReplayCatalog:
+    """The rules to replay with: the shipped ones as the monitor loads them, or edited driving rules.
+
+    Given driving-rules directories replace rules/catalog; the shipped sanity
+    rules and the jurisdiction's pack stay, so an edited copy of rules/catalog
+    is compared on equal terms.
+    """
+
+    dirs: tuple[str, ...]
+    jurisdiction: str = "us"
+
+    @classmethod
+    def of(cls, rules: Optional[Sequence[str]] = None, jurisdiction: str = "us") -> "ReplayCatalog":
+        shipped = [str(d) for d in catalog_dirs()]
+        dirs = [str(Path(d)) for d in rules] + shipped[1:] if rules else shipped
+        jurisdiction_pack(jurisdiction)  # an unknown name fails here, naming the known ones
+        return cls(tuple(dirs), jurisdiction)
+
+    def load(self) -> Catalog:
+        return load_catalog([Path(d) for d in self.dirs], extra_files=[jurisdiction_pack(self.jurisdiction)])
+
+    def describe(self) -> str:
+        return f"{', '.join(self.dirs)} ({self.jurisdiction} rules)"
 
 
 def replay_logs(
     paths: Sequence[str],
-    rules: Optional[Sequence[str]] = None,
+    catalog: ReplayCatalog = ReplayCatalog.of(),
     filters: Filters = Filters(),
     workers: int = 1,
     window_s: Optional[float] = None,
 ) -> ReplayResult:
     """Replay every file; raises CatalogError (from load_catalog) for a broken rules directory."""
     window = window_s if window_s is not None else MonitorConfig().window_s
-    dirs = replay_catalog_dirs(rules)
-    load_catalog([Path(d) for d in dirs])  # a broken catalog fails here, once, not in every worker
+    catalog.load()  # a broken catalog fails here, once, not in every worker
     tasks = plan_tasks(list(paths))
     shards = max(1, math.ceil(workers / max(1, len(tasks))))
     jobs = [ReplayJob(task, shard, shards, filters, window) for task in tasks for shard in range(shards)]
     start = time.perf_counter()
     total = ReplayTally()
-    for tally in run_jobs(replay_file, jobs, workers, _init_worker, (dirs,)):
+    for tally in run_jobs(replay_file, jobs, workers, _init_worker, (catalog,)):
         total.merge(tally)
     wall = time.perf_counter() - start
     total.changes.sort(key=lambda c: (c.time_ns, c.vehicle))
-    return ReplayResult(total, dirs, wall, max(1, min(workers, len(jobs))))
+    return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))))

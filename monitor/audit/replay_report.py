@@ -32,7 +32,7 @@ CSV_FIELDS = [
 def headline(result: ReplayResult) -> list[str]:
     t = result.tally
     lines = [
-        f"replayed {t.frames} frames with {', '.join(result.catalog)} in {result.wall_s:.2f} s "
+        f"replayed {t.frames} frames with {result.catalog.describe()} in {result.wall_s:.2f} s "
         f"({result.frames_per_s:.0f} frames/s, {result.workers} worker{'s' if result.workers != 1 else ''}; "
         f"{t.solved} decided, {t.reused} identical to a frame decided before)",
     ]
@@ -109,7 +109,8 @@ def render_csv(result: ReplayResult) -> str:
 def render_json(result: ReplayResult) -> str:
     t = result.tally
     doc = {
-        "catalog": result.catalog,
+        "catalog": list(result.catalog.dirs),
+        "jurisdiction": result.catalog.jurisdiction,
         "frames": t.frames,
         "decided": t.solved,
         "reused": t.reused,
