@@ -4,10 +4,13 @@ Run: python bench/bench_audit.py [--frames 8000] [--vehicles 16] [--workers 2]
 (writes the "Audit replay" section of docs/benchmarks.md)
 
 The logs are written by the monitor's own McapLogWriter with verdicts from the
-real Reasoner, rotated into several files like a long-running monitor's. Two
+real Reasoner (sanity layer included, each frame judged with its vehicle's
+history window as the monitor keeps it), rotated into several files like a
+long-running monitor's. Two
 fleets are measured: every scene distinct (highway traffic, with the monitor's example
 planner's action cycle), and half the vehicles waiting at a red light, whose scenes
-repeat frame after frame (the replay decides each distinct scene once).
+repeat frame after frame (once the 2 s history window is full, the replay
+decides each distinct frame once).
 """
 
 from __future__ import annotations
@@ -27,9 +30,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench.report import machine, write_section  # noqa: E402
 from discern.monitor.audit.aggregate import audit_logs  # noqa: E402
 from discern.monitor.audit.replay import replay_logs  # noqa: E402
-from discern.monitor.config import LogSettings  # noqa: E402
+from discern.monitor.config import LogSettings, MonitorConfig  # noqa: E402
 from discern.monitor.example_planner import planner_action  # noqa: E402
 from discern.monitor.log import McapLogWriter, read_log, vehicle_topic  # noqa: E402
+from discern.monitor.vehicle_state import VehicleState  # noqa: E402
 from discern.rules.engine import Reasoner  # noqa: E402
 from discern.rules.scene import (  # noqa: E402
     Action,
@@ -94,28 +98,22 @@ def red_light_scene(frame_id: int, vehicle: int) -> Scene:
 
 
 def write_fleet(directory: Path, frames: int, vehicles: int, waiting_share: float, rotate_mb: float) -> list[Path]:
-    """A fleet's log as the monitor writes it: proposal then verdict, per frame, per vehicle."""
+    """A fleet's log as the monitor writes it: each frame judged with its vehicle's history, proposal then verdict."""
     reasoner = Reasoner()
-    decided: dict[str, object] = {}
     writer = McapLogWriter(LogSettings(directory=directory, rotate_bytes=int(rotate_mb * 2**20), flush_seconds=0.2), "bench")
     waiting = int(round(vehicles * waiting_share))
+    states = [VehicleState(MonitorConfig().window_s) for _ in range(vehicles)]
     t0 = time.time_ns()
-    per_vehicle = frames // vehicles
-    for f in range(per_vehicle):
+    for f in range(frames // vehicles):
         for v in range(vehicles):
             name = f"car_{v:03d}"
             if v < waiting:
                 scene, action = red_light_scene(f, v), (Action.brake if f % 4 else Action.cruise)
             else:
                 scene, action = traffic_scene(f, v), planner_action(f + v)
-            key = scene.model_dump_json(exclude={"frame_id", "timestamp"}) + action.value
-            verdict = decided.get(key) if v < waiting else None
-            if verdict is None:
-                verdict = reasoner.decide(scene, action)
-                if v < waiting:
-                    decided[key] = verdict
-            verdict = verdict.model_copy(update={"vehicle": name, "frame_id": f, "timestamp": scene.timestamp})
             arrived = t0 + int((f * PERIOD_S + v * 1e-4) * 1e9)
+            history = states[v].admit(scene, arrived / 1e9)
+            verdict = reasoner.decide(scene, action, history=history, vehicle=name)
             writer.write(vehicle_topic(name, "proposal"), "proposal", Proposal(vehicle=name, action=action, scene=scene), arrived)
             writer.write(vehicle_topic(name, "verdict"), "verdict", verdict, arrived + 3_000_000)
     writer.close()

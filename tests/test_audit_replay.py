@@ -42,10 +42,10 @@ def test_replay_with_the_shipped_rules_changes_no_decision(capsys, tmp_path, log
     assert code == 0
     assert "no decision would change" in text
     assert doc["frames"] == FLEET_A_FRAMES + PEDESTRIAN_FRAMES + CLEAR_FRAMES + SHADOW_FRAMES + MEMORY_SEEN + MEMORY_LOST
-    assert doc["changes"] == [] and doc["rules_only_changes"] == 0
+    assert doc["changes"] == [] and doc["decided_in_full"] == 0
     # not decided by the rules: the deadline fail-safe with a scene, and the verdicts with no proposal logged
     assert doc["skipped_failsafe"] == 1 and doc["skipped_refused"] == 3
-    assert doc["decided"] + doc["reused"] == doc["frames"]
+    assert doc["solved"] + doc["reused"] == doc["frames"]
 
 
 def test_replay_with_an_edited_rule_reports_each_changed_decision_side_by_side(capsys, tmp_path, logs, tolerant):
@@ -94,9 +94,9 @@ def test_identical_frames_are_decided_once(capsys, tmp_path, logs):
     _, doc, text = replay(capsys, tmp_path, str(logs["shadow"]), "--workers", "1")
     # car_s proposes the same acceleration in the same scene every 0.1 s; once its 2 s history window is full,
     # frame after frame is identical but for its id and time, and is answered from the first one's decision
-    assert doc["frames"] == SHADOW_FRAMES and doc["decided"] + doc["reused"] == SHADOW_FRAMES
-    assert doc["decided"] <= 22 and doc["reused"] >= SHADOW_FRAMES - 22
-    assert f"{doc['decided']} decided, {doc['reused']} identical to a frame decided before" in text
+    assert doc["frames"] == SHADOW_FRAMES and doc["solved"] + doc["reused"] == SHADOW_FRAMES
+    assert doc["solved"] <= 22 and doc["reused"] >= SHADOW_FRAMES - 22
+    assert f"{doc['solved']} solved, {doc['reused']} identical to a frame solved before" in text
 
 
 def test_worker_processes_find_the_same_changes(capsys, tmp_path, logs, tolerant):
@@ -105,6 +105,32 @@ def test_worker_processes_find_the_same_changes(capsys, tmp_path, logs, tolerant
     _, two, _ = replay(capsys, tmp_path, *args, "--workers", "2")
     assert two["workers"] == 2
     assert two["changes"] == one["changes"] and two["frames"] == one["frames"]
+
+
+def test_deciding_every_frame_in_full_finds_the_same_changes(capsys, tmp_path, logs, tolerant):
+    """The fast path trusts the logged permitted set and recommendation; deciding every frame must agree with it."""
+    args = [str(logs[k]) for k in ("fleet", "shadow", "memory")] + ["--rules", str(tolerant), "--workers", "1"]
+    _, fast, _ = replay(capsys, tmp_path, *args)
+    _, full, _ = replay(capsys, tmp_path, *args, "--compare-rules")
+    assert full["decided_in_full"] == full["solved"] > fast["decided_in_full"]
+    assert full["changes"] == fast["changes"] and len(fast["changes"]) == FLEET_A_FRAMES // 2 + SHADOW_FRAMES
+
+
+def test_compare_rules_finds_frames_citing_other_rules(capsys, tmp_path, logs):
+    renamed = tolerant_rules(tmp_path)  # a fresh copy; then undo the tolerance and rename the rule instead
+    for path in renamed.glob("*.lp"):
+        text = path.read_text()
+        if "%! rule acc.at_limit\n" in text:
+            text = text.replace("V >= S + 500.", "V >= S.").replace("%! rule acc.at_limit\n", "%! rule acc.not_over_limit\n")
+            path.write_text(text)
+    args = [str(logs["fleet"]), "--rules", str(renamed), "--workers", "1"]
+    code, fast, _ = replay(capsys, tmp_path, *args)
+    assert code == 0 and fast["changes"] == [] and fast["rules_only_changes"] == 0
+    code, full, text = replay(capsys, tmp_path, *args, "--compare-rules")
+    assert code == 0 and full["changes"] == []
+    assert full["rules_only_changes"] == FLEET_A_FRAMES // 2
+    assert f"{FLEET_A_FRAMES // 2} frames would keep the decision but cite other rules" in text
+    assert "[acc.at_limit] -> [acc.not_over_limit]" in text
 
 
 def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):

@@ -47,6 +47,11 @@ def register(subparsers) -> None:
         "(the sanity rules stay); repeatable",
     )
     p.add_argument(
+        "--compare-rules",
+        action="store_true",
+        help="with --replay: decide every frame in full, to also list frames that keep their decision but cite other rules",
+    )
+    p.add_argument(
         "--jurisdiction",
         choices=JURISDICTIONS,
         help="with --replay: the rule pack the monitor ran with (default: us, the monitor's)",
@@ -87,9 +92,9 @@ def _run(args: argparse.Namespace) -> int:
     filters = _filters(args)
     if args.replay:
         return _replay(args, paths, filters)
-    for flag in ("rules", "window", "jurisdiction"):
-        if getattr(args, flag) is not None:
-            raise UsageError(f"--{flag} only applies with --replay")
+    for flag in ("rules", "window", "jurisdiction", "compare_rules"):
+        if getattr(args, flag) not in (None, False):
+            raise UsageError(f"--{flag.replace('_', '-')} only applies with --replay")
     from . import report
 
     tally = audit_logs(paths, filters, args.workers)
@@ -117,7 +122,7 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
 
     try:
         catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us")
-        result = replay_logs(paths, catalog, filters, args.workers, args.window)
+        result = replay_logs(paths, catalog, filters, args.workers, args.window, args.compare_rules)
     except CatalogError as exc:
         raise UsageError(f"rules catalog: {exc}") from None
     except RuntimeError as exc:  # clingo's parser: name the file and line it could not read

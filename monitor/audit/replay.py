@@ -6,14 +6,22 @@ frame whose decision or executed action would change is reported with both
 justifications. Fail-safe verdicts and refused inputs were not decided by the
 rules and are counted, not replayed.
 
+Each frame is first only solved: a verdict's decision and action follow from
+the proposed action, the shadow flag and the permitted set and recommended
+action (Reasoner.decide), and the logged verdict carries all four, so when the
+solved sets equal the logged ones the decision cannot have changed and no
+proof is built. Otherwise the frame is decided in full, and a changed one is
+explained with its whole justification tree. `compare_rules` decides every
+frame in full, to also find frames that keep their decision but cite other
+rules.
+
 Work is split by file and, when there are fewer files than workers, by a
 hash of the frame's content, so one worker process sees every copy of a
-scene. Identical frames are decided once per worker: the content key is the
+scene. Identical frames are solved once per worker: the content key is the
 scene, the action, the shadow flag and, when the reasoner has fact providers
 (the sanity layer, the only readers of the history), the history; frame ids
 and timestamps enter it relative to the frame, since a decision depends on
-time differences, not on the wall clock. Only changed decisions get the full
-justification tree.
+time differences, not on the wall clock.
 """
 
 from __future__ import annotations
@@ -39,6 +47,15 @@ from .parallel import run_jobs
 
 CACHE_LIMIT = 100_000  # decided frames kept per worker for reuse
 SCENE_DIGESTS = 8192  # scenes whose content digest is kept (a history window repeats them)
+
+
+@dataclass
+class Solved:
+    """What one distinct frame came to under the replayed rules; the full outcome only once needed."""
+
+    permitted: frozenset[Action]
+    recommended: Optional[Action]
+    outcome: Optional["Outcome"] = None
 
 
 @dataclass(frozen=True)
@@ -75,9 +92,10 @@ class Change:
 
 @dataclass
 class ReplayTally:
-    frames: int = 0  # frames re-decided
+    frames: int = 0  # frames replayed
     solved: int = 0  # of which the reasoner ran
-    reused: int = 0  # of which a copy was decided before (same content)
+    reused: int = 0  # of which a copy was solved before (same content)
+    decided: int = 0  # frames decided in full (the solved sets differed from the log's, or compare_rules)
     changes: list[Change] = field(default_factory=list)
     rules_only: int = 0  # same decision and action, other rule ids
     rules_only_examples: Counter = field(default_factory=Counter)  # (recorded rules, replayed rules)
@@ -90,7 +108,9 @@ class ReplayTally:
     recovery: list[FileRecovery] = field(default_factory=list)
 
     def merge(self, other: "ReplayTally") -> None:
-        for name in ("frames", "solved", "reused", "rules_only", "skipped_failsafe", "skipped_refused", "solve_s", "cpu_s"):
+        for name in (
+            "frames", "solved", "reused", "decided", "rules_only", "skipped_failsafe", "skipped_refused", "solve_s", "cpu_s"
+        ):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.changes.extend(other.changes)
         self.rules_only_examples.update(other.rules_only_examples)
@@ -109,6 +129,7 @@ class ReplayResult:
     catalog: "ReplayCatalog"
     wall_s: float
     workers: int
+    compare_rules: bool = False
 
     @property
     def frames_per_s(self) -> float:
@@ -122,6 +143,7 @@ class ReplayJob:
     shards: int
     filters: Filters
     window_s: float
+    compare_rules: bool = False
 
 
 class _Worker:
@@ -129,7 +151,7 @@ class _Worker:
 
     def __init__(self, catalog: "ReplayCatalog"):
         self.reasoner = Reasoner(catalog=catalog.load(), jurisdiction=catalog.jurisdiction)
-        self.decided: OrderedDict[bytes, Outcome] = OrderedDict()
+        self.solved: OrderedDict[bytes, Solved] = OrderedDict()
         self.explained: OrderedDict[bytes, Verdict] = OrderedDict()  # changed frames, with their full tree
         self.digests: OrderedDict[int, tuple[Scene, bytes]] = OrderedDict()
 
@@ -186,16 +208,29 @@ def replay_file(job: ReplayJob) -> ReplayTally:
         if job.shards > 1 and int.from_bytes(key[:4], "big") % job.shards != job.shard:
             continue
         tally.frames += 1
-        outcome = worker.decided.get(key)
-        if outcome is None:
+        known = worker.solved.get(key)
+        if known is None:
             start = time.perf_counter()
-            outcome = Outcome.of(worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow))
+            if job.compare_rules:
+                verdict = worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow)
+                known = Solved(frozenset(verdict.permitted), verdict.recommended, Outcome.of(verdict))
+                tally.decided += 1
+            else:
+                solved = worker.reasoner.solve(scene, action, frame.history)
+                known = Solved(frozenset(solved.permitted), solved.recommended)
             tally.solve_s += time.perf_counter() - start
             tally.solved += 1
-            _remember(worker.decided, key, outcome)
+            _remember(worker.solved, key, known)
         else:
             tally.reused += 1
-        before = Outcome.of(recorded)
+        if known.outcome is None:
+            if known.permitted == frozenset(recorded.permitted) and known.recommended == recorded.recommended:
+                continue  # same permitted set and recommendation: the same decision and action
+            start = time.perf_counter()
+            known.outcome = Outcome.of(worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow))
+            tally.solve_s += time.perf_counter() - start
+            tally.decided += 1
+        outcome, before = known.outcome, Outcome.of(recorded)
         if (outcome.decision, outcome.action) != (before.decision, before.action):
             tally.changes.append(_change(worker, key, frame))
             tally.transitions[f"{action.value}: {before.describe()} -> {outcome.describe()}"] += 1
@@ -270,17 +305,18 @@ def replay_logs(
     filters: Filters = Filters(),
     workers: int = 1,
     window_s: Optional[float] = None,
+    compare_rules: bool = False,
 ) -> ReplayResult:
     """Replay every file; raises CatalogError (from load_catalog) for a broken rules directory."""
     window = window_s if window_s is not None else MonitorConfig().window_s
     catalog.load()  # a broken catalog fails here, once, not in every worker
     tasks = plan_tasks(list(paths))
     shards = max(1, math.ceil(workers / max(1, len(tasks))))
-    jobs = [ReplayJob(task, shard, shards, filters, window) for task in tasks for shard in range(shards)]
+    jobs = [ReplayJob(task, shard, shards, filters, window, compare_rules) for task in tasks for shard in range(shards)]
     start = time.perf_counter()
     total = ReplayTally()
     for tally in run_jobs(replay_file, jobs, workers, _init_worker, (catalog,)):
         total.merge(tally)
     wall = time.perf_counter() - start
     total.changes.sort(key=lambda c: (c.time_ns, c.vehicle))
-    return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))))
+    return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))), compare_rules)

@@ -34,7 +34,7 @@ def headline(result: ReplayResult) -> list[str]:
     lines = [
         f"replayed {t.frames} frames with {result.catalog.describe()} in {result.wall_s:.2f} s "
         f"({result.frames_per_s:.0f} frames/s, {result.workers} worker{'s' if result.workers != 1 else ''}; "
-        f"{t.solved} decided, {t.reused} identical to a frame decided before)",
+        f"{t.solved} solved, {t.reused} identical to a frame solved before; {t.decided} decided in full)",
     ]
     skipped = []
     if t.skipped_failsafe:
@@ -51,6 +51,8 @@ def headline(result: ReplayResult) -> list[str]:
         lines.append("no decision would change")
     if t.rules_only:
         lines.append(f"{plural(t.rules_only, 'frame')} would keep the decision but cite other rules")
+    if not result.compare_rules:
+        lines.append("frames whose permitted set and recommendation are unchanged were not compared rule by rule (--compare-rules)")
     return lines
 
 
@@ -112,8 +114,10 @@ def render_json(result: ReplayResult) -> str:
         "catalog": list(result.catalog.dirs),
         "jurisdiction": result.catalog.jurisdiction,
         "frames": t.frames,
-        "decided": t.solved,
+        "solved": t.solved,
         "reused": t.reused,
+        "decided_in_full": t.decided,
+        "compared_rules": result.compare_rules,
         "wall_s": result.wall_s,
         "worker_cpu_s": t.cpu_s,
         "frames_per_s": result.frames_per_s,
