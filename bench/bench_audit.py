@@ -10,7 +10,7 @@ long-running monitor's. Two
 fleets are measured: every scene distinct (highway traffic, with the monitor's example
 planner's action cycle), and half the vehicles waiting at a red light, whose scenes
 repeat frame after frame (once the 2 s history window is full, the replay
-decides each distinct frame once).
+solves each distinct frame once).
 """
 
 from __future__ import annotations
@@ -134,11 +134,12 @@ def measure(files: list[Path], workers: int) -> dict:
         "disagreements": len(tally.disagreements),
         "audit_s": audit_s,
         "replayed": t.frames,
-        "decided": t.solved,
+        "solved": t.solved,
+        "decided": t.decided,
         "reused": t.reused,
         "wall_s": result.wall_s,
         "fps": result.frames_per_s,
-        "solve_ms": 1000 * t.solve_s / max(1, t.solved),
+        "solve_ms": 1000 * t.solve_s / max(1, t.solved),  # reasoner time (solve, plus any full decision) per solved frame
         "cpu_ms": 1000 * t.cpu_s / max(1, t.frames),
         "workers": result.workers,
         "load": load,
@@ -179,13 +180,13 @@ def main() -> None:
         f"Command: `{command}`  ",
         f"Machine: {machine()}; logs written by the monitor's McapLogWriter (zstd), verdicts from the shipped catalog.",
         "",
-        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s | decided / reused | reasoner ms per decided frame | worker CPU ms per frame | load avg before |",
+        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s | solved / reused (decided in full) | reasoner ms per solved frame | worker CPU ms per frame | load avg before |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for label, nfiles, size_mb, reading, m in rows:
         lines.append(
             f"| {label} | {nfiles} ({size_mb:.1f}) | {m['workers']} | {m['replayed']} ({m['disagreements']}) | {m['audit_s']:.2f} "
-            f"({m['frames'] / m['audit_s']:.0f}) | {m['wall_s']:.2f} | **{m['fps']:.0f}** | {m['decided']} / {m['reused']} | "
+            f"({m['frames'] / m['audit_s']:.0f}) | {m['wall_s']:.2f} | **{m['fps']:.0f}** | {m['solved']} / {m['reused']} ({m['decided']}) | "
             f"{m['solve_ms']:.2f} | {m['cpu_ms']:.2f} | {m['load']:.2f} |"
         )
     lines.append("")
