@@ -98,13 +98,25 @@ def sidecar(out: Path) -> Path:
     return log_dir
 
 
+def audit(log_dir: Path, out: Path) -> None:
+    banner("4. The offline audit of that log: every disagreement, per rule, with an HTML report")
+    from .audit import cli as audit_cli
+
+    parser = argparse.ArgumentParser(prog="discern")
+    audit_cli.register(parser.add_subparsers())
+    report = out / "audit.html"
+    args = parser.parse_args(["audit", str(log_dir), "--html", str(report), "--csv", str(out / "audit.csv")])
+    audit_cli.run(args)
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     reasoner = Reasoner()
     ok = paper(reasoner, Path(args.kitti))
     verdict(reasoner)
-    sidecar(out)
+    log_dir = sidecar(out)
+    audit(log_dir, out)
     return 0 if ok else 1
 
 
