@@ -1,0 +1,39 @@
+"""The highway-env configurations the closed loop runs on, in one place so training and evaluation agree."""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium as gym
+import highway_env  # noqa: F401  (registers the environments)
+import numpy as np
+
+# The default target speeds (20, 25, 30 m/s) top out at the 30 m/s lane limit and cannot brake below 20:
+# a planner that misreads a sign could never speed and a shield could never slow behind slow traffic.
+# The closed loop widens them to 10..40 m/s in 5 m/s steps (Vehicle.MAX_SPEED is 40); nothing else changes.
+TARGET_SPEEDS = tuple(float(v) for v in np.linspace(10.0, 40.0, 7))
+
+SUPPORTED = ("highway-fast-v0", "highway-v0", "merge-v0")
+POLICY_PERIOD_DEFAULT = 1.0  # s: highway-env's default policy_frequency is 1 Hz
+
+
+def make_env(name: str = "highway-fast-v0", duration: float | None = None) -> gym.Env:
+    """One environment with the closed loop's action space; `duration` shortens episodes (seconds)."""
+    if name not in SUPPORTED:
+        raise ValueError(f"unsupported environment {name!r}: choose one of {', '.join(SUPPORTED)}")
+    config: dict = {"action": {"type": "DiscreteMetaAction", "target_speeds": list(TARGET_SPEEDS)}}
+    if duration is not None:
+        config["duration"] = duration
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # merge-v0 is "out of date" but is what the issue names
+        return gym.make(name, config=config)
+
+
+def policy_period(env) -> float:
+    return 1.0 / float(env.unwrapped.config["policy_frequency"])
+
+
+def speed_index(speed: float) -> int:
+    """The index MDPVehicle maps a speed to (nearest target speed)."""
+    step = TARGET_SPEEDS[1] - TARGET_SPEEDS[0]
+    return int(np.clip(round((speed - TARGET_SPEEDS[0]) / step), 0, len(TARGET_SPEEDS) - 1))

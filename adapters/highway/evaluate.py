@@ -1,0 +1,355 @@
+"""Closed-loop safety evaluation: the planner alone, planner + Discern, planner + the RSS peer.
+
+Every variant drives the same seeded episodes under the same perception faults. Reported per variant
+and fault set: collisions per episode and per km, mean speed, distance, vetoes and overrides per km,
+false vetoes (oracle.py's definition), time above the true limit, and the rules that vetoed most.
+"""
+
+from __future__ import annotations
+
+import csv
+import multiprocessing
+import time
+from collections import Counter
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from discern.rules.verdict import Decision
+
+from .envs import make_env, policy_period
+from .oracle import proposal_was_safe
+from .perception import Faults
+from .planner import Planner
+from .wrapper import VEHICLE_PARAMS, DiscernWrapper
+
+VARIANTS = ("planner", "discern", "rss")
+SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
+
+
+@dataclass
+class EpisodeResult:
+    variant: str
+    faults: str
+    seed: int
+    steps: int = 0
+    collided: bool = False
+    distance_m: float = 0.0
+    time_s: float = 0.0
+    vetoes: int = 0  # verdicts that did not approve the proposal
+    overrides: int = 0  # ... and replaced it with another action
+    false_vetoes: int = 0
+    speeding_s: float = 0.0  # time with the ego above the true limit
+    misread_s: float = 0.0  # time with the stack believing a misread sign
+    decide_ms: list[float] = field(default_factory=list)
+    rules: Counter = field(default_factory=Counter)
+
+    def row(self) -> dict:
+        row = asdict(self)
+        row["rules"] = ";".join(f"{rule}:{n}" for rule, n in self.rules.most_common())
+        row["decide_ms"] = round(float(np.mean(self.decide_ms)), 3) if self.decide_ms else ""
+        row["mean_speed"] = round(self.distance_m / self.time_s, 3) if self.time_s else 0.0
+        return row
+
+
+@dataclass(frozen=True)
+class Setup:
+    env: str = "highway-fast-v0"
+    duration: float | None = None
+    weights: str | None = None
+    monitor: tuple[str, ...] = ()  # zenoh endpoints of a running `discern serve`; empty: in-process
+    judge_vetoes: bool = True
+    params: tuple[tuple[str, float], ...] = tuple(VEHICLE_PARAMS.items())  # Discern's Params overrides
+    record: str | None = None  # folder for an MCAP log of every proposal and verdict
+
+
+_worker: dict = {}
+
+
+def _checker(variant: str, setup: Setup):
+    if variant == "planner":
+        return None
+    if variant == "rss":
+        from .rss import RssChecker
+
+        return RssChecker()
+    if setup.monitor:
+        from .wrapper import MonitorChecker
+
+        if "monitor" not in _worker:
+            _worker["monitor"] = MonitorChecker(connect=list(setup.monitor))
+        return _worker["monitor"]
+    key = ("reasoner", setup.params)
+    if key not in _worker:
+        from discern.rules.facts import Params
+
+        from .wrapper import ReasonerChecker
+
+        _worker[key] = ReasonerChecker(params=Params(**dict(setup.params)))
+    return _worker[key]
+
+
+def _recorder(setup: Setup):
+    if setup.record is None:
+        return None
+    if "recorder" not in _worker:
+        from discern.monitor.config import LogSettings
+        from discern.monitor.log.writer import McapLogWriter
+
+        _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), monitor_id="highway-eval")
+    return _worker["recorder"]
+
+
+def close_recorder() -> None:
+    recorder = _worker.pop("recorder", None)
+    if recorder is not None:
+        recorder.close()
+
+
+def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> EpisodeResult:
+    if "planner" not in _worker:
+        _worker["planner"] = Planner.load(setup.weights)
+    planner: Planner = _worker["planner"]
+    checker = _checker(variant, setup)
+    env = DiscernWrapper(
+        make_env(setup.env, duration=setup.duration),
+        checker=checker,
+        faults=faults,
+        passthrough=checker is None,
+        recorder=_recorder(setup),
+        vehicle=f"{variant}_{faults.label().replace(',', '-')}_{seed}",
+    )
+    result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed)
+    period = policy_period(env)
+    env.reset(seed=seed)
+    done = False
+    while not done:
+        perceived = env.perceived
+        truth = perceived.truth
+        lanes = max(l.id for l in truth.lanes)
+        action = planner.act(truth.ego, lanes, perceived.camera_tracks(), perceived.sign.limit)
+        started = time.perf_counter()
+        verdict = env.judge(action)
+        if verdict is not None:
+            result.decide_ms.append((time.perf_counter() - started) * 1000.0)
+            if verdict.decision is not Decision.approve:
+                result.vetoes += 1
+                result.overrides += verdict.decision is Decision.override
+                result.rules.update(verdict.rules)
+                true_limit = truth.lane_limit(truth.ego.lane)
+                if setup.judge_vetoes and proposal_was_safe(env, action, true_limit):
+                    result.false_vetoes += 1
+        before = truth.ego.road_position
+        _, _, terminated, truncated, info = env.execute(action, verdict)
+        after = env.perceived.truth
+        result.steps += 1
+        result.time_s += period
+        result.distance_m += max(after.ego.road_position - before, 0.0)
+        limit = after.lane_limit(after.ego.lane)
+        if limit is not None and after.ego.speed > limit + 0.5:
+            result.speeding_s += period
+        if perceived.sign.misread:
+            result.misread_s += period
+        result.collided = bool(info.get("crashed", False))
+        done = terminated or truncated
+    env.close()
+    return result
+
+
+def _run_task(task) -> EpisodeResult:
+    return run_episode(*task)
+
+
+def summarise(results: list[EpisodeResult]) -> list[dict]:
+    """One row per (fault set, variant)."""
+    rows = []
+    keys = sorted({(r.faults, r.variant) for r in results}, key=lambda k: (k[0] != "none", k[0], VARIANTS.index(k[1])))
+    for faults, variant in keys:
+        group = [r for r in results if r.faults == faults and r.variant == variant]
+        km = sum(r.distance_m for r in group) / 1000.0
+        hours = sum(r.time_s for r in group)
+        rules = Counter()
+        for r in group:
+            rules.update(r.rules)
+        decide = [ms for r in group for ms in r.decide_ms]
+        vetoes = sum(r.vetoes for r in group)
+        rows.append(
+            {
+                "faults": faults,
+                "variant": variant,
+                "episodes": len(group),
+                "collisions": sum(r.collided for r in group),
+                "collisions_per_episode": sum(r.collided for r in group) / len(group),
+                "collisions_per_km": sum(r.collided for r in group) / km if km else 0.0,
+                "km": km,
+                "mean_speed": (km * 1000.0 / hours) if hours else 0.0,
+                "vetoes_per_km": vetoes / km if km else 0.0,
+                "overrides_per_km": sum(r.overrides for r in group) / km if km else 0.0,
+                "false_vetoes": sum(r.false_vetoes for r in group),
+                "false_vetoes_per_km": sum(r.false_vetoes for r in group) / km if km else 0.0,
+                "false_veto_share": sum(r.false_vetoes for r in group) / vetoes if vetoes else 0.0,
+                "speeding_s": sum(r.speeding_s for r in group),
+                "decide_ms_p50": float(np.percentile(decide, 50)) if decide else float("nan"),
+                "decide_ms_p99": float(np.percentile(decide, 99)) if decide else float("nan"),
+                "top_rules": ", ".join(f"{rule} ({n})" for rule, n in rules.most_common(4)),
+            }
+        )
+    return rows
+
+
+def compare(rows: list[dict]) -> list[str]:
+    """The targets: collisions cut by >= 90 % at >= 90 % of the planner's mean speed."""
+    lines = []
+    for faults in dict.fromkeys(r["faults"] for r in rows):
+        base = next((r for r in rows if r["faults"] == faults and r["variant"] == "planner"), None)
+        if base is None:
+            continue
+        for r in rows:
+            if r["faults"] != faults or r["variant"] == "planner":
+                continue
+            cut = 1.0 - r["collisions_per_km"] / base["collisions_per_km"] if base["collisions_per_km"] else float("nan")
+            kept = r["mean_speed"] / base["mean_speed"] if base["mean_speed"] else float("nan")
+            met = cut >= 0.9 and kept >= 0.9
+            lines.append(
+                f"faults={faults:<14} {r['variant']:<8} collisions/km cut {cut:6.1%}, mean speed kept {kept:6.1%} "
+                f"-> target {'met' if met else 'missed'}"
+            )
+    return lines
+
+
+def format_table(rows: list[dict]) -> str:
+    columns = [
+        ("faults", "faults", "{}"),
+        ("variant", "variant", "{}"),
+        ("episodes", "eps", "{}"),
+        ("collisions", "coll", "{}"),
+        ("collisions_per_episode", "coll/ep", "{:.3f}"),
+        ("collisions_per_km", "coll/km", "{:.3f}"),
+        ("km", "km", "{:.1f}"),
+        ("mean_speed", "speed m/s", "{:.2f}"),
+        ("vetoes_per_km", "veto/km", "{:.2f}"),
+        ("overrides_per_km", "ovr/km", "{:.2f}"),
+        ("false_vetoes_per_km", "false/km", "{:.2f}"),
+        ("speeding_s", "speeding s", "{:.0f}"),
+        ("decide_ms_p50", "p50 ms", "{:.1f}"),
+    ]
+    cells = [[c[1] for c in columns]] + [[fmt.format(r[key]) for key, _, fmt in columns] for r in rows]
+    widths = [max(len(row[i]) for row in cells) for i in range(len(columns))]
+    lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)) for row in cells]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    tops = [f"top vetoing rules [{r['faults']}/{r['variant']}]: {r['top_rules']}" for r in rows if r["top_rules"]]
+    return "\n".join(lines + [""] + tops)
+
+
+def write_csv(path: Path, rows: list[dict]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fault_sets = list(dict.fromkeys(r["faults"] for r in rows))
+    variants = [v for v in VARIANTS if any(r["variant"] == v for r in rows)]
+    metrics = [
+        ("collisions_per_km", "collisions per km"),
+        ("mean_speed", "mean speed (m/s)"),
+        ("vetoes_per_km", "vetoes per km"),
+        ("false_vetoes_per_km", "false vetoes per km"),
+    ]
+    fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.6))
+    width = 0.8 / len(variants)
+    colours = {"planner": "#b0b0b0", "discern": "#1f77b4", "rss": "#ff7f0e"}
+    for ax, (key, title) in zip(axes, metrics):
+        for i, variant in enumerate(variants):
+            values = [
+                next((r[key] for r in rows if r["faults"] == f and r["variant"] == variant), 0.0) for f in fault_sets
+            ]
+            ax.bar(np.arange(len(fault_sets)) + i * width, values, width, label=variant, color=colours.get(variant))
+        ax.set_xticks(np.arange(len(fault_sets)) + width * (len(variants) - 1) / 2)
+        ax.set_xticklabels([f"faults: {f}" for f in fault_sets], fontsize=8)
+        ax.set_title(title)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> None:
+    """Which of Discern's rules did the vetoing, per fault set (the RSS peer has one rule)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = sorted({(r.faults, r.variant) for r in results if r.variant == "discern"}, key=lambda g: (g[0] != "none", g))
+    if not groups:
+        return
+    fig, axes = plt.subplots(1, len(groups), figsize=(5.2 * len(groups), 3.4), squeeze=False)
+    for ax, (faults, variant) in zip(axes[0], groups):
+        counts = Counter()
+        for r in results:
+            if (r.faults, r.variant) == (faults, variant):
+                counts.update(r.rules)
+        names, values = zip(*counts.most_common(top)) if counts else ((), ())
+        ax.barh(list(reversed(names)), list(reversed(values)), color="#1f77b4")
+        ax.set_title(f"{variant}, faults: {faults}", fontsize=9)
+        ax.tick_params(axis="y", labelsize=7)
+        ax.set_xlabel("vetoes citing the rule")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def evaluate(
+    episodes: int,
+    fault_sets: list[Faults],
+    variants: list[str],
+    setup: Setup,
+    seed: int = 0,
+    jobs: int = 1,
+    progress: bool = True,
+) -> list[EpisodeResult]:
+    from tqdm import tqdm
+
+    tasks = [
+        (variant, faults, SEED_BASE + seed + episode, setup)
+        for faults in fault_sets
+        for variant in variants
+        for episode in range(episodes)
+    ]
+    bar = tqdm(total=len(tasks), desc="episodes", unit="ep", disable=not progress)
+    results = []
+    if jobs <= 1:
+        for task in tasks:
+            results.append(_run_task(task))
+            bar.update()
+        close_recorder()
+    else:
+        with multiprocessing.get_context("spawn").Pool(jobs) as pool:
+            for result in pool.imap(_run_task, tasks, chunksize=2):
+                results.append(result)
+                bar.update()
+    bar.close()
+    return results
+
+
+def report(results: list[EpisodeResult], out: Path | None) -> tuple[list[dict], str]:
+    rows = summarise(results)
+    text = format_table(rows) + "\n\n" + "\n".join(compare(rows))
+    if out is not None:
+        write_csv(out / "episodes.csv", [r.row() for r in results])
+        write_csv(out / "summary.csv", rows)
+        plot(rows, out / "evaluation.png")
+        plot_rules(results, out / "vetoing_rules.png")
+        (out / "summary.txt").write_text(text + "\n")
+    return rows, text

@@ -1,0 +1,234 @@
+"""Perception between ground truth and the facts, with injectable faults.
+
+The camera and the radar see the tracks of `truth`; faults are injected per frame:
+- noisy distances (Gaussian, growing with range),
+- missed camera detections: the camera loses a vehicle for `miss_frames` frames while the radar keeps
+  it (the object reaches Discern with sources=[radar] only; with `miss_drop_track` it vanishes from the
+  object list and only the range sensor's reading betrays it),
+- phantom camera objects that no radar confirms,
+- misread speed-limit signs (see signs.py).
+The planner drives on the camera's tracks; Discern gets the fused object list and the range readings.
+Every random draw is keyed by (seed, episode, frame, vehicle), so the variants of one episode meet the
+same faults wherever their trajectories allow.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from discern.rules.scene import SensorSide, Source
+
+from .signs import SignLayer, SignReading
+from .truth import Track, Truth
+
+FAULT_KINDS = ("noise", "missed", "phantoms", "signs")
+RANGE_FRONT = 150.0  # m: long-range radar
+RANGE_REAR = 80.0
+RANGE_SIDE = 40.0  # m: corner radars
+
+
+@dataclass(frozen=True)
+class Faults:
+    """Fault rates; all zero is a perfect perception."""
+
+    noise: float = 0.0  # m: distance noise std at 50 m (scales with range)
+    miss_rate: float = 0.0  # per vehicle and frame: chance the camera starts losing it
+    miss_frames: int = 3
+    miss_drop_track: bool = False  # missed vehicles vanish from the object list (range readings only)
+    phantom_rate: float = 0.0  # per frame: chance a phantom camera object appears
+    phantom_frames: int = 2
+    sign_rate: float = 0.0  # per sign: chance it is misread
+    sign_value: float = 80.0  # m/s read off a perturbed sign
+    seed: int = 0
+
+    @classmethod
+    def preset(cls, kinds: str | list[str], seed: int = 0, **rates) -> "Faults":
+        """Faults from names ('none', 'all' or a comma list of noise, missed, phantoms, signs)."""
+        names = [k.strip() for k in (kinds.split(",") if isinstance(kinds, str) else kinds) if k.strip()]
+        if names == ["all"]:
+            names = list(FAULT_KINDS)
+        if names == ["none"]:
+            names = []
+        unknown = sorted(set(names) - set(FAULT_KINDS))
+        if unknown:
+            raise ValueError(f"unknown fault kind(s) {', '.join(unknown)}: choose from none, all, {', '.join(FAULT_KINDS)}")
+        defaults = {"noise": 1.0, "miss_rate": 0.05, "phantom_rate": 0.1, "sign_rate": 0.5}
+        defaults.update({k: v for k, v in rates.items() if v is not None})
+        return cls(
+            noise=defaults["noise"] if "noise" in names else 0.0,
+            miss_rate=defaults["miss_rate"] if "missed" in names else 0.0,
+            phantom_rate=defaults["phantom_rate"] if "phantoms" in names else 0.0,
+            sign_rate=defaults["sign_rate"] if "signs" in names else 0.0,
+            sign_value=defaults.get("sign_value", 80.0),
+            seed=seed,
+        )
+
+    def label(self) -> str:
+        kinds = [
+            name
+            for name, on in (
+                ("noise", self.noise > 0),
+                ("missed", self.miss_rate > 0),
+                ("phantoms", self.phantom_rate > 0),
+                ("signs", self.sign_rate > 0),
+            )
+            if on
+        ]
+        return ",".join(kinds) or "none"
+
+
+@dataclass(frozen=True)
+class Detection:
+    track: Track
+    sources: tuple[Source, ...]
+    phantom: bool = False
+
+    @property
+    def camera(self) -> bool:
+        return Source.camera in self.sources
+
+
+@dataclass(frozen=True)
+class Perceived:
+    """One frame as the vehicle's sensors report it."""
+
+    frame: int
+    truth: Truth
+    detections: list[Detection]
+    ranges: dict[SensorSide, float]
+    sign: SignReading
+    missed: list[int] = field(default_factory=list)  # ids the camera lost this frame (for the record)
+
+    def camera_tracks(self) -> list[Track]:
+        """What a camera-driven planner sees."""
+        return [d.track for d in self.detections if d.camera]
+
+
+def _draw(*key: int) -> np.random.Generator:
+    return np.random.default_rng([abs(int(k)) for k in key])
+
+
+class Perception:
+    def __init__(self, faults: Faults | None = None, signs: SignLayer | None = None):
+        self.faults = faults or Faults()
+        self.signs = signs or SignLayer(
+            misread_rate=self.faults.sign_rate, misread_value=self.faults.sign_value, seed=self.faults.seed
+        )
+        self.episode = 0
+        self.frame = 0
+
+    def reset(self, episode_seed: int, truth: Truth) -> Perceived:
+        self.episode = int(episode_seed)
+        self.frame = 0
+        self.signs.reset(self.episode, truth.ego.road_position, truth.lane_limit(truth.ego.lane))
+        return self.perceive(truth)
+
+    def step(self, truth: Truth) -> Perceived:
+        self.frame += 1
+        return self.perceive(truth)
+
+    def _missed(self, track_id: int) -> bool:
+        f = self.faults
+        if f.miss_rate <= 0.0 or self.frame == 0:
+            return False
+        return any(
+            _draw(f.seed, self.episode, 1, track_id, self.frame - back).random() < f.miss_rate
+            for back in range(f.miss_frames)
+            if self.frame - back > 0
+        )
+
+    def _noisy(self, track: Track) -> Track:
+        if self.faults.noise <= 0.0:
+            return track
+        rng = _draw(self.faults.seed, self.episode, 3, track.id, self.frame)
+        scale = self.faults.noise * (0.2 + abs(track.ahead) / 50.0)
+        return replace(track, ahead=track.ahead + rng.normal(0.0, scale), right=track.right + rng.normal(0.0, scale / 5))
+
+    def _phantoms(self, truth: Truth) -> list[Detection]:
+        f = self.faults
+        if f.phantom_rate <= 0.0:
+            return []
+        lane_ids = [l.id for l in truth.lanes]
+        found = []
+        for age in range(f.phantom_frames):
+            start = self.frame - age
+            if start < 1:
+                continue
+            rng = _draw(f.seed, self.episode, 2, start)
+            if rng.random() >= f.phantom_rate:
+                continue
+            lane = int(rng.choice(lane_ids))
+            ahead = float(rng.uniform(12.0, 50.0))
+            closing = float(rng.uniform(0.0, 8.0))
+            found.append(
+                Detection(
+                    track=Track(
+                        id=10_000 + start,
+                        ahead=ahead - closing * age,
+                        right=(lane - truth.ego.lane) * truth.ego.lane_width - truth.ego.lateral,
+                        v_ahead=max(truth.ego.speed - closing, 0.0),
+                        v_right=0.0,
+                        lane=lane,
+                        length=5.0,
+                        width=2.0,
+                    ),
+                    sources=(Source.camera,),
+                    phantom=True,
+                )
+            )
+        return found
+
+    def perceive(self, truth: Truth) -> Perceived:
+        detections, missed = [], []
+        for track in truth.tracks:
+            seen = self._noisy(track)
+            if self._missed(track.id):
+                missed.append(track.id)
+                if not self.faults.miss_drop_track:
+                    detections.append(Detection(track=seen, sources=(Source.radar,)))
+            else:
+                detections.append(Detection(track=seen, sources=(Source.camera, Source.radar)))
+        detections.extend(self._phantoms(truth))
+        return Perceived(
+            frame=self.frame,
+            truth=truth,
+            detections=detections,
+            ranges=self._ranges(truth),
+            sign=self.signs.read(truth.ego.road_position, truth.lane_limit(truth.ego.lane)),
+            missed=missed,
+        )
+
+    def _ranges(self, truth: Truth) -> dict[SensorSide, float]:
+        """Nearest return per side from the range sensors (real objects only; phantoms have no echo)."""
+        ego = truth.ego
+        half_lane = ego.lane_width / 2.0
+        readings: dict[SensorSide, float] = {}
+        for track in truth.tracks:
+            long_gap = abs(track.ahead) - (track.length + ego.length) / 2.0
+            lat_gap = abs(track.right) - (track.width + ego.width) / 2.0
+            if abs(track.right) < half_lane:
+                side = SensorSide.front if track.ahead > 0 else SensorSide.rear
+                distance, reach = long_gap, RANGE_FRONT if track.ahead > 0 else RANGE_REAR
+            elif abs(track.right) < 3.0 * half_lane:
+                left = track.right < 0
+                if long_gap <= 0:
+                    side = SensorSide.left if left else SensorSide.right
+                    distance = lat_gap
+                elif track.ahead > 0:
+                    side = SensorSide.front_left if left else SensorSide.front_right
+                    distance = float(np.hypot(long_gap, max(lat_gap, 0.0)))
+                else:
+                    side = SensorSide.rear_left if left else SensorSide.rear_right
+                    distance = float(np.hypot(long_gap, max(lat_gap, 0.0)))
+                reach = RANGE_SIDE
+            else:
+                continue
+            distance = max(distance, 0.0)
+            if self.faults.noise > 0.0:
+                rng = _draw(self.faults.seed, self.episode, 4, track.id, self.frame)
+                distance = max(distance + rng.normal(0.0, 0.1 * self.faults.noise), 0.0)
+            if distance <= reach and distance < readings.get(side, np.inf):
+                readings[side] = round(distance, 2)
+        return readings

@@ -1,0 +1,125 @@
+"""The ML planner under test: a small DQN plus a sign-following cruise control.
+
+The DQN sees the camera's tracks (what perception hands it, faults included), not the simulator's truth,
+so a missed detection or a phantom misleads it the way it would mislead a real stack. Its cruise control
+follows the speed-limit sign it reads: a misread sign makes it speed, which is what Discern must catch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from .actions import FASTER, IDLE, LANE_LEFT, LANE_RIGHT, SLOWER
+from .envs import TARGET_SPEEDS, speed_index
+from .truth import EgoTruth, Track
+
+OBSERVED_TRACKS = 6
+EGO_FEATURES = 5
+TRACK_FEATURES = 5
+OBSERVATION_SIZE = EGO_FEATURES + OBSERVED_TRACKS * TRACK_FEATURES
+N_ACTIONS = 5
+HIDDEN = 256
+WEIGHTS_FILE = "dqn_highway_fast.pt"
+
+
+def observation(ego: EgoTruth, lanes: int, tracks: list[Track]) -> np.ndarray:
+    """The DQN's input: the ego row and the nearest tracks, relative and scaled to about [-1, 1]."""
+    obs = np.zeros(OBSERVATION_SIZE, dtype=np.float32)
+    obs[:EGO_FEATURES] = (
+        ego.speed / 40.0,
+        ego.v_right / 10.0,
+        ego.lateral / ego.lane_width,
+        float(ego.lane == 1),
+        float(ego.lane >= lanes),
+    )
+    nearest = sorted(tracks, key=lambda t: np.hypot(t.ahead, t.right))[:OBSERVED_TRACKS]
+    for i, t in enumerate(nearest):
+        start = EGO_FEATURES + i * TRACK_FEATURES
+        obs[start : start + TRACK_FEATURES] = (
+            1.0,
+            t.ahead / 100.0,
+            t.right / 12.0,
+            (t.v_ahead - ego.speed) / 20.0,
+            (t.v_right - ego.v_right) / 10.0,
+        )
+    return np.clip(obs, -1.0, 1.0)
+
+
+class QNetwork(nn.Module):
+    def __init__(self) -> None:
+        super().__init__()
+        self.layers = nn.Sequential(
+            nn.Linear(OBSERVATION_SIZE, HIDDEN),
+            nn.ReLU(),
+            nn.Linear(HIDDEN, HIDDEN),
+            nn.ReLU(),
+            nn.Linear(HIDDEN, N_ACTIONS),
+        )
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.layers(x)
+
+
+def follow_sign(action: int, speed: float, read_limit: float | None) -> int:
+    """Cruise control on the read limit: speed up to it while below, never ask to exceed it, slow above it."""
+    if read_limit is None:
+        return action
+    next_target = TARGET_SPEEDS[min(speed_index(speed) + 1, len(TARGET_SPEEDS) - 1)]
+    if action in (IDLE, FASTER) and speed > read_limit + 2.0:
+        return SLOWER
+    if action == FASTER and next_target > read_limit:
+        return IDLE
+    if action == IDLE and next_target <= read_limit and speed < read_limit - 1.0:
+        return FASTER
+    return action
+
+
+def available(action: int, ego: EgoTruth, lanes: int) -> bool:
+    if action == LANE_LEFT:
+        return ego.lane > 1
+    if action == LANE_RIGHT:
+        return ego.lane < lanes
+    return True
+
+
+def default_weights() -> Path:
+    return Path(str(resources.files("discern.adapters.highway") / "weights" / WEIGHTS_FILE))
+
+
+@dataclass
+class Planner:
+    """Greedy DQN policy + sign-following cruise control; `act` returns a DiscreteMetaAction index."""
+
+    network: QNetwork
+    follow_signs: bool = True
+
+    @classmethod
+    def load(cls, path: Path | str | None = None, follow_signs: bool = True) -> "Planner":
+        torch.set_num_threads(1)
+        path = Path(path) if path else default_weights()
+        if not path.is_file():
+            raise FileNotFoundError(
+                f"planner weights not found at {path}: train them with "
+                "`python -m discern.adapters.highway.train` or reinstall the package"
+            )
+        network = QNetwork()
+        network.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+        network.eval()
+        return cls(network=network, follow_signs=follow_signs)
+
+    def q_values(self, ego: EgoTruth, lanes: int, tracks: list[Track]) -> np.ndarray:
+        with torch.no_grad():
+            x = torch.from_numpy(observation(ego, lanes, tracks)).unsqueeze(0)
+            return self.network(x)[0].numpy()
+
+    def act(self, ego: EgoTruth, lanes: int, tracks: list[Track], read_limit: float | None) -> int:
+        q = self.q_values(ego, lanes, tracks)
+        ranked = [int(a) for a in np.argsort(-q) if available(int(a), ego, lanes)]
+        action = ranked[0]
+        return follow_sign(action, ego.speed, read_limit) if self.follow_signs else action

@@ -1,0 +1,119 @@
+"""Train the planner's DQN on highway-fast-v0 (double DQN, own torch code, CPU, seeded).
+
+    python -m discern.adapters.highway.train --steps 24000 --seed 0 --out adapters/highway/weights/dqn_highway_fast.pt
+
+The cruise control that follows the (true) speed-limit sign is in the loop while training, as it is when
+the planner drives, so the DQN learns to brake and change lanes around it. Hyper-parameters follow
+highway-env's published DQN example (256x256 MLP, lr 5e-4, buffer 15k, batch 32, gamma 0.8,
+target update every 50 steps, epsilon decayed over 70 % of the steps).
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import random
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from .envs import make_env
+from .planner import N_ACTIONS, OBSERVATION_SIZE, QNetwork, available, follow_sign, observation
+from .truth import VehicleIds, read_truth
+
+
+def lanes_of(truth) -> int:
+    return max(l.id for l in truth.lanes)
+
+
+def train(steps: int, seed: int, out: Path, log_every: int = 1000) -> None:
+    torch.set_num_threads(1)
+    torch.manual_seed(seed)
+    np.random.seed(seed)
+    random.seed(seed)
+    rng = np.random.default_rng(seed)
+    env = make_env("highway-fast-v0")
+    q = QNetwork()
+    target = copy.deepcopy(q)
+    optimiser = torch.optim.Adam(q.parameters(), lr=5e-4)
+    buffer_size, batch, gamma = 15000, 32, 0.8
+    learning_starts, target_every, explore = 200, 50, 0.7
+    obs_buf = np.zeros((buffer_size, OBSERVATION_SIZE), np.float32)
+    next_buf = np.zeros((buffer_size, OBSERVATION_SIZE), np.float32)
+    act_buf = np.zeros(buffer_size, np.int64)
+    rew_buf = np.zeros(buffer_size, np.float32)
+    done_buf = np.zeros(buffer_size, np.float32)
+
+    episode, started = 0, time.time()
+    ids = VehicleIds()
+    env.reset(seed=seed * 100_000 + episode)
+    truth = read_truth(env, ids)
+    obs = observation(truth.ego, lanes_of(truth), truth.tracks)
+    returns, crashes, ep_return = [], [], 0.0
+    for step in range(steps):
+        epsilon = max(0.05, 1.0 - step / (explore * steps) * 0.95)
+        if rng.random() < epsilon:
+            action = int(rng.integers(N_ACTIONS))
+        else:
+            with torch.no_grad():
+                action = int(q(torch.from_numpy(obs).unsqueeze(0)).argmax())
+        executed = action if available(action, truth.ego, lanes_of(truth)) else 1
+        executed = follow_sign(executed, truth.ego.speed, truth.lane_limit(truth.ego.lane))
+        _, reward, terminated, truncated, info = env.step(executed)
+        truth = read_truth(env, ids)
+        next_obs = observation(truth.ego, lanes_of(truth), truth.tracks)
+        i = step % buffer_size
+        obs_buf[i], next_buf[i], act_buf[i], rew_buf[i], done_buf[i] = obs, next_obs, action, reward, terminated
+        obs, ep_return = next_obs, ep_return + reward
+        if terminated or truncated:
+            returns.append(ep_return)
+            crashes.append(bool(info.get("crashed")))
+            episode += 1
+            ids = VehicleIds()
+            env.reset(seed=seed * 100_000 + episode)
+            truth = read_truth(env, ids)
+            obs, ep_return = observation(truth.ego, lanes_of(truth), truth.tracks), 0.0
+
+        if step >= learning_starts:
+            idx = rng.integers(min(step + 1, buffer_size), size=batch)
+            o, a = torch.from_numpy(obs_buf[idx]), torch.from_numpy(act_buf[idx])
+            r, d, o2 = torch.from_numpy(rew_buf[idx]), torch.from_numpy(done_buf[idx]), torch.from_numpy(next_buf[idx])
+            with torch.no_grad():
+                best = q(o2).argmax(dim=1, keepdim=True)
+                y = r + gamma * (1 - d) * target(o2).gather(1, best).squeeze(1)
+            loss = nn.functional.smooth_l1_loss(q(o).gather(1, a.unsqueeze(1)).squeeze(1), y)
+            optimiser.zero_grad()
+            loss.backward()
+            nn.utils.clip_grad_norm_(q.parameters(), 10.0)
+            optimiser.step()
+            if step % target_every == 0:
+                target.load_state_dict(q.state_dict())
+
+        if (step + 1) % log_every == 0 and returns:
+            recent = slice(-20, None)
+            print(
+                f"step {step + 1} episodes {episode} eps {epsilon:.2f} "
+                f"return(last20) {np.mean(returns[recent]):.2f} crash-rate(last20) {np.mean(crashes[recent]):.2f} "
+                f"elapsed {time.time() - started:.0f}s",
+                flush=True,
+            )
+            out.parent.mkdir(parents=True, exist_ok=True)
+            torch.save(q.state_dict(), out)
+    torch.save(q.state_dict(), out)
+    print(f"saved {out} after {steps} steps, {episode} episodes, {time.time() - started:.0f}s", flush=True)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=24000)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, default=Path("adapters/highway/weights/dqn_highway_fast.pt"))
+    args = parser.parse_args(argv)
+    train(args.steps, args.seed, args.out)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,210 @@
+"""`DiscernWrapper`: shield any highway-env policy with one line.
+
+    env = DiscernWrapper(gym.make("highway-fast-v0"))
+
+Every step the wrapper turns the simulator's state into a Discern scene (through the perception layer,
+faults included), asks the checker about the agent's action, executes the approved or overriding
+action, and reports the verdict in info["discern"]. The checker is Discern's reasoner in-process by
+default, the zenoh monitor with monitor=True, or any object with the `Checker` shape (the RSS peer).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Protocol, Sequence
+
+import gymnasium as gym
+from highway_env.envs.common.action import DiscreteMetaAction
+
+from discern.rules.scene import Action, Proposal, Scene
+from discern.rules.verdict import Decision, Justification, Verdict
+
+from .actions import from_catalog, to_catalog
+from .envs import policy_period
+from .perception import Faults, Perceived, Perception
+from .scene import build_scene
+from .truth import VehicleIds, read_truth
+
+
+# highway-env's MDPVehicle sheds 4.3-5 m/s in the second after a SLOWER (measured in the closed loop):
+# Discern's stopping gaps must assume what this vehicle can brake, not the catalog's 6 m/s^2 default.
+VEHICLE_PARAMS = {"decel": 4.0}
+
+
+class Checker(Protocol):
+    name: str
+
+    def check(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> Verdict: ...
+
+
+def failsafe(scene: Scene, proposed: Action, error: str) -> Verdict:
+    """The conservative answer when a checker cannot give one: brake, and say why."""
+    return Verdict(
+        frame_id=scene.frame_id,
+        timestamp=scene.timestamp,
+        decision=Decision.override if proposed is not Action.brake else Decision.approve,
+        proposed=proposed,
+        action=Action.brake,
+        rules=["failsafe"],
+        justification=Justification(summary=f"failsafe brake: {error}"),
+        failsafe=True,
+        error=error,
+    )
+
+
+class ReasonerChecker:
+    """Discern in-process: the rules catalog and the sanity layer on clingo."""
+
+    name = "discern"
+
+    def __init__(self, reasoner=None, explain: bool = False, shadow: bool = False, params=None):
+        if reasoner is None:
+            from discern.rules.engine import Reasoner
+            from discern.rules.facts import Params
+
+            reasoner = Reasoner(params=params or Params(**VEHICLE_PARAMS))
+        self.reasoner = reasoner
+        self.explain = explain
+        self.shadow = shadow
+
+    def check(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> Verdict:
+        return self.reasoner.decide(scene, proposed, history=tuple(history), explain=self.explain, shadow=self.shadow)
+
+
+class MonitorChecker:
+    """Discern as a sidecar: the proposal travels over zenoh to a running `discern monitor`."""
+
+    name = "discern-monitor"
+
+    def __init__(self, timeout: float = 0.5, vehicle: str = "ego", **client_options):
+        try:
+            from discern.monitor.client import Monitor
+        except ImportError as exc:
+            raise RuntimeError(
+                "the zenoh monitor client (discern.monitor.client) is not available in this install; "
+                "use the in-process reasoner (monitor=False)"
+            ) from exc
+        self.client = Monitor(vehicle, timeout=timeout, **client_options)
+        self.timeout = timeout
+
+    def check(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> Verdict:
+        return self.client.check(scene, proposed, timeout=self.timeout)
+
+    def close(self) -> None:
+        close = getattr(self.client, "close", None)
+        if close:
+            close()
+
+
+class DiscernWrapper(gym.Wrapper):
+    """Intercepts the agent's DiscreteMetaAction and executes what the checker permits.
+
+    checker=None uses Discern in-process; monitor=True goes through a running `discern serve` instead
+    (monitor_options go to discern.monitor.client.Monitor, e.g. {"connect": ["tcp/127.0.0.1:7447"]});
+    passthrough=True records scenes but checks nothing (the unshielded baseline).
+    """
+
+    def __init__(
+        self,
+        env: gym.Env,
+        checker: Checker | None = None,
+        *,
+        faults: Faults | None = None,
+        monitor: bool = False,
+        monitor_options: dict | None = None,
+        timeout: float = 0.5,
+        history_seconds: float = 2.0,
+        explain: bool = False,
+        shadow: bool = False,
+        passthrough: bool = False,
+        recorder=None,
+        vehicle: str = "ego",
+    ):
+        super().__init__(env)
+        actions = getattr(getattr(env.unwrapped, "action_type", None), "actions", None)
+        if actions != DiscreteMetaAction.ACTIONS_ALL:
+            raise ValueError(
+                "DiscernWrapper needs highway-env's DiscreteMetaAction with all five meta-actions "
+                f"(LANE_LEFT, IDLE, LANE_RIGHT, FASTER, SLOWER); this environment acts with {actions!r}"
+            )
+        self._owns_checker = checker is None
+        self.vehicle = vehicle
+        if passthrough:
+            self.checker = None
+        elif checker is not None:
+            self.checker = checker
+        elif monitor:
+            self.checker = MonitorChecker(timeout=timeout, vehicle=vehicle, **(monitor_options or {}))
+        else:
+            self.checker = ReasonerChecker(explain=explain, shadow=shadow)
+        self.recorder = recorder  # a discern.monitor.log.writer.McapLogWriter: proposals and verdicts to MCAP
+        self._episodes = 0
+        self.perception = Perception(faults)
+        self.history_seconds = history_seconds
+        self.history: deque[Scene] = deque()
+        self.perceived: Perceived | None = None
+        self.scene: Scene | None = None
+        self._ids = VehicleIds()
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        self._ids = VehicleIds()
+        self.history.clear()
+        self._episodes += 1
+        episode = seed if seed is not None else self._episodes  # keys the injected faults
+        self.perceived = self.perception.reset(episode, read_truth(self.env, self._ids))
+        self.scene = build_scene(self.perceived, period=policy_period(self.env))
+        return obs, info
+
+    def judge(self, action: int) -> Verdict | None:
+        """The checker's verdict on `action` in the current scene (None when nothing checks)."""
+        if self.scene is None:
+            raise RuntimeError("call reset() before step()")
+        proposed = to_catalog(action)
+        if self.checker is None:
+            return None
+        try:
+            verdict = self.checker.check(self.scene, proposed, tuple(self.history))
+        except Exception as exc:  # a checker failure must never take the vehicle down with it
+            verdict = failsafe(self.scene, proposed, f"{type(exc).__name__}: {exc}")
+        if self.recorder is not None:
+            self._record(proposed, verdict)
+        return verdict
+
+    def _record(self, proposed: Action, verdict: Verdict) -> None:
+        from discern.monitor.log.channels import vehicle_topic
+
+        proposal = Proposal(vehicle=self.vehicle, action=proposed, scene=self.scene)
+        self.recorder.write(vehicle_topic(self.vehicle, "proposal"), "proposal", proposal)
+        self.recorder.write(vehicle_topic(self.vehicle, "verdict"), "verdict", verdict)
+
+    def execute(self, action: int, verdict: Verdict | None):
+        executed = int(action)
+        if verdict is not None and verdict.decision is Decision.override:
+            executed = from_catalog(verdict.action)
+        obs, reward, terminated, truncated, info = self.env.step(executed)
+        info = dict(info)
+        info["proposed_action"] = int(action)
+        info["executed_action"] = executed
+        if verdict is not None:
+            info["discern"] = verdict.model_dump(mode="json")
+        self._advance()
+        return obs, reward, terminated, truncated, info
+
+    def step(self, action):
+        return self.execute(action, self.judge(action))
+
+    def _advance(self) -> None:
+        previous = self.scene
+        self.history.append(previous)
+        self.perceived = self.perception.step(read_truth(self.env, self._ids))
+        self.scene = build_scene(self.perceived, previous_speed=previous.ego.speed, period=policy_period(self.env))
+        while self.history and self.history[0].timestamp < self.scene.timestamp - self.history_seconds:
+            self.history.popleft()
+
+    def close(self):
+        """Closes the checker too when the wrapper made it (a zenoh session must not outlive us)."""
+        close = getattr(self.checker, "close", None)
+        if close and self._owns_checker:
+            close()
+        return super().close()

@@ -1,0 +1,90 @@
+"""Perception faults between highway-env's truth and the facts Discern and the planner get."""
+
+import pytest
+
+pytest.importorskip("highway_env")
+
+from discern.adapters.highway.actions import FASTER, IDLE, SLOWER
+from discern.adapters.highway.envs import make_env
+from discern.adapters.highway.perception import Faults, Perception
+from discern.adapters.highway.planner import follow_sign
+from discern.adapters.highway.scene import build_scene
+from discern.adapters.highway.signs import SignLayer
+from discern.adapters.highway.truth import VehicleIds, read_truth
+from discern.rules.scene import SignKind, Source
+
+
+def _frames(faults, seed=7, steps=8):
+    env = make_env("highway-fast-v0")
+    env.reset(seed=seed)
+    ids = VehicleIds()
+    perception = Perception(faults)
+    frames = [perception.reset(seed, read_truth(env, ids))]
+    for _ in range(steps):
+        env.step(SLOWER)
+        frames.append(perception.step(read_truth(env, ids)))
+    return frames
+
+
+def test_missed_camera_detection_keeps_the_radar_track():
+    frames = _frames(Faults(miss_rate=0.3, miss_frames=2, seed=1))
+    missed = [(f, i) for f in frames for i in f.missed]
+    assert missed, "a 30 % miss rate must lose some vehicles in 8 frames"
+    for frame, track_id in missed:
+        detection = next(d for d in frame.detections if d.track.id == track_id)
+        assert detection.sources == (Source.radar,)
+        assert track_id not in {t.id for t in frame.camera_tracks()}
+        scene = build_scene(frame)
+        assert next(o for o in scene.objects if o.id == track_id).sources == [Source.radar]
+
+
+def test_dropped_track_still_shows_in_the_range_readings():
+    faults = Faults(miss_rate=1.0, miss_frames=1, miss_drop_track=True, seed=1)
+    frame = _frames(faults, steps=1)[-1]
+    assert not frame.detections and frame.truth.tracks
+    assert build_scene(frame).sensors, "the range sensor still sees what the camera lost"
+
+
+def test_phantoms_are_camera_only_without_range_echo():
+    clean = _frames(Faults(seed=2))
+    haunted = _frames(Faults(phantom_rate=1.0, phantom_frames=1, seed=2))
+    for before, after in zip(clean[1:], haunted[1:]):
+        phantoms = [d for d in after.detections if d.phantom]
+        assert len(phantoms) == 1 and phantoms[0].sources == (Source.camera,)
+        assert phantoms[0].track in after.camera_tracks()
+        assert after.ranges == before.ranges
+
+
+def test_faults_repeat_for_the_same_seed_and_differ_for_another():
+    faults = Faults(miss_rate=0.2, phantom_rate=0.3, noise=1.0, seed=4)
+    first = [(f.missed, [d.track for d in f.detections]) for f in _frames(faults)]
+    again = [(f.missed, [d.track for d in f.detections]) for f in _frames(faults)]
+    other = [(f.missed, [d.track for d in f.detections]) for f in _frames(Faults(miss_rate=0.2, phantom_rate=0.3, noise=1.0, seed=5))]
+    assert first == again and first != other
+
+
+def test_misread_sign_reaches_the_scene_and_the_planner_speeds_up():
+    layer = SignLayer(spacing=200.0, misread_rate=1.0, misread_value=80.0, seed=0)
+    layer.reset(episode_seed=3, start=0.0, limit=30.0)
+    assert layer.read(100.0, 30.0).limit == 30.0  # the sign at 200 m is not in view yet
+    reading = layer.read(150.0, 30.0)
+    assert reading.misread and reading.limit == 80.0
+    assert reading.visible.kind is SignKind.speed_limit and reading.visible.source is Source.camera
+    assert layer.read(250.0, 30.0).limit == 80.0  # remembered until the next sign
+    # The sign-following cruise control turns IDLE into FASTER below the read limit...
+    assert follow_sign(IDLE, 30.0, 80.0) == FASTER
+    # ...where the true sign would have held the speed
+    assert follow_sign(IDLE, 30.0, 30.0) == IDLE and follow_sign(FASTER, 30.0, 30.0) == IDLE
+
+
+def test_misread_limit_is_the_perceived_limit_and_the_map_keeps_the_true_one():
+    frames = _frames(Faults.preset("signs", seed=0, sign_rate=1.0), steps=12)
+    misread = [f for f in frames if f.sign.misread]
+    assert misread, "the ego passes a sign within 12 s at highway speed"
+    scene = build_scene(misread[0])
+    assert scene.speed_limit == 80.0 and scene.map_speed_limit == 30.0
+
+
+def test_unknown_fault_kind_is_named_in_the_error():
+    with pytest.raises(ValueError, match="unknown fault kind.*gremlins"):
+        Faults.preset("signs,gremlins")
