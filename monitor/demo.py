@@ -109,6 +109,16 @@ def audit(log_dir: Path, out: Path) -> None:
     audit_cli.run(args)
 
 
+def closed_loop(out: Path, episodes: int) -> int:
+    banner("5. Closed loop in highway-env: the torch DQN planner alone, with Discern, with RSS")
+    try:
+        from discern.adapters.highway.cli import demo
+    except ImportError as exc:  # the planner extra (torch, highway-env) is not installed
+        print(f"skipped: {exc.name} is not installed; pip install -e '.[planner]'")
+        return 0
+    return demo(out / "highway", episodes=episodes)
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -117,11 +127,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     verdict(reasoner)
     log_dir = sidecar(out)
     audit(log_dir, out)
-    return 0 if ok else 1
+    loop = closed_loop(out, args.episodes)
+    return 0 if ok and loop == 0 else 1
 
 
 def register(sub) -> None:
     demo = sub.add_parser("demo", help="run the main job: paper table, a verdict, the sidecar, the closed loop")
     demo.add_argument("--kitti", default=str(KITTI), help="directory of the paper's AV-CSR frame files")
     demo.add_argument("--out", default="out", help="directory for logs, reports and plots")
+    demo.add_argument("--episodes", type=int, default=3, help="closed-loop episodes per variant and fault set")
     demo.set_defaults(func=cmd_demo)
