@@ -46,7 +46,12 @@ def free_port() -> int:
 
 def highway(frame: int, speed: float = 31.0):
     return scene(
-        speed=speed, lane=2, lanes=3, limit=30.0, zone="highway", frame=frame,
+        speed=speed,
+        lane=2,
+        lanes=3,
+        limit=30.0,
+        zone="highway",
+        frame=frame,
         objects=(obj("car", 0.0, 60.0, lane=2, vy=31.0), obj("car", -3.5, -10.0, lane=1, vy=30.0)),
     )
 
@@ -73,9 +78,11 @@ def _serve(directory: Path, monitor_id: str, send, **config) -> list[Path]:
 
 
 def _fleet(endpoint: str) -> None:
-    with Monitor("car_a", connect=[endpoint], timeout=10.0) as car_a, Monitor(
-        "car_b", connect=[endpoint], timeout=10.0
-    ) as car_b, Monitor("car_c", connect=[endpoint], timeout=10.0) as car_c:
+    with (
+        Monitor("car_a", connect=[endpoint], timeout=10.0) as car_a,
+        Monitor("car_b", connect=[endpoint], timeout=10.0) as car_b,
+        Monitor("car_c", connect=[endpoint], timeout=10.0) as car_c,
+    ):
         for i in range(FLEET_A_FRAMES):
             verdicts = [car_a.check(highway(i), "accelerate" if i % 2 else "cruise")]
             if i < PEDESTRIAN_FRAMES:

@@ -8,7 +8,16 @@ from datetime import datetime, timezone
 
 import pytest
 
-from tests.audit_logs import CLEAR_FRAMES, FLEET_A_FRAMES, FRAMES, PEDESTRIAN_FRAMES, SHADOW_FRAMES, SLOW_FRAMES, audit, monitor_logs
+from tests.audit_logs import (
+    CLEAR_FRAMES,
+    FLEET_A_FRAMES,
+    FRAMES,
+    PEDESTRIAN_FRAMES,
+    SHADOW_FRAMES,
+    SLOW_FRAMES,
+    audit,
+    monitor_logs,
+)
 
 
 @pytest.fixture(scope="module")
