@@ -50,11 +50,12 @@ def free_port() -> int:
 class Monitors:
     """One or more `discern serve` processes (sharded by vehicle prefix), stopped on exit."""
 
-    def __init__(self, shards: int, log_dir: Path | None):
+    def __init__(self, shards: int, log_dir: Path | None, workers: int = 1):
         self.endpoints, self.procs = [], []
         for i in range(shards):
             ep = f"tcp/127.0.0.1:{free_port()}"
-            args = [sys.executable, "-m", "discern.monitor.commands", "serve", "--listen", ep, "--id", f"bench{i}"]
+            args = [sys.executable, "-m", "discern.monitor.commands", "serve", "--listen", ep, "--id", f"bench{i}",
+                    "--workers", str(workers)]
             if shards > 1:
                 args += ["--vehicles", f"s{i}_*"]
             if log_dir is not None:
@@ -102,9 +103,18 @@ class Result:
         return self.sent - self.answered
 
     @property
-    def clean(self) -> bool:
-        """Every proposal judged by the rules in time: none lost, none fail-safe."""
-        return self.lost == 0 and self.failsafe == 0
+    def sustained(self) -> bool:
+        """Kept up with: nothing lost, at most 2 % fail-safe, 90 % of round trips within the budget.
+
+        (Not "no fail-safe at all": the rules alone take over 50 ms on about 1 % of these frames,
+        at any rate.)
+        """
+        return self.lost == 0 and self.failsafe <= 0.02 * self.sent and pct(self.rtt_ms, 90) <= 50
+
+    @property
+    def judged_per_s(self) -> float:
+        """Verdicts that came from the rules, per second: the monitor's real throughput."""
+        return (self.answered - self.failsafe) / self.seconds if self.seconds else 0.0
 
     def transport_ms(self) -> float:
         return pct([r - m for r, m in zip(self.rtt_ms, self.monitor_ms)], 50)
@@ -175,11 +185,12 @@ def row(r: Result, vehicles: int, rate: float) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--duration", type=float, default=10.0, help="seconds per fixed-rate case")
-    parser.add_argument("--ramp-duration", type=float, default=5.0, help="seconds per step of the max-rate search")
+    parser.add_argument("--ramp-duration", type=float, default=10.0, help="seconds per step of the max-rate search")
     parser.add_argument("--objects", type=int, default=50, help="objects per scene")
     parser.add_argument("--no-docs", action="store_true", help="print only, leave docs/benchmarks.md alone")
     args = parser.parse_args()
 
+    load_before = os.getloadavg()[0]
     workdir = Path(tempfile.mkdtemp(prefix="discern-bench-"))
     rows, ramp_rows, notes = [], [], []
     cases = [
@@ -198,6 +209,8 @@ def main() -> None:
                 r = run_load(session, label, loads, rate)
                 rows.append(row(r, vehicles, rate))
                 print(rows[-1], flush=True)
+                if r.failsafe > 0.02 * r.sent:
+                    notes.append(f"{label}: {r.judged_per_s:.0f} verdicts/s from the rules, the rest fail-safe at the budget")
             finally:
                 session.close()
                 monitors.close()
@@ -206,8 +219,8 @@ def main() -> None:
                 notes.append(f"{label}: {sum(p.stat().st_size for p in logs) / 1e6:.1f} MB of MCAP in {len(logs)} file(s)")
 
         # Maximum sustained rate: 10 vehicles, total rate raised until a verdict is fail-safe or lost.
-        for shards in (1, 2):
-            monitors = Monitors(shards, workdir / f"ramp{shards}")
+        for label, shards, workers in (("1 monitor", 1, 1), ("1 monitor, 2 workers", 1, 2), ("2 monitors", 2, 1)):
+            monitors = Monitors(shards, workdir / label.replace(" ", "_").replace(",", ""), workers)
             session = zenoh.open(ZenohSettings(listen=[], connect=monitors.endpoints).to_zenoh())
             best = None
             try:
@@ -219,17 +232,16 @@ def main() -> None:
                     for s in range(shards):
                         prefix = f"s{s}_r{step}_" if shards > 1 else f"r{step}_"
                         loads.update(payloads(prefix, 10 // shards, frames, args.objects))
-                    r = run_load(session, f"{shards} monitor{'s' if shards > 1 else ''}", loads, per_vehicle)
+                    r = run_load(session, label, loads, per_vehicle)
                     ramp_rows.append(row(r, 10, per_vehicle))
                     print(ramp_rows[-1], flush=True)
-                    if not r.clean or pct(r.rtt_ms, 99) > 50:
+                    if not r.sustained:
                         break
                     best = total
             finally:
                 session.close()
                 monitors.close()
-            notes.append(f"max sustained rate, {shards} monitor process(es): {best or '< 20'} proposals/s "
-                         "(every verdict from the rules, none fail-safe or lost, p99 <= 50 ms)")
+            notes.append(f"max sustained rate, {label}: {best or '< 20'} proposals/s")
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
 
@@ -245,18 +257,22 @@ def main() -> None:
             "## Sidecar round trip",
             "",
             f"Command: `{command}`  ",
-            f"Machine: {machine()}; monitor (`discern serve`, 1 worker thread, MCAP log on unless noted) and "
+            f"Machine: {machine()}; monitor (`discern serve`, 1 decision worker process unless noted, MCAP log on unless noted) and "
             "load generator as separate processes on the same machine, zenoh peer-to-peer over TCP loopback, "
             f"query/reply, {args.objects}-object highway scenes, open-loop sending.",
             "",
             "Round trip = planner sends the proposal until the verdict is back; in monitor = arrival to answer "
             "(queueing + rules + encoding) as reported in the verdict's latency_ms; transport = round trip minus in monitor. "
             "A fail-safe is a verdict sent at the 50 ms budget because the rules had not answered yet.",
+            f"Other load on the machine: 1-minute load average {load_before:.1f} before the run "
+            f"({os.cpu_count()} cores); the figures are only as quiet as the machine was.",
             "",
             header,
             *rows,
             "",
-            "Maximum sustained rate (10 vehicles, total rate raised step by step until a verdict is fail-safe, lost, or p99 > 50 ms):",
+            "Maximum sustained rate (10 vehicles; the total rate is raised step by step until a proposal is lost, "
+            "more than 2 % of verdicts are fail-safe or the p90 round trip exceeds the 50 ms budget; with 2 monitors "
+            "each serves 5 vehicles, sharded by `--vehicles`):",
             "",
             header,
             *ramp_rows,

@@ -13,7 +13,9 @@ itself does, so the planner's loop has one code path.
 from __future__ import annotations
 
 import atexit
+import logging
 import threading
+import time
 from pathlib import Path
 from typing import Callable, Iterable, Optional, Union
 
@@ -26,6 +28,7 @@ from . import keys
 from .config import DEFAULT_ENDPOINT, ZenohSettings
 from .protocol import RULE_NO_ANSWER, decode_verdict, encode, failsafe_verdict
 
+log = logging.getLogger(__name__)
 JSON = zenoh.Encoding.APPLICATION_JSON
 STYLES = ("query", "pubsub")
 
@@ -33,6 +36,8 @@ STYLES = ("query", "pubsub")
 class Monitor:
     """A connection to the monitor(s) serving one vehicle.
 
+    Connects to `connect` (default tcp/127.0.0.1:7447) or as the zenoh `config_file` says;
+    `mode` is peer unless given or set in the file.
     style="query": `check` queries ``discern/<vehicle>/check`` and takes the first reply.
     style="pubsub": `check` publishes on ``discern/<vehicle>/proposal`` and waits for the
     verdict of that frame on ``discern/<vehicle>/verdict``; `publish` sends without waiting
@@ -43,8 +48,8 @@ class Monitor:
         self,
         vehicle: str = "ego",
         *,
-        connect: Optional[Iterable[str]] = (DEFAULT_ENDPOINT,),
-        mode: str = "peer",
+        connect: Optional[Iterable[str]] = None,
+        mode: Optional[str] = None,
         config_file: Optional[Union[str, Path]] = None,
         style: str = "query",
         timeout: float = 0.1,
@@ -58,9 +63,10 @@ class Monitor:
         self.style = style
         self.timeout = timeout
         self._on_verdict = on_verdict
-        settings = ZenohSettings(
+        if connect is None and config_file is None:
+            connect = [DEFAULT_ENDPOINT]
+        settings = ZenohSettings(  # explicit arguments override the config file; a planner need not listen
             mode=mode,
-            listen=[],
             connect=list(connect) if connect is not None else None,
             config_file=Path(config_file) if config_file else None,
         )
@@ -70,6 +76,7 @@ class Monitor:
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
         self._lock = threading.Lock()
         self._publisher = self.session.declare_publisher(keys.proposal_key(vehicle), encoding=JSON)
+        self._querier = self.session.declare_querier(keys.check_key(vehicle))
         self._subscriber = None
         if style == "pubsub" or on_verdict is not None:
             self._subscriber = self.session.declare_subscriber(keys.verdict_key(vehicle), self._on_sample)
@@ -89,25 +96,37 @@ class Monitor:
             verdict = self._query(proposal, timeout)
         else:
             verdict = self._publish_and_wait(proposal, timeout)
-        if verdict is None:
-            verdict = failsafe_verdict(
-                self.vehicle,
-                f"no verdict from a monitor on {self._key()} within {timeout * 1000:g} ms",
-                RULE_NO_ANSWER,
-                proposed=proposal.action,
-                frame_id=proposal.scene.frame_id,
-                timestamp=proposal.scene.timestamp,
-            )
-        return verdict
+        if isinstance(verdict, Verdict):
+            return verdict
+        reason = verdict or f"no verdict from a monitor on {self._key()} within {timeout * 1000:g} ms"
+        return failsafe_verdict(
+            self.vehicle,
+            reason,
+            RULE_NO_ANSWER,
+            proposed=proposal.action,
+            frame_id=proposal.scene.frame_id,
+            timestamp=proposal.scene.timestamp,
+        )
 
     def publish(self, scene: Union[Scene, dict], action: Union[Action, str], *, explain: bool = False) -> None:
         """Send a proposal without waiting; its verdict goes to `on_verdict`."""
         self._publisher.put(encode(self._proposal(scene, action, explain)))
 
+    def wait_for_monitor(self, timeout: float = 2.0) -> bool:
+        """True once a monitor serving this vehicle is reachable; for a planner's start-up check."""
+        entity = self._querier if self.style == "query" else self._publisher
+        deadline = time.monotonic() + timeout
+        while not entity.matching_status.matching:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.02)
+        return True
+
     def close(self) -> None:
         if getattr(self, "_closed", True):
             return
         self._closed = True
+        atexit.unregister(self.close)
         try:
             self.session.close()
         except zenoh.ZError:
@@ -129,17 +148,24 @@ class Monitor:
             scene = Scene.model_validate(scene)
         return Proposal(vehicle=self.vehicle, action=Action(action), scene=scene, explain=explain)
 
-    def _query(self, proposal: Proposal, timeout: float) -> Optional[Verdict]:
+    def _query(self, proposal: Proposal, timeout: float) -> Union[Verdict, str, None]:
+        """The first verdict that arrives, else why none did (None: nothing in time)."""
         replies = self.session.get(
             keys.check_key(self.vehicle), payload=encode(proposal), encoding=JSON, timeout=timeout
         )
+        problem = None
         try:
-            for reply in replies:  # first good reply wins: sharded monitors answer once
-                if reply.ok is not None:
+            for reply in replies:
+                if reply.ok is None:
+                    problem = f"the monitor replied with an error: {reply.err.payload.to_string()[:200]}"
+                    continue
+                try:
                     return decode_verdict(reply.ok.payload.to_bytes())
+                except ValueError as exc:
+                    problem = f"unreadable verdict from the monitor: {str(exc).splitlines()[0]}"
         except zenoh.ZError:
             pass
-        return None
+        return problem
 
     def _publish_and_wait(self, proposal: Proposal, timeout: float) -> Optional[Verdict]:
         frame = proposal.scene.frame_id
@@ -158,6 +184,7 @@ class Monitor:
         try:
             verdict = decode_verdict(sample.payload.to_bytes())
         except ValueError:
+            log.warning("ignored an unreadable verdict on %s", sample.key_expr)
             return
         with self._lock:
             slot = self._waiting.get(verdict.frame_id) if verdict.frame_id is not None else None

@@ -7,11 +7,14 @@ from __future__ import annotations
 
 import argparse
 import logging
+import re
 import signal
 import sys
 import threading
 import time
 from pathlib import Path
+
+from discern.rules.engine import JURISDICTIONS
 
 from . import keys
 from .config import DEFAULT_ENDPOINT, LogSettings, MonitorConfig, ZenohSettings, default_monitor_id
@@ -31,8 +34,9 @@ def register(subparsers) -> None:
     serve.add_argument("--budget-ms", type=float, default=50.0, help="decision budget; later = fail-safe (default: 50)")
     serve.add_argument("--window-s", type=float, default=2.0, help="per-vehicle history window (default: 2)")
     serve.add_argument("--max-payload-bytes", type=int, default=1024 * 1024, help="larger proposals are refused")
-    serve.add_argument("--workers", type=int, default=1, help="decision threads (default: 1; scale out with processes)")
+    serve.add_argument("--workers", type=int, default=1, help="decision worker processes (default: 1)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
+    serve.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
     serve.add_argument("--log-dir", type=Path, default=None, help="write the MCAP log here (default: no log)")
     serve.add_argument("--log-rotate-mb", type=float, default=256.0, help="start a new log file past this size")
     serve.add_argument("--log-rotate-s", type=float, default=3600.0, help="start a new log file past this age")
@@ -98,8 +102,12 @@ def _zenoh_settings(args, mode=None) -> ZenohSettings:
     )
 
 
+_RUST_LOCATION = re.compile(r" at /\S+?\.rs:\d+\.?")
+
+
 def _fail(command: str, message: str) -> int:
-    print(f"discern {command}: error: {message}", file=sys.stderr)
+    """One line for the user; zenoh's errors carry Rust source locations they have no use for."""
+    print(f"discern {command}: error: {_RUST_LOCATION.sub('', message)}", file=sys.stderr)
     return 2
 
 
@@ -131,6 +139,7 @@ def cmd_serve(args) -> int:
             max_payload_bytes=args.max_payload_bytes,
             workers=args.workers,
             shadow=args.shadow,
+            jurisdiction=args.jurisdiction,
             log=LogSettings(
                 directory=args.log_dir,
                 rotate_bytes=int(args.log_rotate_mb * 1024 * 1024),
@@ -148,7 +157,7 @@ def cmd_serve(args) -> int:
     except (ValueError, OSError, ImportError) as exc:
         return _fail("serve", str(exc))
     except Exception as exc:  # zenoh refuses an endpoint or config: say so, no traceback
-        return _fail("serve", f"{type(exc).__name__}: {exc}")
+        return _fail("serve", str(exc))
     try:
         chunk = server.vehicles_chunk
         print(

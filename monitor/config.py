@@ -17,6 +17,8 @@ from typing import Optional
 
 import zenoh
 
+from discern.rules.engine import JURISDICTIONS
+
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 MODES = ("peer", "client", "router")
@@ -110,8 +112,9 @@ class MonitorConfig:
     budget_ms: float = 50.0
     window_s: float = 2.0
     max_payload_bytes: int = 1024 * 1024
-    workers: int = 1  # the GIL makes more threads slower: scale out with processes (--vehicles)
+    workers: int = 1  # decision processes; each vehicle sticks to one
     shadow: bool = False
+    jurisdiction: str = "us"
     log: Optional[LogSettings] = None
     status_period_s: float = 1.0
     # Test-only: every decision sleeps this long first, to exercise the deadline.
@@ -125,6 +128,8 @@ class MonitorConfig:
                 raise ValueError(f"{name} must be > 0, got {value}")
         if self.max_payload_bytes < 1024:
             raise ValueError(f"max_payload_bytes must be >= 1024, got {self.max_payload_bytes}")
+        if self.jurisdiction not in JURISDICTIONS:
+            raise ValueError(f"unknown jurisdiction {self.jurisdiction!r}: choose from {', '.join(JURISDICTIONS)}")
         if not 1 <= self.workers <= 64:
             raise ValueError(f"workers must be between 1 and 64, got {self.workers}")
         return self

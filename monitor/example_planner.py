@@ -74,6 +74,9 @@ def run(
     failsafes = 0
     period = 1.0 / rate_hz
     with Monitor(vehicle, connect=list(connect), style=style, timeout=0.5) as monitor:
+        if not monitor.wait_for_monitor(timeout=3.0):
+            print(f"no monitor serves vehicle {vehicle!r} at {', '.join(connect)}: expect fail-safe verdicts",
+                  file=sys.stderr)
         for frame in range(frames):
             started = time.monotonic()
             proposed = planner_action(frame)

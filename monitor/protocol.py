@@ -8,6 +8,7 @@ and builds the fail-safe verdicts the monitor owes when it cannot judge.
 
 from __future__ import annotations
 
+import re
 from typing import Iterable, Optional
 
 from pydantic import BaseModel, ValidationError
@@ -33,7 +34,6 @@ RULE_BAD_INPUT = "monitor.bad_input"
 RULE_DEADLINE = "monitor.deadline"
 RULE_INTERNAL_ERROR = "monitor.internal_error"
 RULE_NO_ANSWER = "monitor.no_answer"
-RULE_OVERLOAD = "monitor.overload"
 
 MAX_ERRORS_NAMED = 5
 
@@ -68,9 +68,10 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     try:
         proposal = Proposal.model_validate_json(payload)
     except ValidationError as exc:
-        kind = "json" if any(e["type"] == "json_invalid" for e in exc.errors()) else "schema"
-        prefix = "malformed JSON" if kind == "json" else "schema violation"
-        raise InputError(f"{prefix}: {describe_validation_error(exc)}", kind) from None
+        invalid_json = [e["msg"] for e in exc.errors() if e["type"] == "json_invalid"]
+        if invalid_json:
+            raise InputError(f"malformed JSON: {invalid_json[0].removeprefix('Invalid JSON: ')}", "json") from None
+        raise InputError(f"schema violation: {describe_validation_error(exc)}", "schema") from None
     if "vehicle" not in proposal.model_fields_set:
         proposal.vehicle = key_vehicle
     elif proposal.vehicle != key_vehicle:
@@ -79,6 +80,27 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
             "vehicle",
         )
     return proposal
+
+
+_FRAME_ID = re.compile(rb'"frame_id"\s*:\s*(\d{1,18})\b')
+_ACTION = re.compile(rb'"action"\s*:\s*"([a-z_]{1,32})"')
+
+
+def peek_frame(payload: Optional[bytes]) -> tuple[Optional[int], Optional[Action]]:
+    """Frame id and action of a proposal not parsed yet, best effort and in microseconds.
+
+    Only labels a fail-safe sent for a proposal still queued at its deadline, so the
+    planner can match it to its frame; a full parse there would only deepen the backlog.
+    """
+    if not payload:
+        return None, None
+    frame = _FRAME_ID.search(payload)
+    action = _ACTION.search(payload)
+    try:
+        proposed = Action(action.group(1).decode()) if action else None
+    except ValueError:
+        proposed = None
+    return (int(frame.group(1)) if frame else None), proposed
 
 
 def most_cautious(permitted: Iterable[Action]) -> Action:

@@ -1,48 +1,39 @@
 """The sidecar monitor: proposals in over zenoh, a verdict out for every one, within the budget.
 
-Threads and why:
+Who does what:
 - zenoh callbacks only copy the payload and enqueue it, so they never block;
-- worker threads judge proposals; each vehicle always goes to the same worker,
-  which keeps its frames in order and its window private to one thread;
-- a watchdog answers any proposal still unanswered at its deadline with a
-  fail-safe verdict, so a slow rule set or a backlog never leaves a planner
-  without an answer (the late decision is then discarded);
+- decision worker processes judge proposals (decision_pool.py); the monitor's
+  own process does no reasoning, so nothing holds it up;
+- a watchdog thread answers any proposal still unanswered at its deadline with
+  a fail-safe verdict, so a slow rule set, a backlog or a dead worker never
+  leaves a planner without an answer (a late decision is then discarded);
 - the MCAP writer runs on its own thread (log/writer.py).
 Every proposal is answered exactly once: whoever claims the request first sends.
 """
 
 from __future__ import annotations
 
+import itertools
 import logging
-import queue
 import threading
 import time
-import zlib
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Optional
 
 import zenoh
 
-from discern.rules.scene import Proposal
+from discern.rules.scene import Action
 from discern.rules.verdict import Verdict
 
 from . import keys
 from .config import DEFAULT_ENDPOINT, MonitorConfig, listen_endpoints
-from .decider import Decide, DecideFactory, reasoner_factory, with_delay
+from .decision_pool import DecisionPool, Job, Outcome, WorkerSettings
 from .log import McapLogWriter, RejectedInput, vehicle_topic
 from .log.channels import STATUS_TOPIC
-from .protocol import (
-    RULE_BAD_INPUT,
-    RULE_DEADLINE,
-    RULE_INTERNAL_ERROR,
-    InputError,
-    decode_proposal,
-    encode,
-    failsafe_verdict,
-)
+from .protocol import RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, encode, failsafe_verdict, peek_frame
 from .status import MonitorStatus, StatusCounters
-from .vehicle_state import VehicleState
+from .vehicle_state import PermittedMemory
 
 log = logging.getLogger(__name__)
 
@@ -54,15 +45,15 @@ EXCERPT_BYTES = 512
 class Request:
     """One proposal in flight, from its arrival to its single answer."""
 
+    rid: int
     key: str
     vehicle: str
     payload: Optional[bytes]  # None when empty or over the size limit
     size: int
-    arrived: float  # perf_counter
+    arrived: float  # time.monotonic(), the clock the workers share
     arrived_ns: int  # wall clock, for the log
     deadline: float
     query: Optional[zenoh.Query] = None
-    proposal: Optional[Proposal] = None
     _once: threading.Lock = field(default_factory=threading.Lock)
 
     def claim(self) -> bool:
@@ -73,27 +64,48 @@ class Request:
     def answered(self) -> bool:
         return self._once.locked()
 
+    def still_open(self) -> bool:
+        return not self._once.locked()
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A verdict ready to send, with what the counters and the log need to know about it."""
+
+    verdict: bytes
+    decision: str
+    failsafe: bool
+    latency_ms: float
+    error_kind: Optional[str] = None  # refused as bad input of this kind
+    error: Optional[str] = None
+
 
 class MonitorServer:
     """Serve verdicts until `stop()`; use as a context manager."""
 
-    def __init__(self, config: MonitorConfig, decide_factory: DecideFactory = reasoner_factory):
+    def __init__(self, config: MonitorConfig):
         self.config = config.validate()
-        if config.test_decision_delay_ms > 0:
-            decide_factory = with_delay(decide_factory, config.test_decision_delay_ms / 1000)
-        self._decide_factory = decide_factory
         self.vehicles_chunk = keys.vehicle_selector(config.vehicles)
         self.counters = StatusCounters(config.monitor_id, self.vehicles_chunk, config.budget_ms)
         self._budget_s = config.budget_ms / 1000
-        self._states: list[dict[str, VehicleState]] = [{} for _ in range(config.workers)]
-        self._queues: list[queue.SimpleQueue] = [queue.SimpleQueue() for _ in range(config.workers)]
-        self._pending: deque[Request] = deque()
+        self._rids = itertools.count()
+        self._open: dict[int, Request] = {}
+        self._pending: deque[Request] = deque()  # in arrival order, hence deadline order
+        self._refusals: deque[tuple[Request, str, str]] = deque()  # (request, reason, kind): bad input seen on arrival
         self._wake = threading.Event()
         self._stopping = threading.Event()
         self._threads: list[threading.Thread] = []
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._publishers_lock = threading.Lock()
+        self._permitted = PermittedMemory()
+        self._vehicles: set[str] = set()
         self._declared: list = []
+        self.pool = DecisionPool(
+            config.workers,
+            WorkerSettings(config.window_s, config.shadow, config.jurisdiction, config.test_decision_delay_ms / 1000),
+            self._on_outcome,
+            self._on_worker_lost,
+        )
         self.session: Optional[zenoh.Session] = None
         self.listen_endpoints: list[str] = []
         self.log: Optional[McapLogWriter] = None
@@ -101,14 +113,21 @@ class MonitorServer:
     # -- lifecycle -----------------------------------------------------------
 
     def start(self) -> "MonitorServer":
-        deciders = [self._decide_factory() for _ in range(self.config.workers)]  # fail before going live
-        if self.config.log is not None:
-            self.log = McapLogWriter(self.config.log, self.config.monitor_id)
+        """Go live; on any failure nothing is left running and the error propagates."""
+        try:
+            self._open_all()
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def _open_all(self) -> None:
+        self.pool.start()  # workers load the rules before zenoh starts any thread
         zenoh_config = self.config.zenoh.to_zenoh(default_listen=[DEFAULT_ENDPOINT])
         self.listen_endpoints = listen_endpoints(zenoh_config)
         self.session = zenoh.open(zenoh_config)
-        for i, decide in enumerate(deciders):
-            self._spawn(f"discern-worker-{i}", self._work, i, decide)
+        if self.config.log is not None:
+            self.log = McapLogWriter(self.config.log, self.config.monitor_id)
         self._spawn("discern-watchdog", self._watch)
         if self.log is not None:
             self._spawn("discern-status-log", self._log_status)
@@ -119,7 +138,6 @@ class MonitorServer:
             s.declare_queryable(keys.check_key(chunk), _direct(self._on_query)),
             s.declare_queryable(keys.status_key(self.config.monitor_id), self._on_status_query),
         ]
-        return self
 
     def stop(self) -> None:
         if self._stopping.is_set():
@@ -127,12 +145,13 @@ class MonitorServer:
         for entity in self._declared:
             _quietly(entity.undeclare)
         self._declared = []
+        self.pool.stop()  # workers finish what they were sent
         self._stopping.set()
         self._wake.set()
-        for q in self._queues:
-            q.put(None)
         for t in self._threads:
             t.join(timeout=10)
+        for req in list(self._open.values()):
+            self._answer(req, self._failsafe(req, "the monitor is shutting down", RULE_INTERNAL_ERROR))
         if self.log is not None:
             self.log.write(STATUS_TOPIC, "status", self.status())
             self.log.close()
@@ -146,7 +165,7 @@ class MonitorServer:
         self.stop()
 
     def status(self) -> MonitorStatus:
-        extra = dict(vehicles=sum(len(s) for s in self._states))
+        extra = dict(vehicles=len(self._vehicles))
         if self.log is not None:
             extra.update(
                 log_files=[str(p) for p in self.log.files], log_records=self.log.records, log_dropped=self.log.dropped
@@ -161,150 +180,173 @@ class MonitorServer:
     # -- zenoh callbacks: copy, enqueue, return ----------------------------------
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        self._submit(str(sample.key_expr), sample.payload, None)
+        try:
+            self._submit(str(sample.key_expr), sample.payload, None)
+        except Exception:  # an exception would vanish inside zenoh: make it visible
+            log.exception("could not take a proposal on %s", sample.key_expr)
 
     def _on_query(self, query: zenoh.Query) -> None:
-        self._submit(str(query.key_expr), query.payload, query)
+        try:
+            self._submit(str(query.key_expr), query.payload, query)
+        except Exception:
+            log.exception("could not take a query on %s", query.key_expr)
 
     def _submit(self, key: str, payload: Optional[zenoh.ZBytes], query: Optional[zenoh.Query]) -> None:
-        now = time.perf_counter()
+        now = time.monotonic()
         size = len(payload) if payload is not None else 0
-        data = payload.to_bytes() if size and size <= self.config.max_payload_bytes else None
+        limit = self.config.max_payload_bytes
+        data = payload.to_bytes() if size and size <= limit else None
         vehicle = keys.vehicle_of(key)
-        req = Request(key, vehicle, data, size, now, time.time_ns(), now + self._budget_s, query)
-        if query is None and not keys.VEHICLE_PATTERN.match(vehicle) and any(c in vehicle for c in "*$"):
-            # A wildcard put names no vehicle: a verdict could only be broadcast. Refuse it quietly.
-            req.claim()
-            reason = f"vehicle chunk {vehicle!r} of key {key!r} is a wildcard: no verdict sent"
-            self.counters.input_refused("vehicle")
-            log.warning("refused a proposal: %s", reason)
-            self._log_rejected(req, reason)
-            return
+        req = Request(next(self._rids), key, vehicle, data, size, now, time.time_ns(), now + self._budget_s, query)
+        if not keys.VEHICLE_PATTERN.match(vehicle):
+            if query is None and any(c in vehicle for c in "*$"):
+                # A wildcard put names no vehicle: a verdict could only be broadcast. Refuse it quietly.
+                req.claim()
+                reason = f"vehicle chunk {vehicle!r} of key {key!r} is a wildcard: no verdict sent"
+                self.counters.input_refused("vehicle")
+                log.warning("refused a proposal: %s", reason)
+                self._log_rejected(req, reason)
+                return
+            refusal = (f"vehicle {vehicle[:140]!r} in the key is not a valid vehicle id ([A-Za-z0-9_-], 1-128 chars)", "vehicle")
+        elif data is None:
+            refusal = (
+                (f"payload of {size} bytes exceeds the limit of {limit} bytes", "size")
+                if size > limit
+                else ("empty payload: expected a Proposal as JSON", "json")
+            )
+        else:
+            refusal = None
+        self._vehicles.add(vehicle)
+        self._open[req.rid] = req
+        if refusal is not None:
+            # Cheap to decide, but answered from the watchdog's thread, never from a zenoh thread.
+            self._refusals.append((req, *refusal))
+        else:
+            self.pool.submit(Job(req.rid, vehicle, data, now, req.deadline), req.still_open)
         self._pending.append(req)
         self._wake.set()
-        self._queues[zlib.crc32(vehicle.encode()) % len(self._queues)].put(req)
 
     def _on_status_query(self, query: zenoh.Query) -> None:
         with query:
             query.reply(keys.status_key(self.config.monitor_id), encode(self.status()), encoding=JSON)
 
-    # -- workers ---------------------------------------------------------------
+    # -- outcomes from the decision workers -------------------------------------
 
-    def _work(self, index: int, decide: Decide) -> None:
-        work = self._queues[index]
-        states = self._states[index]
-        while True:
-            req = work.get()
-            if req is None:
-                return
-            if req.answered:  # the watchdog already sent its fail-safe: shed the backlog
-                continue
-            error_kind = None
-            try:
-                verdict = self._judge(req, decide, states)
-            except InputError as exc:
-                error_kind = exc.kind
-                verdict = self._bad_input_verdict(req, str(exc))
-            except Exception as exc:  # nothing a proposal does may take the monitor down
-                log.exception("internal error judging a proposal from %s", req.vehicle)
+    def _on_outcome(self, outcome: Outcome) -> None:
+        req = self._open.get(outcome.rid)
+        if req is None or req.answered:
+            self.counters.count("late_decisions")
+            return
+        if outcome.verdict is None:
+            rule = RULE_INTERNAL_ERROR if outcome.internal else RULE_DEADLINE
+            if outcome.internal:
                 self.counters.count("internal_errors")
-                verdict = self._failsafe(req, f"internal error: {type(exc).__name__}: {exc}", RULE_INTERNAL_ERROR)
-            if not self._answer(req, verdict, error_kind):
-                self.counters.count("late_decisions")
-
-    def _judge(self, req: Request, decide: Decide, states: dict[str, VehicleState]) -> Verdict:
-        if req.payload is None:
-            if req.size > self.config.max_payload_bytes:
-                raise InputError(
-                    f"payload of {req.size} bytes exceeds the limit of {self.config.max_payload_bytes} bytes", "size"
-                )
-            raise InputError("empty payload: expected a Proposal as JSON", "json")
-        proposal = decode_proposal(req.payload, req.vehicle)
-        req.proposal = proposal
-        state = states.get(req.vehicle)
-        if state is None:
-            state = states[req.vehicle] = VehicleState(self.config.window_s)
-        scene = proposal.scene
-        history = state.admit(scene, req.arrived)
-        verdict = decide(
-            scene,
-            proposal.action,
-            history=history,
-            explain=proposal.explain,
-            shadow=self.config.shadow,
-            vehicle=req.vehicle,
+            reason = (
+                outcome.no_verdict if outcome.internal
+                else f"no decision within the {self.config.budget_ms:g} ms budget: {outcome.no_verdict}"
+            )
+            answer = self._failsafe(req, reason, rule, frame_id=outcome.frame_id, action=outcome.action)
+            if self._answer(req, answer) and not outcome.internal:
+                self.counters.count("deadline_misses")
+            return
+        if not outcome.failsafe and outcome.permitted:
+            self._permitted.remember(req.vehicle, tuple(Action(a) for a in outcome.permitted), time.monotonic())
+        answer = Answer(
+            outcome.verdict,
+            outcome.decision,
+            outcome.failsafe,
+            outcome.latency_ms,
+            outcome.error_kind,
+            outcome.error,
         )
-        state.remember_permitted(verdict.permitted, req.arrived)
-        return verdict
+        if not self._answer(req, answer):
+            self.counters.count("late_decisions")
+
+    def _on_worker_lost(self, index: int, exitcode: Optional[int]) -> None:
+        self.counters.count("internal_errors")
+        log.error("decision worker %d died (exit code %s): starting a new one", index, exitcode)
 
     # -- deadline --------------------------------------------------------------
 
     def _watch(self) -> None:
-        """Answer, at its deadline, every request still open; deadlines come in arrival order."""
+        """Send refusals, and at its deadline a fail-safe for every request still open."""
         pending = self._pending
         while not self._stopping.is_set():
+            while self._refusals:
+                req, reason, kind = self._refusals.popleft()
+                verdict = failsafe_verdict(req.vehicle, reason, RULE_BAD_INPUT, shadow=self.config.shadow)
+                self._answer(req, self._finish(req, verdict, error_kind=kind))
             if not pending:
                 self._wake.clear()
-                if not pending:
+                if not pending and not self._refusals:
                     self._wake.wait(0.5)
                 continue
             req = pending[0]
             if req.answered:
                 pending.popleft()
                 continue
-            delay = req.deadline - time.perf_counter()
+            delay = req.deadline - time.monotonic()
             if delay > 0:
-                time.sleep(delay)
+                # Later requests have later deadlines; a refusal or stop() wakes us early.
+                self._wake.clear()
+                if not self._refusals:
+                    self._wake.wait(delay)
                 continue
             pending.popleft()
-            reason = (
-                f"no decision within the {self.config.budget_ms:g} ms budget"
-                + ("" if req.proposal is not None else " (still queued)")
-            )
-            if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE), None):
+            reason = f"no decision within the {self.config.budget_ms:g} ms budget"
+            if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
                 self.counters.count("deadline_misses")
 
     # -- answers ---------------------------------------------------------------
 
-    def _failsafe(self, req: Request, reason: str, rule: str) -> Verdict:
-        p = req.proposal
-        state = self._states[zlib.crc32(req.vehicle.encode()) % len(self._states)].get(req.vehicle)
-        return failsafe_verdict(
+    def _failsafe(
+        self, req: Request, reason: str, rule: str, *, frame_id: Optional[int] = None, action: Optional[str] = None
+    ) -> Answer:
+        if frame_id is None:  # not parsed yet: label the answer with what a glance at the payload gives
+            frame_id, proposed = peek_frame(req.payload)
+        else:
+            proposed = Action(action) if action else None
+        verdict = failsafe_verdict(
             req.vehicle,
             reason,
             rule,
-            proposed=p.action if p else None,
-            frame_id=p.scene.frame_id if p else None,
-            timestamp=p.scene.timestamp if p else None,
-            permitted=state.recent_permitted(time.perf_counter()) if state else (),
+            proposed=proposed,
+            frame_id=frame_id,
+            permitted=self._permitted.recent(req.vehicle, time.monotonic()),
             shadow=self.config.shadow,
         )
+        return self._finish(req, verdict)
 
-    def _bad_input_verdict(self, req: Request, reason: str) -> Verdict:
-        return self._failsafe(req, reason, RULE_BAD_INPUT)
+    def _finish(self, req: Request, verdict: Verdict, error_kind: Optional[str] = None) -> Answer:
+        verdict.latency_ms = round((time.monotonic() - req.arrived) * 1000, 3)
+        return Answer(
+            encode(verdict), verdict.decision.value, True, verdict.latency_ms, error_kind, error=verdict.error
+        )
 
-    def _answer(self, req: Request, verdict: Verdict, error_kind: Optional[str]) -> bool:
+    def _answer(self, req: Request, answer: Answer) -> bool:
         if not req.claim():
             return False
-        verdict.latency_ms = round((time.perf_counter() - req.arrived) * 1000, 3)
-        data = encode(verdict)
+        self._open.pop(req.rid, None)
         try:
             if req.query is not None:
                 with req.query as query:
-                    query.reply(req.key, data, encoding=JSON)
+                    query.reply(req.key, answer.verdict, encoding=JSON)
             else:
-                self._publisher(req.vehicle).put(data)
+                self._publisher(req.vehicle).put(answer.verdict)
         except Exception as exc:  # the session is closing, or the querier gave up
             log.warning("could not send the verdict for %s: %s", req.key, exc)
-        self.counters.verdict_sent(verdict, error_kind)
-        if error_kind is not None:
-            log.warning("refused a proposal on %s: %s", req.key, verdict.error)
+        self.counters.verdict_sent(answer.decision, answer.failsafe, answer.latency_ms, answer.error_kind)
+        if answer.error_kind is not None:
+            log.warning("refused a proposal on %s: %s", req.key, answer.error or "see the log")
         if self.log is not None:
-            if req.proposal is not None:
-                self.log.write(vehicle_topic(req.vehicle, "proposal"), "proposal", req.proposal, req.arrived_ns)
-            elif error_kind is not None:
-                self._log_rejected(req, verdict.error or "")
-            self.log.write(vehicle_topic(_topic_safe(req.vehicle), "verdict"), "verdict", data)
+            # The proposal as the planner sent it; a payload that is not a readable proposal goes
+            # to the `rejected` channel instead, with the reason.
+            topic_vehicle = _topic_safe(req.vehicle)
+            if answer.error_kind in (None, "order") and req.payload is not None:
+                self.log.write(vehicle_topic(topic_vehicle, "proposal"), "proposal", req.payload, req.arrived_ns)
+            else:
+                self._log_rejected(req, answer.error or answer.error_kind)
+            self.log.write(vehicle_topic(topic_vehicle, "verdict"), "verdict", answer.verdict)
         return True
 
     def _log_rejected(self, req: Request, reason: str) -> None:

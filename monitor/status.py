@@ -10,9 +10,10 @@ from typing import Literal, Optional
 import numpy as np
 from pydantic import BaseModel, Field
 
-from discern.rules.verdict import Decision, Verdict
+from discern.rules.verdict import Decision
 
 LATENCY_SAMPLES = 8192  # percentiles cover the most recent decisions
+_DECISION_COUNTER = {Decision.approve.value: "approvals", Decision.veto.value: "vetoes", Decision.override.value: "overrides"}
 
 
 class LatencySummary(BaseModel):
@@ -58,24 +59,18 @@ class StatusCounters:
         self._latency = np.zeros(LATENCY_SAMPLES)
         self._latency_n = 0
 
-    def verdict_sent(self, verdict: Verdict, error_kind: Optional[str]) -> None:
+    def verdict_sent(self, decision: str, failsafe: bool, latency_ms: float, error_kind: Optional[str]) -> None:
         with self._lock:
             c = self._counts
             c["proposals"] += 1
-            if verdict.decision is Decision.approve:
-                c["approvals"] += 1
-            elif verdict.decision is Decision.veto:
-                c["vetoes"] += 1
-            else:
-                c["overrides"] += 1
-            if verdict.failsafe:
+            c[_DECISION_COUNTER[decision]] += 1
+            if failsafe:
                 c["failsafes"] += 1
             if error_kind is not None:
                 c["errors"] += 1
                 self._errors[error_kind] += 1
-            if verdict.latency_ms is not None:
-                self._latency[self._latency_n % LATENCY_SAMPLES] = verdict.latency_ms
-                self._latency_n += 1
+            self._latency[self._latency_n % LATENCY_SAMPLES] = latency_ms
+            self._latency_n += 1
 
     def input_refused(self, kind: str) -> None:
         """A proposal refused without a verdict (it named no vehicle to answer)."""

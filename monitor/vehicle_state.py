@@ -2,7 +2,8 @@
 
 The sanity layer reasons over time (a car that vanished, a speed that jumped),
 so each vehicle keeps a short window of its recent scenes; frame ids must rise
-so the window is never fed a stale or replayed frame.
+so the window is never fed a stale or replayed frame. The window lives in the
+vehicle's decision worker; the permitted-action memory in the monitor process.
 """
 
 from __future__ import annotations
@@ -24,8 +25,6 @@ class VehicleState:
         self.frames: deque[tuple[float, Scene]] = deque(maxlen=MAX_FRAMES)
         self.last_frame_id: Optional[int] = None
         self.last_arrival = float("-inf")
-        self.permitted: tuple[Action, ...] = ()
-        self.permitted_at = float("-inf")
 
     def admit(self, scene: Scene, now: float) -> tuple[Scene, ...]:
         """Check the frame id, return the history (oldest first) and remember the scene.
@@ -63,9 +62,17 @@ class VehicleState:
             while frames and frames[0][0] < now - self.window_s:
                 frames.popleft()
 
-    def remember_permitted(self, permitted: list[Action], now: float) -> None:
-        self.permitted = tuple(permitted)
-        self.permitted_at = now
 
-    def recent_permitted(self, now: float) -> tuple[Action, ...]:
-        return self.permitted if now - self.permitted_at <= PERMITTED_MEMORY_S else ()
+class PermittedMemory:
+    """What each vehicle's last verdict permitted, briefly: the fail-safe's menu when a decision is late."""
+
+    def __init__(self, memory_s: float = PERMITTED_MEMORY_S):
+        self.memory_s = memory_s
+        self._last: dict[str, tuple[float, tuple[Action, ...]]] = {}
+
+    def remember(self, vehicle: str, permitted: tuple[Action, ...], now: float) -> None:
+        self._last[vehicle] = (now, permitted)
+
+    def recent(self, vehicle: str, now: float) -> tuple[Action, ...]:
+        at, permitted = self._last.get(vehicle, (float("-inf"), ()))
+        return permitted if now - at <= self.memory_s else ()

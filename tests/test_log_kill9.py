@@ -14,7 +14,7 @@ LOSS_BOUND_S = 1.0
 
 
 def test_sigkill_leaves_a_log_readable_up_to_the_last_second(tmp_path):
-    proc, ep = serve("--id", "victim", "--log-dir", str(tmp_path), "--log-flush-s", str(FLUSH_S))
+    proc, ep = serve("--id", "victim", "--budget-ms", "5000", "--log-dir", str(tmp_path), "--log-flush-s", str(FLUSH_S))
     answered: dict[int, float] = {}
     try:
         with Monitor("doomed", connect=[ep], timeout=5) as monitor:

@@ -74,6 +74,20 @@ def test_channels_are_json_with_json_schemas_foxglove_can_open(tmp_path):
     assert "class" in objects  # the wire name, not the Python one
 
 
+def test_every_logged_message_validates_against_its_channel_schema(tmp_path):
+    import jsonschema
+    from mcap.reader import make_reader
+
+    write_session(tmp_path, frames=3)
+    [path] = tmp_path.glob("*.mcap")
+    checked = 0
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            jsonschema.validate(json.loads(message.data), json.loads(schema.data), cls=jsonschema.Draft202012Validator)
+            checked += 1
+    assert checked == 9  # 3 proposals, 3 verdicts, a refusal, its verdict, a status
+
+
 def test_a_cut_file_is_recovered_up_to_its_last_complete_chunk(tmp_path):
     writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.05), "cut")
     for f in range(6):

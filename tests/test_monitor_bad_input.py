@@ -20,7 +20,7 @@ MAX_PAYLOAD = 8192
 
 @pytest.fixture(scope="module")
 def monitor():
-    proc, ep = serve("--id", "bad", "--max-payload-bytes", str(MAX_PAYLOAD))
+    proc, ep = serve("--id", "bad", "--budget-ms", "5000", "--max-payload-bytes", str(MAX_PAYLOAD))
     yield ep, proc
     assert proc.stop() == 0, proc.output
 

@@ -18,7 +18,7 @@ from tests.monitor_process import REPO, endpoint, free_port, serve, status, wait
 
 @pytest.fixture(scope="module")
 def monitor():
-    proc, ep = serve("--id", "rt")
+    proc, ep = serve("--id", "rt", "--budget-ms", "5000")  # correctness here; the deadline has its own tests
     yield ep
     assert proc.stop() == 0, proc.output
 
@@ -108,3 +108,50 @@ def test_without_a_monitor_the_client_returns_a_failsafe_in_time():
         elapsed = time.monotonic() - started
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
     assert "no verdict" in verdict.error and elapsed < 2.0
+
+
+def test_an_unreadable_verdict_becomes_a_client_side_failsafe():
+    """Something that is not a Discern monitor answers on the check key: the planner still gets a verdict."""
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+
+    ep = endpoint(free_port())
+    impostor = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
+    try:
+        impostor.declare_queryable("discern/garbled/check", lambda q: q.reply(q.key_expr, b'{"version": 7}'))
+        with Monitor("garbled", connect=[ep], timeout=2.0) as client:
+            verdict = client.check(highway_scene(0, 2), "cruise")
+    finally:
+        impostor.close()
+    assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
+    assert "unreadable verdict from the monitor" in verdict.error
+
+
+def test_shadow_mode_vetoes_without_replacing_the_action():
+    proc, ep = serve("--id", "shadow", "--shadow", "--budget-ms", "5000")
+    try:
+        with Monitor("shadowed", connect=[ep], timeout=5.0) as monitor:
+            verdict = monitor.check(highway_scene(300, 8), "cruise")
+    finally:
+        assert proc.stop() == 0, proc.output
+    assert verdict.decision is Decision.veto and verdict.shadow and verdict.action.value == "cruise"
+    assert verdict.rules and not verdict.failsafe
+
+
+@pytest.mark.parametrize("rule", ["san.memory.stop_sign", "san.memory.object_permanence", "san.limit.remembered"])
+def test_the_vehicles_recent_frames_reach_the_sanity_layer(client, rule):
+    """The monitor's per-vehicle window is the `history` the sanity rules need: same verdict as in-process."""
+    from discern.sanity.examples import EXAMPLES
+
+    [example] = [e for e in EXAMPLES if e.rule == rule]
+    *earlier, last = example.frames
+    monitor = client(f"window_{rule.replace('.', '_')}")
+    for frame in earlier:
+        assert not monitor.check(frame, example.proposed).failsafe
+    verdict = monitor.check(last, example.proposed)
+    reasoner = Reasoner()
+    with_history = reasoner.decide(last, example.proposed, history=tuple(earlier))
+    assert (verdict.decision, verdict.action, verdict.rules) == (with_history.decision, with_history.action, with_history.rules)
+    assert rule in verdict.rules
+    assert reasoner.decide(last, example.proposed).decision is not verdict.decision  # the history decided it

@@ -20,7 +20,7 @@ def fleet():
             started.append(
                 DiscernProcess(
                     "serve", "--mode", "client", "--connect", router_ep, "--id", f"shard_{shard}",
-                    "--vehicles", f"fleet_{shard}_*",
+                    "--vehicles", f"fleet_{shard}_*", "--budget-ms", "5000",
                 ).wait_ready()
             )
         # Both monitors' declarations must have reached the router before planners ask.
@@ -42,11 +42,19 @@ def test_each_vehicle_is_judged_by_the_monitor_of_its_shard(fleet):
 
 def test_publish_subscribe_works_through_the_router(fleet):
     with Monitor("fleet_b_7", connect=[fleet], mode="client", style="pubsub", timeout=5) as monitor:
+        assert monitor.wait_for_monitor()
         frames = iter(range(10, 1000))
-        # the first frames may race the verdict subscription's propagation; later ones must not
+        # our verdict subscription may still be on its way to the monitor's side: retry with new frames
         verdict = wait_until(lambda: (v := monitor.check(highway_scene(next(frames), 8), "cruise", timeout=1)) and not v.failsafe and v)
         later = monitor.check(highway_scene(next(frames), 8), "cruise")
     assert verdict and verdict.vehicle == "fleet_b_7" and not later.failsafe and later.frame_id == verdict.frame_id + 1
+
+
+def test_a_planner_can_tell_whether_a_monitor_serves_its_vehicle(fleet):
+    with Monitor("fleet_a_9", connect=[fleet], mode="client") as served:
+        assert served.wait_for_monitor(timeout=5)
+    with Monitor("fleet_c_9", connect=[fleet], mode="client") as unserved:
+        assert not unserved.wait_for_monitor(timeout=0.3)
 
 
 def test_a_vehicle_no_monitor_serves_gets_a_client_side_failsafe(fleet):

@@ -76,14 +76,14 @@ def secured(tmp_path_factory):
     (directory / "monitor.json5").write_text(MONITOR_CONFIG % values)
     for name in ("car_1", "intruder"):
         (directory / f"{name}.json5").write_text(PLANNER_CONFIG % dict(values, name=name))
-    proc = DiscernProcess("serve", "--zenoh-config", str(directory / "monitor.json5"), "--id", "secure").wait_ready()
+    proc = DiscernProcess("serve", "--zenoh-config", str(directory / "monitor.json5"), "--id", "secure", "--budget-ms", "5000").wait_ready()
     assert f"tls/127.0.0.1:{port}" in proc.output
     yield directory
     proc.stop()
 
 
 def check(config, vehicle):
-    with Monitor(vehicle, connect=None, config_file=config, timeout=1.0) as monitor:
+    with Monitor(vehicle, config_file=config, timeout=1.0) as monitor:
         return monitor.check(highway_scene(0, 4), "cruise")
 
 

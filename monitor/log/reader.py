@@ -218,6 +218,8 @@ class _ChannelDecoder:
             self.recovery.skipped += 1
             log.warning("%s: skipping a %s message that fails its schema: %s", self.path, kind, exc.errors()[0]["msg"])
             return None
+        if kind == "proposal" and "vehicle" not in value.model_fields_set and vehicle:
+            value.vehicle = vehicle  # the key named it, as on the wire
         return LogRecord(
             log_time_ns=message.log_time,
             vehicle=vehicle,

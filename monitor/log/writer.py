@@ -44,7 +44,10 @@ class McapLogWriter:
         self.settings = settings
         self.monitor_id = monitor_id
         self.directory = Path(settings.directory)
-        self.directory.mkdir(parents=True, exist_ok=True)
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OSError(f"cannot create the log directory {self.directory}: {exc.strerror}") from None
         self.files: list[Path] = []
         self.records = 0
         self.dropped = 0
