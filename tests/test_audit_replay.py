@@ -14,6 +14,7 @@ from tests.audit_logs import (
     MEMORY_SEEN,
     PEDESTRIAN_FRAMES,
     SHADOW_FRAMES,
+    SLOW_FRAMES,
     audit,
     monitor_logs,
     tolerant_rules,
@@ -46,8 +47,8 @@ def test_replay_with_the_shipped_rules_changes_no_decision(capsys, tmp_path, log
         doc["frames"] == FLEET_A_FRAMES + PEDESTRIAN_FRAMES + CLEAR_FRAMES + SHADOW_FRAMES + MEMORY_SEEN + MEMORY_LOST
     )
     assert doc["changes"] == [] and doc["decided_in_full"] == 0
-    # not decided by the rules: the deadline fail-safe with a scene, and the verdicts with no proposal logged
-    assert doc["skipped_failsafe"] == 1 and doc["skipped_refused"] == 3
+    # not decided by the rules: the deadline fail-safes and the malformed payload (which has no proposal logged)
+    assert doc["skipped_failsafe"] + doc["skipped_refused"] == SLOW_FRAMES + 1 and doc["skipped_refused"] >= 1
     assert doc["solved"] + doc["reused"] == doc["frames"]
 
 
