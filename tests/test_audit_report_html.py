@@ -14,7 +14,7 @@ from tests.audit_logs import FLEET_A_FRAMES, FRAMES, SHADOW_FRAMES, audit, monit
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 needs_chromium = pytest.mark.skipif(
-    CHROMIUM is None, reason="chromium is not installed (apt-get install -y chromium; .ci/run installs it)"
+    CHROMIUM is None, reason="chromium is not installed (apt-get install -y chromium; `make test` installs it)"
 )
 
 
