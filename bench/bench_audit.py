@@ -59,15 +59,24 @@ def traffic_scene(frame_id: int, vehicle: int) -> Scene:
     t = frame_id * PERIOD_S
     speed = 26.0 + 3.0 * math.sin(t / 7.0 + vehicle)
     objects = [
-        DetectedObject(id=1, cls=ObjectClass.car, position=Vec2(x=rng.uniform(-0.2, 0.2), y=45.0 + 15.0 * math.sin(t / 5.0 + vehicle)),
-                       lane=LaneRef(kind=LaneKind.current, id=2), velocity=Vec2(x=0.0, y=speed + rng.uniform(-1, 1)))
+        DetectedObject(
+            id=1,
+            cls=ObjectClass.car,
+            position=Vec2(x=rng.uniform(-0.2, 0.2), y=45.0 + 15.0 * math.sin(t / 5.0 + vehicle)),
+            lane=LaneRef(kind=LaneKind.current, id=2),
+            velocity=Vec2(x=0.0, y=speed + rng.uniform(-1, 1)),
+        )
     ]
     for i in range(2, 2 + rng.randint(1, 5)):
         lane = rng.choice((1, 3))
         objects.append(
-            DetectedObject(id=i, cls=rng.choice((ObjectClass.car, ObjectClass.car, ObjectClass.truck)),
-                           position=Vec2(x=(lane - 2) * 3.5 + rng.uniform(-0.3, 0.3), y=rng.uniform(-40, 80)),
-                           lane=LaneRef(kind=LaneKind.current, id=lane), velocity=Vec2(x=0.0, y=rng.uniform(20, 32)))
+            DetectedObject(
+                id=i,
+                cls=rng.choice((ObjectClass.car, ObjectClass.car, ObjectClass.truck)),
+                position=Vec2(x=(lane - 2) * 3.5 + rng.uniform(-0.3, 0.3), y=rng.uniform(-40, 80)),
+                lane=LaneRef(kind=LaneKind.current, id=lane),
+                velocity=Vec2(x=0.0, y=rng.uniform(20, 32)),
+            )
         )
     return Scene(
         frame_id=frame_id,
@@ -82,8 +91,13 @@ def traffic_scene(frame_id: int, vehicle: int) -> Scene:
 def red_light_scene(frame_id: int, vehicle: int) -> Scene:
     """Stopped at a red light behind a queue: the same scene every frame, only the frame id and time move."""
     queue = [
-        DetectedObject(id=i + 1, cls=ObjectClass.car, position=Vec2(x=0.0, y=7.0 + 6.5 * i),
-                       lane=LaneRef(kind=LaneKind.current, id=1), velocity=Vec2(x=0.0, y=0.0))
+        DetectedObject(
+            id=i + 1,
+            cls=ObjectClass.car,
+            position=Vec2(x=0.0, y=7.0 + 6.5 * i),
+            lane=LaneRef(kind=LaneKind.current, id=1),
+            velocity=Vec2(x=0.0, y=0.0),
+        )
         for i in range(1 + vehicle % 3)
     ]
     return Scene(
@@ -100,7 +114,9 @@ def red_light_scene(frame_id: int, vehicle: int) -> Scene:
 def write_fleet(directory: Path, frames: int, vehicles: int, waiting_share: float, rotate_mb: float) -> list[Path]:
     """A fleet's log as the monitor writes it: each frame judged with its vehicle's history, proposal then verdict."""
     reasoner = Reasoner()
-    writer = McapLogWriter(LogSettings(directory=directory, rotate_bytes=int(rotate_mb * 2**20), flush_seconds=0.2), "bench")
+    writer = McapLogWriter(
+        LogSettings(directory=directory, rotate_bytes=int(rotate_mb * 2**20), flush_seconds=0.2), "bench"
+    )
     waiting = int(round(vehicles * waiting_share))
     states = [VehicleState(MonitorConfig().window_s) for _ in range(vehicles)]
     t0 = time.time_ns()
@@ -114,7 +130,9 @@ def write_fleet(directory: Path, frames: int, vehicles: int, waiting_share: floa
             arrived = t0 + int((f * PERIOD_S + v * 1e-4) * 1e9)
             history = states[v].admit(scene, arrived / 1e9)
             verdict = reasoner.decide(scene, action, history=history, vehicle=name)
-            writer.write(vehicle_topic(name, "proposal"), "proposal", Proposal(vehicle=name, action=action, scene=scene), arrived)
+            writer.write(
+                vehicle_topic(name, "proposal"), "proposal", Proposal(vehicle=name, action=action, scene=scene), arrived
+            )
             writer.write(vehicle_topic(name, "verdict"), "verdict", verdict, arrived + 3_000_000)
     writer.close()
     assert writer.dropped == 0, writer.dropped
@@ -139,7 +157,9 @@ def measure(files: list[Path], workers: int) -> dict:
         "reused": t.reused,
         "wall_s": result.wall_s,
         "fps": result.frames_per_s,
-        "solve_ms": 1000 * t.solve_s / max(1, t.solved),  # reasoner time (solve, plus any full decision) per solved frame
+        "solve_ms": 1000
+        * t.solve_s
+        / max(1, t.solved),  # reasoner time (solve, plus any full decision) per solved frame
         "cpu_ms": 1000 * t.cpu_s / max(1, t.frames),
         "workers": result.workers,
         "load": load,
@@ -160,11 +180,16 @@ def main() -> None:
     parser.add_argument("--vehicles", type=int, default=16)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--rotate-mb", type=float, default=1.0, help="log file size: more files, more parallel jobs")
-    parser.add_argument("--no-write", action="store_true", help="print the section instead of writing docs/benchmarks.md")
+    parser.add_argument(
+        "--no-write", action="store_true", help="print the section instead of writing docs/benchmarks.md"
+    )
     args = parser.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for label, share in (("every scene distinct (highway traffic)", 0.0), ("half the fleet waiting at a red light", 0.5)):
+        for label, share in (
+            ("every scene distinct (highway traffic)", 0.0),
+            ("half the fleet waiting at a red light", 0.5),
+        ):
             directory = Path(tmp) / f"share{share}"
             files = write_fleet(directory, args.frames, args.vehicles, share, args.rotate_mb)
             size_mb = sum(f.stat().st_size for f in files) / 2**20
@@ -183,7 +208,7 @@ def main() -> None:
         "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s | solved / reused (decided in full) | reasoner ms per solved frame | worker CPU ms per frame | load avg before |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for label, nfiles, size_mb, reading, m in rows:
+    for label, nfiles, size_mb, _reading, m in rows:
         lines.append(
             f"| {label} | {nfiles} ({size_mb:.1f}) | {m['workers']} | {m['replayed']} ({m['disagreements']}) | {m['audit_s']:.2f} "
             f"({m['frames'] / m['audit_s']:.0f}) | {m['wall_s']:.2f} | **{m['fps']:.0f}** | {m['solved']} / {m['reused']} ({m['decided']}) | "

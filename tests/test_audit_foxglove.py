@@ -37,4 +37,9 @@ def test_every_channel_is_json_with_a_json_schema_its_messages_satisfy(logs):
                     validators[channel.id] = jsonschema.Draft202012Validator(document)
                 errors = list(validators[channel.id].iter_errors(json.loads(message.data)))
                 assert errors == [], f"{channel.topic}: {errors[0].message}"
-    assert {"/discern/car_a/proposal", "/discern/car_a/verdict", "/discern/car_b/rejected", "/discern/status"} <= seen_topics
+    assert {
+        "/discern/car_a/proposal",
+        "/discern/car_a/verdict",
+        "/discern/car_b/rejected",
+        "/discern/status",
+    } <= seen_topics

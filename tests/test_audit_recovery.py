@@ -49,7 +49,7 @@ def rewrite(source: Path, targets: list[Path], split_after: int = -1, foreign: b
                 known["debug"] = w.register_channel("/discern/car_a/debug", "json", debug)
             w.add_message(known["camera"], message.log_time, b'{"width": 1920}', message.log_time)
             w.add_message(known["debug"], message.log_time, b'{"x": 1}', message.log_time)
-    for w, o in zip(writers, outputs):
+    for w, o in zip(writers, outputs, strict=True):
         w.finish()
         o.close()
 

@@ -14,10 +14,12 @@ from tests.audit_logs import (
     MEMORY_SEEN,
     PEDESTRIAN_FRAMES,
     SHADOW_FRAMES,
+    SLOW_FRAMES,
     audit,
     monitor_logs,
     tolerant_rules,
 )
+
 
 @pytest.fixture(scope="module")
 def logs(tmp_path_factory):
@@ -41,10 +43,12 @@ def test_replay_with_the_shipped_rules_changes_no_decision(capsys, tmp_path, log
     code, doc, text = replay(capsys, tmp_path, *files, "--workers", "1")
     assert code == 0
     assert "no decision would change" in text
-    assert doc["frames"] == FLEET_A_FRAMES + PEDESTRIAN_FRAMES + CLEAR_FRAMES + SHADOW_FRAMES + MEMORY_SEEN + MEMORY_LOST
+    assert (
+        doc["frames"] == FLEET_A_FRAMES + PEDESTRIAN_FRAMES + CLEAR_FRAMES + SHADOW_FRAMES + MEMORY_SEEN + MEMORY_LOST
+    )
     assert doc["changes"] == [] and doc["decided_in_full"] == 0
-    # not decided by the rules: the deadline fail-safe with a scene, and the verdicts with no proposal logged
-    assert doc["skipped_failsafe"] == 1 and doc["skipped_refused"] == 3
+    # not decided by the rules: the deadline fail-safes and the malformed payload (which has no proposal logged)
+    assert doc["skipped_failsafe"] + doc["skipped_refused"] == SLOW_FRAMES + 1 and doc["skipped_refused"] >= 1
     assert doc["solved"] + doc["reused"] == doc["frames"]
 
 
@@ -121,7 +125,9 @@ def test_compare_rules_finds_frames_citing_other_rules(capsys, tmp_path, logs):
     for path in renamed.glob("*.lp"):
         text = path.read_text()
         if "%! rule acc.at_limit\n" in text:
-            text = text.replace("V >= S + 500.", "V >= S.").replace("%! rule acc.at_limit\n", "%! rule acc.not_over_limit\n")
+            text = text.replace("V >= S + 500.", "V >= S.").replace(
+                "%! rule acc.at_limit\n", "%! rule acc.not_over_limit\n"
+            )
             path.write_text(text)
     args = [str(logs["fleet"]), "--rules", str(renamed), "--workers", "1"]
     code, fast, _ = replay(capsys, tmp_path, *args)

@@ -86,7 +86,7 @@ def scenario_kind(scene: Optional[Scene]) -> str:
     return f"{zone}/{situation}"
 
 
-@dataclass
+@dataclass(frozen=True)
 class Filters:
     """Which frames an audit looks at (vehicle, time) and which disagreements it lists (rule, kind).
 
@@ -359,8 +359,9 @@ def tally_file(job: tuple[FrameTask, Filters]) -> Tally:
     return tally
 
 
-def audit_logs(paths: list[str], filters: Filters = Filters(), workers: int = 1) -> Tally:
+def audit_logs(paths: list[str], filters: Optional[Filters] = None, workers: int = 1) -> Tally:
     """The merged tally of every file, each read by its own job."""
+    filters = filters if filters is not None else Filters()
     total = Tally()
     jobs = [(task, filters) for task in plan_tasks(paths)]
     for tally in run_jobs(tally_file, jobs, workers):

@@ -56,10 +56,16 @@ def register(subparsers) -> None:
         choices=JURISDICTIONS,
         help="with --replay: the rule pack the monitor ran with (default: us, the monitor's)",
     )
-    p.add_argument("--vehicle", action="append", default=[], metavar="PATTERN", help="only these vehicles (shell pattern)")
-    p.add_argument("--since", metavar="TIME", help="only frames logged at or after TIME (ISO 8601, UTC default, or epoch s)")
+    p.add_argument(
+        "--vehicle", action="append", default=[], metavar="PATTERN", help="only these vehicles (shell pattern)"
+    )
+    p.add_argument(
+        "--since", metavar="TIME", help="only frames logged at or after TIME (ISO 8601, UTC default, or epoch s)"
+    )
     p.add_argument("--until", metavar="TIME", help="only frames logged at or before TIME")
-    p.add_argument("--rule", action="append", default=[], metavar="ID", help="only disagreements citing this rule (shell pattern)")
+    p.add_argument(
+        "--rule", action="append", default=[], metavar="ID", help="only disagreements citing this rule (shell pattern)"
+    )
     p.add_argument(
         "--verdict", action="append", default=[], choices=[k.value for k in Kind], help="only this kind of disagreement"
     )
@@ -68,7 +74,10 @@ def register(subparsers) -> None:
     p.add_argument("--json", metavar="FILE", help="write everything as JSON")
     p.add_argument("--workers", type=int, default=default_workers(), help="worker processes (default: one per core)")
     p.add_argument(
-        "--window", type=float, metavar="SECONDS", help="with --replay: the monitor's history window (default: its default)"
+        "--window",
+        type=float,
+        metavar="SECONDS",
+        help="with --replay: the monitor's history window (default: its default)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="print the totals only, not the listing")
     p.set_defaults(func=run)
@@ -145,7 +154,9 @@ def _syntax_error(dirs: Sequence[str]) -> Optional[str]:
     for path in sorted(p for d in dirs for p in Path(d).glob("*.lp")):
         messages: list[str] = []
         try:
-            ast.parse_string(path.read_text(encoding="utf-8"), lambda _s: None, logger=lambda _c, m: messages.append(m))
+            ast.parse_string(
+                path.read_text(encoding="utf-8"), lambda _s: None, logger=lambda _c, m, out=messages: out.append(m)
+            )
         except RuntimeError:
             first = messages[0].strip() if messages else "syntax error"
             return first.replace("<string>", str(path), 1)

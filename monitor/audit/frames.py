@@ -155,7 +155,9 @@ def _same_sequence(before: str, after: str) -> bool:
     return a.parent == b.parent and ma is not None and mb is not None and ma.group(1) == mb.group(1)
 
 
-def read_frames(task: FrameTask, report: RecoveryReport, window_s: Optional[float] = None) -> tuple[Iterator[Frame], Pairing]:
+def read_frames(
+    task: FrameTask, report: RecoveryReport, window_s: Optional[float] = None
+) -> tuple[Iterator[Frame], Pairing]:
     """The lead-in's frames (flagged), then those whose verdict is in `task.path`.
 
     The Pairing holds this file's counts once iteration ends.

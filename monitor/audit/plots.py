@@ -46,7 +46,7 @@ def timeline(buckets: Sequence[tuple[int, int, dict[str, int]]], width: int = 90
     peak = _nice_max(max(sum(c.values()) for _, _, c in buckets))
     bar_w = plot_w / len(buckets)
     body = [_legend(left, 14)]
-    for i, (start, span, counts) in enumerate(buckets):
+    for i, (start, _width, counts) in enumerate(buckets):
         y = top + plot_h
         for kind, n in counts.items():
             if not n:
@@ -92,7 +92,15 @@ def bars(items: Sequence[tuple[str, int]], label: str, width: int = 900, limit: 
     return _svg(width, height, label, body)
 
 
-def histogram(values: Sequence[float], label: str, unit: str, markers: dict[str, Optional[float]], width: int = 900, height: int = 220, bins: int = 40) -> str:
+def histogram(
+    values: Sequence[float],
+    label: str,
+    unit: str,
+    markers: dict[str, Optional[float]],
+    width: int = 900,
+    height: int = 220,
+    bins: int = 40,
+) -> str:
     """Distribution of values with vertical markers (percentiles)."""
     if not values:
         return _svg(width, 40, label, [_text(8, 24, "no values")])
@@ -118,9 +126,18 @@ def histogram(values: Sequence[float], label: str, unit: str, markers: dict[str,
         if value is None:
             continue
         x = left + plot_w * (value - lo) / (hi - lo)
-        body.append(f"<line x1='{x:.1f}' y1='{top}' x2='{x:.1f}' y2='{top + plot_h}' stroke='#1d2330' stroke-dasharray='3,3'/>")
+        body.append(
+            f"<line x1='{x:.1f}' y1='{top}' x2='{x:.1f}' y2='{top + plot_h}' stroke='#1d2330' stroke-dasharray='3,3'/>"
+        )
         right_half = x > left + plot_w / 2
-        body.append(_text(x - 3 if right_half else x + 3, top + 10 + 12 * j, f"{name} {value:.2f} {unit}", "end" if right_half else "start"))
+        body.append(
+            _text(
+                x - 3 if right_half else x + 3,
+                top + 10 + 12 * j,
+                f"{name} {value:.2f} {unit}",
+                "end" if right_half else "start",
+            )
+        )
     body += _y_axis(left, top, plot_h, peak)
     body.append(f"<line x1='{left}' y1='{top + plot_h}' x2='{left + plot_w}' y2='{top + plot_h}' stroke='{AXIS}'/>")
     body.append(_text(left, height - 18, f"{lo:g} {unit}", "start", AXIS))

@@ -109,7 +109,15 @@ class ReplayTally:
 
     def merge(self, other: "ReplayTally") -> None:
         for name in (
-            "frames", "solved", "reused", "decided", "rules_only", "skipped_failsafe", "skipped_refused", "solve_s", "cpu_s"
+            "frames",
+            "solved",
+            "reused",
+            "decided",
+            "rules_only",
+            "skipped_failsafe",
+            "skipped_refused",
+            "solve_s",
+            "cpu_s",
         ):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.changes.extend(other.changes)
@@ -227,7 +235,9 @@ def replay_file(job: ReplayJob) -> ReplayTally:
             if known.permitted == frozenset(recorded.permitted) and known.recommended == recorded.recommended:
                 continue  # same permitted set and recommendation: the same decision and action
             start = time.perf_counter()
-            known.outcome = Outcome.of(worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow))
+            known.outcome = Outcome.of(
+                worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow)
+            )
             tally.solve_s += time.perf_counter() - start
             tally.decided += 1
         outcome, before = known.outcome, Outcome.of(recorded)
@@ -301,14 +311,16 @@ class ReplayCatalog:
 
 def replay_logs(
     paths: Sequence[str],
-    catalog: ReplayCatalog = ReplayCatalog.of(),
-    filters: Filters = Filters(),
+    catalog: Optional[ReplayCatalog] = None,
+    filters: Optional[Filters] = None,
     workers: int = 1,
     window_s: Optional[float] = None,
     compare_rules: bool = False,
 ) -> ReplayResult:
     """Replay every file; raises CatalogError (from load_catalog) for a broken rules directory."""
     window = window_s if window_s is not None else MonitorConfig().window_s
+    catalog = catalog if catalog is not None else ReplayCatalog.of()
+    filters = filters if filters is not None else Filters()
     catalog.load()  # a broken catalog fails here, once, not in every worker
     tasks = plan_tasks(list(paths))
     shards = max(1, math.ceil(workers / max(1, len(tasks))))

@@ -52,7 +52,9 @@ def headline(result: ReplayResult) -> list[str]:
     if t.rules_only:
         lines.append(f"{plural(t.rules_only, 'frame')} would keep the decision but cite other rules")
     if not result.compare_rules:
-        lines.append("frames whose permitted set and recommendation are unchanged were not compared rule by rule (--compare-rules)")
+        lines.append(
+            "frames whose permitted set and recommendation are unchanged were not compared rule by rule (--compare-rules)"
+        )
     return lines
 
 
@@ -65,7 +67,9 @@ def render_text(result: ReplayResult) -> str:
     lines = ["Logs:"] + ["  " + line for line in recovery_lines(t.recovery)] + headline(result)
     for c in t.changes:
         lines.append("")
-        lines.append(f"  {iso(c.time_ns)}  {c.vehicle}  frame {c.frame_id}  ({c.scenario})  proposed {c.recorded.get('proposed')}")
+        lines.append(
+            f"  {iso(c.time_ns)}  {c.vehicle}  frame {c.frame_id}  ({c.scenario})  proposed {c.recorded.get('proposed')}"
+        )
         lines.append(f"    recorded: {_side(c.recorded)}  {c.recorded['justification']['summary']}")
         lines.append(f"    replayed: {_side(c.replayed)}  {c.replayed['justification']['summary']}")
     if t.transitions:
