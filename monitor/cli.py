@@ -18,7 +18,12 @@ from discern.rules.scene import Action, Proposal, Scene, describe_errors
 from discern.sanity.jurisdiction import reasoner_for
 
 # Parts that add subcommands through a `register(subparsers)` function.
-PARTS: list[str] = ["discern.monitor.demo"]
+PARTS: list[str] = [
+    "discern.monitor.demo",
+    "discern.monitor.commands",
+    "discern.monitor.audit.cli",
+    "discern.adapters.highway.cli",
+]
 
 
 class UserError(Exception):

@@ -3,6 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import io
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
 from pathlib import Path
 
 from discern.rules.engine import Reasoner
@@ -37,15 +44,96 @@ def verdict(reasoner: Reasoner) -> None:
     print(reasoner.decide(frame.scene, frame.proposed).justification.text)
 
 
+def _endpoint() -> str:
+    """The monitor's default endpoint, or a free loopback port if something already holds it."""
+    from .config import DEFAULT_ENDPOINT
+
+    host, port = DEFAULT_ENDPOINT.removeprefix("tcp/").rsplit(":", 1)
+    with socket.socket() as probe:
+        if probe.connect_ex((host, int(port))) != 0:
+            return DEFAULT_ENDPOINT
+    with socket.socket() as free:
+        free.bind(("127.0.0.1", 0))
+        return f"tcp/127.0.0.1:{free.getsockname()[1]}"
+
+
+def sidecar(out: Path) -> Path:
+    """A real `discern serve` process (peer mode, loopback, no router) judging an example planner."""
+    banner("3. The sidecar: an example planner asks `discern serve` over zenoh; everything goes to MCAP")
+    from .example_planner import run
+
+    log_dir = out / "log"
+    for old in log_dir.glob("*.mcap"):  # the demo's own logs from an earlier run
+        old.unlink()
+    endpoint = _endpoint()
+    command = [sys.executable, "-m", "discern.monitor.commands", "serve", "--listen", endpoint, "--log-dir", str(log_dir)]
+    env = dict(os.environ, PYTHONUNBUFFERED="1", RUST_LOG="error")
+    monitor = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    ready = threading.Event()
+    lines: list[str] = []
+
+    def read() -> None:
+        for line in monitor.stdout:
+            lines.append(line.rstrip())
+            if " ready" in line:
+                ready.set()
+        ready.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    try:
+        if not ready.wait(60) or monitor.poll() is not None:
+            raise RuntimeError("the monitor did not start:\n" + "\n".join(lines))
+        print(lines[-1])
+        transcript = io.StringIO()
+        failsafes = run(vehicle="demo_car", frames=200, rate_hz=50.0, connect=[endpoint], out=transcript)
+        frames = transcript.getvalue().splitlines()
+        disagreements = [line for line in frames if "-> approve" not in line]
+        print(f"{len(frames)} frames judged, {len(disagreements)} disagreements, {failsafes} fail-safe; the first few:")
+        print("\n".join(disagreements[:6]))
+    finally:
+        monitor.send_signal(signal.SIGTERM)
+        monitor.wait(30)
+    logs = sorted(log_dir.glob("*.mcap"))
+    print(f"\nMCAP log: {', '.join(str(p) for p in logs)}")
+    return log_dir
+
+
+def audit(log_dir: Path, out: Path) -> None:
+    banner("4. The offline audit of that log: every disagreement, per rule, with an HTML report")
+    from .audit import cli as audit_cli
+
+    parser = argparse.ArgumentParser(prog="discern")
+    audit_cli.register(parser.add_subparsers())
+    report = out / "audit.html"
+    args = parser.parse_args(["audit", str(log_dir), "--html", str(report), "--csv", str(out / "audit.csv")])
+    audit_cli.run(args)
+
+
+def closed_loop(out: Path, episodes: int) -> int:
+    banner("5. Closed loop in highway-env: the torch DQN planner alone, with Discern, with RSS")
+    try:
+        from discern.adapters.highway.cli import demo
+    except ImportError as exc:  # the planner extra (torch, highway-env) is not installed
+        print(f"skipped: {exc.name} is not installed; pip install -e '.[planner]'")
+        return 0
+    return demo(out / "highway", episodes=episodes)
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     reasoner = Reasoner()
     ok = paper(reasoner, Path(args.kitti))
     verdict(reasoner)
-    return 0 if ok else 1
+    log_dir = sidecar(out)
+    audit(log_dir, out)
+    loop = closed_loop(out, args.episodes)
+    return 0 if ok and loop == 0 else 1
 
 
 def register(sub) -> None:
     demo = sub.add_parser("demo", help="run the main job: paper table, a verdict, the sidecar, the closed loop")
     demo.add_argument("--kitti", default=str(KITTI), help="directory of the paper's AV-CSR frame files")
     demo.add_argument("--out", default="out", help="directory for logs, reports and plots")
+    demo.add_argument("--episodes", type=int, default=3, help="closed-loop episodes per variant and fault set")
     demo.set_defaults(func=cmd_demo)

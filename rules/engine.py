@@ -25,6 +25,8 @@ from .verdict import Decision, Justification, JustificationNode, Verdict
 
 _FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")
 
+VETO_DEPTH = 4  # levels of a veto's proof when no explanation was asked for
+
 RANK = [
     Action.turn_left,
     Action.turn_right,
@@ -109,7 +111,10 @@ class Reasoner:
         start = time.perf_counter()
         proposed = Action(proposed)
         solved = self.solve(scene, proposed, history)
-        prover = Prover(self.catalog, solved.answer)
+        # A veto always carries its proof; the full depth (every definition down to the facts) on request.
+        prover = Prover(self.catalog, solved.answer) if explain else Prover(
+            self.catalog, solved.answer, max_depth=VETO_DEPTH, negative_depth=1
+        )
         allowed = proposed in solved.permitted
         recommended = solved.recommended
         if allowed:

@@ -17,7 +17,8 @@ from typing import Iterator, Optional
 from clingo import Control, Symbol, SymbolType
 
 from .catalog import Catalog, CompiledRule
-from .terms import CMP_TEXT, Env, Literal, Term, Unbound, check_comparison, evaluate, is_assignment, match, term_vars
+from .terms import (CMP_TEXT, Env, Literal, Shape, Term, Unbound, check_comparison, evaluate, is_assignment, match,
+                    shape_of, term_vars)
 from .verdict import JustificationNode
 
 _PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?\)")
@@ -36,7 +37,7 @@ class AnswerSet:
         self._atoms = control.symbolic_atoms
         self._by_sig: dict[tuple[str, int], list[Symbol]] = {}
         self._by_first: dict[tuple[str, int], dict[Symbol, list[Symbol]]] = {}
-        self._args: dict[Symbol, tuple[Symbol, ...]] = {}
+        self._shapes: dict[Symbol, Shape] = {}
 
     def holds(self, sym: Symbol) -> bool:
         atom = self._atoms[sym]
@@ -59,11 +60,14 @@ class AnswerSet:
             self._by_first[(name, arity)] = index
         return index.get(first, [])
 
+    def shape(self, sym: Symbol) -> Shape:
+        found = self._shapes.get(sym)
+        if found is None:
+            found = self._shapes[sym] = shape_of(sym)
+        return found
+
     def arguments(self, sym: Symbol) -> tuple[Symbol, ...]:
-        args = self._args.get(sym)
-        if args is None:
-            args = self._args[sym] = tuple(sym.arguments)
-        return args
+        return self.shape(sym)[2]
 
     def all(self) -> list[Symbol]:
         return [a.symbol for a in self._atoms if a.is_fact]
@@ -137,7 +141,8 @@ class Phrasebook:
         return _PLACEHOLDER.sub(lambda m: self.value(values.get(m.group(1)), m.group(2), m.group(1)), template.template)
 
     def atom(self, sym: Symbol) -> str:
-        return self.sentence(sym.name, list(sym.arguments))
+        _, name, args = self._answer.shape(sym)
+        return self.sentence(name, list(args))
 
     def formats_of(self, rule: CompiledRule) -> dict[str, str]:
         """Units of a rule's variables, read off the templates of the atoms they appear in."""
@@ -203,8 +208,9 @@ class Prover:
     # -- derivations --
     def derivations(self, sym: Symbol) -> Iterator[tuple[CompiledRule, Env]]:
         """Every catalog rule instance (one per rule) whose body holds and derives `sym`."""
-        for rule in self.catalog.by_head.get((sym.name, len(sym.arguments)), []):
-            env = match(rule.head, sym, {})
+        _, name, args = self.answer.shape(sym)
+        for rule in self.catalog.by_head.get((name, len(args)), []):
+            env = match(rule.head, sym, {}, self.answer.shape)
             if env is None:
                 continue
             for solution in self._solve(list(rule.body), env, 0, None):
@@ -295,7 +301,7 @@ class Prover:
         head_args = rule.head[2] if rule.head[0] == "f" else ()
         for sub, value in zip(head_args, args):
             if value is not None:
-                env = match(sub, value, env)
+                env = match(sub, value, env, self.answer.shape)
                 if env is None:
                     return None  # this rule cannot derive the goal at all
         failures: list[_Failure] = []
@@ -388,7 +394,7 @@ class Prover:
             except Unbound:
                 pass
         for sym in candidates if candidates is not None else self.answer.of(term[1], len(args)):
-            bound = match(term, sym, env)
+            bound = match(term, sym, env, self.answer.shape)
             if bound is not None:
                 yield sym, bound
 

@@ -9,7 +9,7 @@ once into tuples: ("v", name) variable, ("s", Symbol) constant,
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Callable, Optional
 
 from clingo import Function, Number, Symbol, SymbolType, Tuple_
 from clingo import ast
@@ -138,8 +138,20 @@ def evaluate(term: Term, env: Env) -> Symbol:
     raise Unbound(f"unsupported operator {op}")
 
 
-def match(term: Term, sym: Symbol, env: Env) -> Optional[Env]:
-    """Unify a partly bound term with a ground symbol; the extended env, or None."""
+Shape = tuple  # (is_function, name, args) of a symbol
+
+
+def shape_of(sym: Symbol) -> Shape:
+    if sym.type == SymbolType.Function:
+        return (True, sym.name, tuple(sym.arguments))
+    return (False, None, ())
+
+
+def match(term: Term, sym: Symbol, env: Env, shape: Callable[[Symbol], Shape] = shape_of) -> Optional[Env]:
+    """Unify a partly bound term with a ground symbol; the extended env, or None.
+
+    `shape` lets callers cache symbol structure: every clingo attribute read is a C call.
+    """
     tag = term[0]
     if tag == "v":
         name = term[1]
@@ -152,10 +164,11 @@ def match(term: Term, sym: Symbol, env: Env) -> Optional[Env]:
         extended[name] = sym
         return extended
     if tag == "f" and term[2]:
-        if sym.type != SymbolType.Function or sym.name != term[1] or len(sym.arguments) != len(term[2]):
+        is_function, name, args = shape(sym)
+        if not is_function or name != term[1] or len(args) != len(term[2]):
             return None
-        for sub, value in zip(term[2], sym.arguments):
-            env = match(sub, value, env)
+        for sub, value in zip(term[2], args):
+            env = match(sub, value, env, shape)
             if env is None:
                 return None
         return env

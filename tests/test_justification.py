@@ -22,7 +22,7 @@ def test_negative_justification_says_there_is_no_evidence(reasoner):
 
 
 def test_hierarchy_is_not_spelled_out_class_by_class(reasoner):
-    verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
+    verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate", explain=True)
     assert "there is no evidence that a pedestrian is a kind of automobile" in verdict.justification.text
     assert "rule ent.transitive" not in verdict.justification.text
 
@@ -43,3 +43,11 @@ def test_html_is_self_contained_with_collapsible_nodes(reasoner):
     page = render_html(reasoner.decide(scene(lane=1, lanes=2), "change_lane_left"))
     assert "<details open><summary>" in page and "cll.no_lane" in page
     assert "http://" not in page and "https://" not in page and "<script" not in page
+
+
+def test_veto_proof_is_compact_unless_an_explanation_is_asked_for(reasoner):
+    sc = scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)])
+    brief = reasoner.decide(sc, "accelerate").justification.text
+    full = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    assert "braking from 4.0 m/s takes 5.3 m" in full and "braking from" not in brief
+    assert "pedestrian 1 is 6.0 m ahead" in brief and len(brief) < len(full)

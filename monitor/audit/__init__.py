@@ -1,0 +1,1 @@
+"""Offline audit of the monitor's MCAP logs: disagreements, aggregates, reports, and replay against new rules."""

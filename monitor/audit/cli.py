@@ -1,0 +1,225 @@
+"""`discern audit`: list, count and report the disagreements of MCAP logs, or replay them against other rules.
+
+Exit status: 0 done (replay: no decision changed), 1 replay found changed
+decisions, 2 a usage or input error (named on stderr, no traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+from typing import Callable, Optional, Sequence
+
+from discern.rules.catalog import CatalogError, load_catalog
+from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
+
+from .aggregate import Aggregates, Filters, Kind, audit_logs
+from .parallel import default_workers
+from .timefmt import parse_time
+
+EXIT_OK, EXIT_CHANGED, EXIT_USAGE = 0, 1, 2
+
+
+class UsageError(ValueError):
+    """A mistake on the command line: reported in one line."""
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "audit",
+        help="disagreements in MCAP logs: list, aggregate, report; --replay re-decides them with other rules",
+        description=(
+            "Read the monitor's MCAP logs (files cut short by a crash included), list every veto, override and "
+            "fail-safe with its rules and justification, aggregate them, and write HTML/CSV/JSON reports. "
+            "With --replay, decide every logged frame again with the current or another rules catalog and "
+            "report the decisions that would change."
+        ),
+    )
+    p.add_argument("logs", nargs="+", metavar="LOG", help="MCAP log files, or directories of them")
+    p.add_argument("--replay", action="store_true", help="re-decide every frame and report what would change")
+    p.add_argument(
+        "--rules",
+        action="append",
+        metavar="DIR",
+        help="with --replay: a driving-rules directory (*.lp) to use instead of the shipped rules/catalog "
+        "(the sanity rules stay); repeatable",
+    )
+    p.add_argument(
+        "--compare-rules",
+        action="store_true",
+        help="with --replay: decide every frame in full, to also list frames that keep their decision but cite other rules",
+    )
+    p.add_argument(
+        "--jurisdiction",
+        choices=JURISDICTIONS,
+        help="with --replay: the rule pack the monitor ran with (default: us, the monitor's)",
+    )
+    p.add_argument(
+        "--vehicle", action="append", default=[], metavar="PATTERN", help="only these vehicles (shell pattern)"
+    )
+    p.add_argument(
+        "--since", metavar="TIME", help="only frames logged at or after TIME (ISO 8601, UTC default, or epoch s)"
+    )
+    p.add_argument("--until", metavar="TIME", help="only frames logged at or before TIME")
+    p.add_argument(
+        "--rule", action="append", default=[], metavar="ID", help="only disagreements citing this rule (shell pattern)"
+    )
+    p.add_argument(
+        "--verdict", action="append", default=[], choices=[k.value for k in Kind], help="only this kind of disagreement"
+    )
+    p.add_argument("--html", metavar="FILE", help="write a self-contained HTML report")
+    p.add_argument("--csv", metavar="FILE", help="write the listing as CSV")
+    p.add_argument("--json", metavar="FILE", help="write everything as JSON")
+    p.add_argument("--workers", type=int, default=default_workers(), help="worker processes (default: one per core)")
+    p.add_argument(
+        "--window",
+        type=float,
+        metavar="SECONDS",
+        help="with --replay: the monitor's history window (default: its default)",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="print the totals only, not the listing")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        return _run(args)
+    except UsageError as exc:
+        print(f"discern audit: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except BrokenProcessPool as exc:
+        print(f"discern audit: a worker process died ({exc}); --workers 1 runs in this process", file=sys.stderr)
+        return EXIT_USAGE
+
+
+def _run(args: argparse.Namespace) -> int:
+    paths = _log_paths(args.logs)
+    if args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    filters = _filters(args)
+    if args.replay:
+        return _replay(args, paths, filters)
+    for flag in ("rules", "window", "jurisdiction", "compare_rules"):
+        if getattr(args, flag) not in (None, False):
+            raise UsageError(f"--{flag.replace('_', '-')} only applies with --replay")
+    from . import report
+
+    tally = audit_logs(paths, filters, args.workers)
+    _warn_unreadable(tally.recovery)
+    agg = Aggregates.of(tally)
+    sys.stdout.write(report.render_text(tally, agg, filters, listing=not args.quiet))
+    _write(args.csv, lambda: report.render_csv(tally))
+    _write(args.json, lambda: report.render_json(tally, agg, filters))
+    _write(args.html, lambda: report.render_html(tally, agg, filters, _rule_text()))
+    return EXIT_OK
+
+
+def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int:
+    if filters.rules or filters.kinds:
+        raise UsageError("--rule and --verdict filter the audit listing; a replay takes --vehicle, --since, --until")
+    if args.window is not None and not args.window > 0:
+        raise UsageError(f"--window must be > 0 seconds, got {args.window}")
+    for d in args.rules or ():
+        if not Path(d).is_dir():
+            raise UsageError(f"--rules {d}: not a directory")
+        if not any(Path(d).glob("*.lp")):
+            raise UsageError(f"--rules {d}: no *.lp rule files in it")
+    from . import replay_report
+    from .replay import ReplayCatalog, replay_logs
+
+    try:
+        catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us")
+        result = replay_logs(paths, catalog, filters, args.workers, args.window, args.compare_rules)
+    except CatalogError as exc:
+        raise UsageError(f"rules catalog: {exc}") from None
+    except RuntimeError as exc:  # clingo's parser: name the file and line it could not read
+        raise UsageError(f"rules catalog: {_syntax_error(args.rules or []) or exc}") from None
+    _warn_unreadable(result.tally.recovery)
+    text = replay_report.render_text(result)
+    if args.quiet:
+        text = "\n".join(replay_report.headline(result)) + "\n"
+    sys.stdout.write(text)
+    _write(args.csv, lambda: replay_report.render_csv(result))
+    _write(args.json, lambda: replay_report.render_json(result))
+    _write(args.html, lambda: replay_report.render_html(result))
+    return EXIT_CHANGED if result.tally.changes else EXIT_OK
+
+
+def _syntax_error(dirs: Sequence[str]) -> Optional[str]:
+    """clingo's message for the first rules file it cannot parse, with the file's name in it."""
+    from clingo import ast
+
+    for path in sorted(p for d in dirs for p in Path(d).glob("*.lp")):
+        messages: list[str] = []
+        try:
+            ast.parse_string(
+                path.read_text(encoding="utf-8"), lambda _s: None, logger=lambda _c, m, out=messages: out.append(m)
+            )
+        except RuntimeError:
+            first = messages[0].strip() if messages else "syntax error"
+            return first.replace("<string>", str(path), 1)
+    return None
+
+
+def _warn_unreadable(files) -> None:
+    from .report import file_state
+
+    for f in files:
+        if file_state(f) == "unreadable":
+            print(f"discern audit: warning: nothing could be read from {f.path}: {f.stopped_by}", file=sys.stderr)
+
+
+def _log_paths(logs: Sequence[str]) -> list[str]:
+    out = []
+    for log in logs:
+        path = Path(log)
+        if path.is_dir():
+            if not any(path.glob("*.mcap")):
+                raise UsageError(f"{log}: directory holds no *.mcap files")
+        elif not path.exists():
+            raise UsageError(f"{log}: no such file or directory")
+        elif not path.is_file():
+            raise UsageError(f"{log}: not a regular file")
+        out.append(str(path))
+    return out
+
+
+def _filters(args: argparse.Namespace) -> Filters:
+    try:
+        since = parse_time(args.since) if args.since else None
+        until = parse_time(args.until) if args.until else None
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if since is not None and until is not None and since > until:
+        raise UsageError(f"--since {args.since} is after --until {args.until}")
+    return Filters(
+        vehicles=tuple(args.vehicle),
+        since_ns=since,
+        until_ns=until,
+        rules=tuple(args.rule),
+        kinds=tuple(Kind(k) for k in args.verdict),
+    )
+
+
+def _write(path: Optional[str], render: Callable[[], str]) -> None:
+    if not path:
+        return
+    try:
+        Path(path).write_text(render(), encoding="utf-8")
+    except OSError as exc:
+        raise UsageError(f"cannot write {path}: {exc.strerror or exc}") from None
+    print(f"wrote {path}", file=sys.stderr)
+
+
+def _rule_text() -> dict[str, str]:
+    """What each shipped rule says (with the monitor's default rule pack), for the report's per-rule table."""
+    return {r.id: r.says for r in load_catalog(extra_files=[jurisdiction_pack("us")]).rules}
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog="discern")
+    register(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    return args.func(args)

@@ -1,0 +1,181 @@
+"""Log records paired into frames: one proposal and the verdict it got.
+
+The monitor logs a proposal and its verdict on two channels
+(`/discern/<vehicle>/proposal` and `.../verdict`) when the verdict is sent, so
+the pair is matched here by vehicle and frame id. A proposal refused before it
+parsed has no proposal record: its frame carries the verdict alone.
+
+Rotated files are read one at a time (that is what runs in parallel); the
+file before, when it is the same monitor's previous file, is read first as a
+lead-in so that a pair cut by the rotation still meets and the replay gets the
+same history window the monitor had.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator, Optional
+
+from discern.monitor.log import LogRecord, RecoveryReport, log_files, read_log
+from discern.monitor.protocol import InputError
+from discern.monitor.vehicle_state import VehicleState
+from discern.rules.scene import Proposal, Scene
+from discern.rules.verdict import Verdict
+
+# discern-<monitor id>-<UTC stamp>-<index>.mcap, as monitor/log/writer.py names its files
+_ROTATED = re.compile(r"^(discern-.+)-\d{8}T\d{6}-\d{4}\.mcap$")
+PENDING_PER_VEHICLE = 256  # proposals waiting for their verdict; more means the log lost verdicts
+
+
+@dataclass
+class Frame:
+    file: str
+    log_time_ns: int  # when the verdict was logged
+    vehicle: str
+    verdict: Verdict
+    proposal: Optional[Proposal] = None  # None when the payload was refused before it parsed
+    arrived_ns: Optional[int] = None  # log time of the proposal: when it reached the monitor
+    history: Optional[tuple[Scene, ...]] = None  # the monitor's window, when rebuilt; None if it refused the frame
+    lead_in: bool = False  # from the previous file: context for this file's frames, not one of them
+
+
+@dataclass
+class FrameTask:
+    """One file to read, with the file it continues (or None)."""
+
+    path: str
+    lead_in: Optional[str] = None
+
+
+@dataclass
+class PairingCounts:
+    records: int = 0
+    proposals: int = 0
+    verdicts: int = 0
+    rejected: int = 0
+    status: int = 0
+    unanswered: int = 0  # proposals left without a verdict at the end of their file
+    carried: int = 0  # verdicts paired with a proposal from the lead-in: not unanswered after all
+
+    def merge(self, other: "PairingCounts") -> None:
+        for name in self.__dataclass_fields__:
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+
+
+class Pairing:
+    """Matches each verdict with its vehicle's proposal of the same frame id, in log order.
+
+    With `window_s`, it also rebuilds each frame's history the way the monitor
+    did, with the monitor's own VehicleState, timed by the proposal's arrival.
+    """
+
+    def __init__(self, window_s: Optional[float] = None):
+        self.window_s = window_s
+        self.pending: dict[str, deque[LogRecord]] = {}
+        self.states: dict[str, VehicleState] = {}
+        self.counts = PairingCounts()
+
+    def feed(self, record: LogRecord) -> Optional[Frame]:
+        self.counts.records += 1
+        kind = record.kind
+        if kind == "proposal":
+            self.counts.proposals += 1
+            queue = self.pending.setdefault(record.vehicle, deque())
+            if len(queue) >= PENDING_PER_VEHICLE:
+                queue.popleft()
+                self.counts.unanswered += 1
+            queue.append(record)
+            return None
+        if kind == "verdict":
+            self.counts.verdicts += 1
+            return self._frame(record)
+        if kind == "rejected":
+            self.counts.rejected += 1
+        elif kind == "status":
+            self.counts.status += 1
+        return None
+
+    def finish(self, path: str) -> None:
+        """Count the proposals of `path` left without a verdict (the lead-in's were counted with their file)."""
+        self.counts.unanswered += sum(str(r.path) == path for q in self.pending.values() for r in q)
+        self.pending.clear()
+
+    def _frame(self, record: LogRecord) -> Frame:
+        verdict = record.verdict
+        vehicle = record.vehicle or verdict.vehicle
+        proposal_record = self._take(vehicle, verdict.frame_id)
+        frame = Frame(file=str(record.path), log_time_ns=record.log_time_ns, vehicle=vehicle, verdict=verdict)
+        if proposal_record is not None:
+            if proposal_record.path != record.path:
+                self.counts.carried += 1
+            frame.proposal = proposal_record.proposal
+            frame.arrived_ns = proposal_record.log_time_ns
+            if self.window_s is not None:
+                frame.history = self._admit(vehicle, frame.proposal.scene, proposal_record.log_time_ns)
+        return frame
+
+    def _take(self, vehicle: str, frame_id: Optional[int]) -> Optional[LogRecord]:
+        queue = self.pending.get(vehicle)
+        if not queue or frame_id is None:
+            return None
+        for i in range(len(queue) - 1, -1, -1):
+            if queue[i].proposal.scene.frame_id == frame_id:
+                found = queue[i]
+                del queue[i]
+                return found
+        return None
+
+    def _admit(self, vehicle: str, scene: Scene, arrived_ns: int) -> Optional[tuple[Scene, ...]]:
+        state = self.states.get(vehicle)
+        if state is None:
+            state = self.states[vehicle] = VehicleState(self.window_s)
+        try:
+            return state.admit(scene, arrived_ns / 1e9)
+        except InputError:  # the monitor refused this frame too (duplicate or out of order)
+            return None
+
+
+def plan_tasks(paths: list[str]) -> list[FrameTask]:
+    """One task per file; a rotated file's predecessor from the same monitor is its lead-in."""
+    files = [str(p) for p in log_files(paths)]
+    tasks = []
+    previous: Optional[str] = None
+    for path in files:
+        tasks.append(FrameTask(path, previous if previous is not None and _same_sequence(previous, path) else None))
+        previous = path
+    return tasks
+
+
+def _same_sequence(before: str, after: str) -> bool:
+    a, b = Path(before), Path(after)
+    ma, mb = _ROTATED.match(a.name), _ROTATED.match(b.name)
+    return a.parent == b.parent and ma is not None and mb is not None and ma.group(1) == mb.group(1)
+
+
+def read_frames(
+    task: FrameTask, report: RecoveryReport, window_s: Optional[float] = None
+) -> tuple[Iterator[Frame], Pairing]:
+    """The lead-in's frames (flagged), then those whose verdict is in `task.path`.
+
+    The Pairing holds this file's counts once iteration ends.
+    """
+    pairing = Pairing(window_s)
+
+    def frames() -> Iterator[Frame]:
+        if task.lead_in is not None:
+            for record in read_log(task.lead_in, RecoveryReport()):
+                frame = pairing.feed(record)
+                if frame is not None:
+                    frame.lead_in = True
+                    yield frame
+            pairing.counts = PairingCounts()
+        for record in read_log(task.path, report):
+            frame = pairing.feed(record)
+            if frame is not None:
+                yield frame
+        pairing.finish(task.path)
+
+    return frames(), pairing

@@ -1,0 +1,334 @@
+"""Replay: re-decide every logged frame with the current (or another) rules catalog.
+
+A regression check for rule edits: each frame the rules judged is decided
+again from its logged scene, proposed action and rebuilt history, and every
+frame whose decision or executed action would change is reported with both
+justifications. Fail-safe verdicts and refused inputs were not decided by the
+rules and are counted, not replayed.
+
+Each frame is first only solved: a verdict's decision and action follow from
+the proposed action, the shadow flag and the permitted set and recommended
+action (Reasoner.decide), and the logged verdict carries all four, so when the
+solved sets equal the logged ones the decision cannot have changed and no
+proof is built. Otherwise the frame is decided in full, and a changed one is
+explained with its whole justification tree. `compare_rules` decides every
+frame in full, to also find frames that keep their decision but cite other
+rules.
+
+Work is split by file and, when there are fewer files than workers, by a
+hash of the frame's content, so one worker process sees every copy of a
+scene. Identical frames are solved once per worker: the content key is the
+scene, the action, the shadow flag and, when the reasoner has fact providers
+(the sanity layer, the only readers of the history), the history; frame ids
+and timestamps enter it relative to the frame, since a decision depends on
+time differences, not on the wall clock.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import time
+from collections import Counter, OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional, Sequence
+
+from discern.monitor.config import MonitorConfig
+from discern.monitor.log import FileRecovery, RecoveryReport
+from discern.rules.catalog import Catalog, catalog_dirs, load_catalog
+from discern.rules.engine import Reasoner, jurisdiction_pack
+from discern.rules.scene import Action, Scene
+from discern.rules.verdict import Verdict
+
+from .aggregate import Filters, scenario_kind
+from .frames import FrameTask, PairingCounts, plan_tasks, read_frames
+from .parallel import run_jobs
+
+CACHE_LIMIT = 100_000  # decided frames kept per worker for reuse
+SCENE_DIGESTS = 8192  # scenes whose content digest is kept (a history window repeats them)
+
+
+@dataclass
+class Solved:
+    """What one distinct frame came to under the replayed rules; the full outcome only once needed."""
+
+    permitted: frozenset[Action]
+    recommended: Optional[Action]
+    outcome: Optional["Outcome"] = None
+
+
+@dataclass(frozen=True)
+class Outcome:
+    decision: str
+    action: str
+    rules: tuple[str, ...]
+
+    @classmethod
+    def of(cls, verdict: Verdict) -> "Outcome":
+        return cls(verdict.decision.value, verdict.action.value, tuple(verdict.rules))
+
+    def describe(self) -> str:
+        return f"{self.decision} {self.action}"
+
+
+@dataclass
+class Change:
+    time_ns: int
+    vehicle: str
+    file: str
+    frame_id: Optional[int]
+    scenario: str
+    recorded: dict  # the verdict as logged (JSON)
+    replayed: dict  # the verdict with the replay's catalog, full justification tree
+
+    @property
+    def transition(self) -> str:
+        def side(v: dict) -> str:
+            return f"{v['decision']} {v['action']}"
+
+        return f"{self.recorded.get('proposed')}: {side(self.recorded)} -> {side(self.replayed)}"
+
+
+@dataclass
+class ReplayTally:
+    frames: int = 0  # frames replayed
+    solved: int = 0  # of which the reasoner ran
+    reused: int = 0  # of which a copy was solved before (same content)
+    decided: int = 0  # frames decided in full (the solved sets differed from the log's, or compare_rules)
+    changes: list[Change] = field(default_factory=list)
+    rules_only: int = 0  # same decision and action, other rule ids
+    rules_only_examples: Counter = field(default_factory=Counter)  # (recorded rules, replayed rules)
+    transitions: Counter = field(default_factory=Counter)
+    skipped_failsafe: int = 0  # fail-safe verdicts: the rules did not decide them
+    skipped_refused: int = 0  # verdicts without a logged proposal (refused or still queued): no scene to replay
+    solve_s: float = 0.0  # worker wall time spent in the reasoner
+    cpu_s: float = 0.0  # worker CPU time for the whole job (reading included)
+    counts: PairingCounts = field(default_factory=PairingCounts)
+    recovery: list[FileRecovery] = field(default_factory=list)
+
+    def merge(self, other: "ReplayTally") -> None:
+        for name in (
+            "frames",
+            "solved",
+            "reused",
+            "decided",
+            "rules_only",
+            "skipped_failsafe",
+            "skipped_refused",
+            "solve_s",
+            "cpu_s",
+        ):
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+        self.changes.extend(other.changes)
+        self.rules_only_examples.update(other.rules_only_examples)
+        self.transitions.update(other.transitions)
+        self.counts.merge(other.counts)
+        self.recovery.extend(other.recovery)
+
+    @property
+    def unanswered(self) -> int:
+        return max(0, self.counts.unanswered - self.counts.carried)
+
+
+@dataclass
+class ReplayResult:
+    tally: ReplayTally
+    catalog: "ReplayCatalog"
+    wall_s: float
+    workers: int
+    compare_rules: bool = False
+
+    @property
+    def frames_per_s(self) -> float:
+        return self.tally.frames / self.wall_s if self.wall_s > 0 else 0.0
+
+
+@dataclass(frozen=True)
+class ReplayJob:
+    task: FrameTask
+    shard: int
+    shards: int
+    filters: Filters
+    window_s: float
+    compare_rules: bool = False
+
+
+class _Worker:
+    """Per-process state: one Reasoner, the decided frames, the scene digests."""
+
+    def __init__(self, catalog: "ReplayCatalog"):
+        self.reasoner = Reasoner(catalog=catalog.load(), jurisdiction=catalog.jurisdiction)
+        self.solved: OrderedDict[bytes, Solved] = OrderedDict()
+        self.explained: OrderedDict[bytes, Verdict] = OrderedDict()  # changed frames, with their full tree
+        self.digests: OrderedDict[int, tuple[Scene, bytes]] = OrderedDict()
+
+    def digest(self, scene: Scene) -> bytes:
+        """Content of a scene without its frame id and time (kept alive so its id() stays unique)."""
+        hit = self.digests.get(id(scene))
+        if hit is not None and hit[0] is scene:
+            return hit[1]
+        data = scene.model_dump_json(exclude={"frame_id", "timestamp"}).encode()
+        value = hashlib.blake2b(data, digest_size=16).digest()
+        self.digests[id(scene)] = (scene, value)
+        if len(self.digests) > SCENE_DIGESTS:
+            self.digests.popitem(last=False)
+        return value
+
+    def key(self, scene: Scene, action: Action, history: Sequence[Scene], shadow: bool) -> bytes:
+        h = hashlib.blake2b(digest_size=16)
+        h.update(self.digest(scene))
+        h.update(f"|{action.value}|{int(shadow)}".encode())
+        for past in history if self.reasoner.providers else ():  # only fact providers read the history
+            h.update(self.digest(past))
+            h.update(f"|{past.frame_id - scene.frame_id}|{past.timestamp - scene.timestamp:.6f}".encode())
+        return h.digest()
+
+
+_worker: Optional[_Worker] = None
+
+
+def _init_worker(catalog: "ReplayCatalog") -> None:
+    global _worker
+    _worker = _Worker(catalog)
+
+
+def replay_file(job: ReplayJob) -> ReplayTally:
+    """Re-decide one file's frames of this job's shard (runs in a worker process)."""
+    worker = _worker
+    cpu_start = time.process_time()
+    report = RecoveryReport()
+    frames, pairing = read_frames(job.task, report, window_s=job.window_s)
+    tally = ReplayTally()
+    first_shard = job.shard == 0
+    for frame in frames:
+        if frame.lead_in or not job.filters.frame_selected(frame):
+            continue
+        recorded = frame.verdict
+        if frame.proposal is None:
+            tally.skipped_refused += first_shard
+            continue
+        if recorded.failsafe or frame.history is None:
+            tally.skipped_failsafe += first_shard
+            continue
+        scene, action = frame.proposal.scene, frame.proposal.action
+        key = worker.key(scene, action, frame.history, recorded.shadow)
+        if job.shards > 1 and int.from_bytes(key[:4], "big") % job.shards != job.shard:
+            continue
+        tally.frames += 1
+        known = worker.solved.get(key)
+        if known is None:
+            start = time.perf_counter()
+            if job.compare_rules:
+                verdict = worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow)
+                known = Solved(frozenset(verdict.permitted), verdict.recommended, Outcome.of(verdict))
+                tally.decided += 1
+            else:
+                solved = worker.reasoner.solve(scene, action, frame.history)
+                known = Solved(frozenset(solved.permitted), solved.recommended)
+            tally.solve_s += time.perf_counter() - start
+            tally.solved += 1
+            _remember(worker.solved, key, known)
+        else:
+            tally.reused += 1
+        if known.outcome is None:
+            if known.permitted == frozenset(recorded.permitted) and known.recommended == recorded.recommended:
+                continue  # same permitted set and recommendation: the same decision and action
+            start = time.perf_counter()
+            known.outcome = Outcome.of(
+                worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow)
+            )
+            tally.solve_s += time.perf_counter() - start
+            tally.decided += 1
+        outcome, before = known.outcome, Outcome.of(recorded)
+        if (outcome.decision, outcome.action) != (before.decision, before.action):
+            tally.changes.append(_change(worker, key, frame))
+            tally.transitions[f"{action.value}: {before.describe()} -> {outcome.describe()}"] += 1
+        elif outcome.rules != before.rules:
+            tally.rules_only += 1
+            tally.rules_only_examples[(", ".join(before.rules), ", ".join(outcome.rules))] += 1
+    if first_shard:
+        tally.counts = pairing.counts
+        tally.recovery = report.files
+    tally.cpu_s = time.process_time() - cpu_start
+    return tally
+
+
+def _remember(cache: OrderedDict, key: bytes, value) -> None:
+    cache[key] = value
+    if len(cache) > CACHE_LIMIT:
+        cache.popitem(last=False)
+
+
+def _change(worker: _Worker, key: bytes, frame) -> Change:
+    """The changed frame, decided again with the full justification tree (once per distinct frame)."""
+    scene = frame.proposal.scene
+    explained = worker.explained.get(key)
+    if explained is None:
+        explained = worker.reasoner.decide(
+            scene, frame.proposal.action, history=frame.history, explain=True, shadow=frame.verdict.shadow
+        )
+        _remember(worker.explained, key, explained)
+    replayed = explained.model_dump(mode="json")
+    # the frame's own identity; no latency: this decision was not made by a monitor in time
+    replayed.update(frame_id=scene.frame_id, timestamp=scene.timestamp, vehicle=frame.vehicle, latency_ms=None)
+    return Change(
+        time_ns=frame.log_time_ns,
+        vehicle=frame.vehicle,
+        file=frame.file,
+        frame_id=scene.frame_id,
+        scenario=scenario_kind(scene),
+        recorded=frame.verdict.model_dump(mode="json"),
+        replayed=replayed,
+    )
+
+
+@dataclass(frozen=True)
+class ReplayCatalog:
+    """The rules to replay with: the shipped ones as the monitor loads them, or edited driving rules.
+
+    Given driving-rules directories replace rules/catalog; the shipped sanity
+    rules and the jurisdiction's pack stay, so an edited copy of rules/catalog
+    is compared on equal terms.
+    """
+
+    dirs: tuple[str, ...]
+    jurisdiction: str = "us"
+
+    @classmethod
+    def of(cls, rules: Optional[Sequence[str]] = None, jurisdiction: str = "us") -> "ReplayCatalog":
+        shipped = [str(d) for d in catalog_dirs()]
+        dirs = [str(Path(d)) for d in rules] + shipped[1:] if rules else shipped
+        jurisdiction_pack(jurisdiction)  # an unknown name fails here, naming the known ones
+        return cls(tuple(dirs), jurisdiction)
+
+    def load(self) -> Catalog:
+        return load_catalog([Path(d) for d in self.dirs], extra_files=[jurisdiction_pack(self.jurisdiction)])
+
+    def describe(self) -> str:
+        return f"{', '.join(self.dirs)} ({self.jurisdiction} rules)"
+
+
+def replay_logs(
+    paths: Sequence[str],
+    catalog: Optional[ReplayCatalog] = None,
+    filters: Optional[Filters] = None,
+    workers: int = 1,
+    window_s: Optional[float] = None,
+    compare_rules: bool = False,
+) -> ReplayResult:
+    """Replay every file; raises CatalogError (from load_catalog) for a broken rules directory."""
+    window = window_s if window_s is not None else MonitorConfig().window_s
+    catalog = catalog if catalog is not None else ReplayCatalog.of()
+    filters = filters if filters is not None else Filters()
+    catalog.load()  # a broken catalog fails here, once, not in every worker
+    tasks = plan_tasks(list(paths))
+    shards = max(1, math.ceil(workers / max(1, len(tasks))))
+    jobs = [ReplayJob(task, shard, shards, filters, window, compare_rules) for task in tasks for shard in range(shards)]
+    start = time.perf_counter()
+    total = ReplayTally()
+    for tally in run_jobs(replay_file, jobs, workers, _init_worker, (catalog,)):
+        total.merge(tally)
+    wall = time.perf_counter() - start
+    total.changes.sort(key=lambda c: (c.time_ns, c.vehicle))
+    return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))), compare_rules)

@@ -1,0 +1,159 @@
+"""Real MCAP logs for the audit tests, written by the real monitor judging real proposals over zenoh (loopback).
+
+Four monitors run one after the other, each into its own directory:
+- `fleet`: enforcing; car_a on a highway above the limit alternately cruises
+  (approved) and accelerates (overridden by acc.at_limit); car_b in town has a
+  pedestrian ahead (cruise overridden to brake), car_c the same street empty
+  (approved); one malformed payload from car_b gets a bad-input fail-safe;
+- `shadow`: shadow mode; car_s accelerates above the limit (vetoed);
+- `slow`: every decision takes longer than the budget (deadline fail-safes);
+- `memory`: car_m sees a pedestrian ahead, then loses it: the sanity layer's
+  object permanence keeps it braking for a while, a decision that needs history.
+The logs are made once per test session.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import socket
+import time
+from pathlib import Path
+
+from discern.monitor.client import Monitor
+from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings
+from discern.monitor.server import MonitorServer
+from tests.scenes import obj, scene
+
+FLEET_A_FRAMES = 40
+PEDESTRIAN_FRAMES = 10  # car_b
+CLEAR_FRAMES = 10  # car_c
+SHADOW_FRAMES = 30  # 3 s at 10 Hz: longer than the 2 s history window, so the last frames repeat exactly
+SLOW_FRAMES = 3
+MEMORY_SEEN, MEMORY_LOST = 5, 10
+# frames in fleet + shadow + slow: car_a, car_b (+ its malformed payload), car_c, car_s, car_l
+FRAMES = FLEET_A_FRAMES + PEDESTRIAN_FRAMES + 1 + CLEAR_FRAMES + SHADOW_FRAMES + SLOW_FRAMES
+
+_made: dict[str, Path] = {}
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def highway(frame: int, speed: float = 31.0):
+    return scene(
+        speed=speed,
+        lane=2,
+        lanes=3,
+        limit=30.0,
+        zone="highway",
+        frame=frame,
+        objects=(obj("car", 0.0, 60.0, lane=2, vy=31.0), obj("car", -3.5, -10.0, lane=1, vy=30.0)),
+    )
+
+
+def town(frame: int, pedestrian: bool):
+    objects = (obj("pedestrian", 0.5, 12.0, lane=1),) if pedestrian else ()
+    return scene(speed=8.0, limit=13.9, frame=frame, objects=objects)
+
+
+def _serve(directory: Path, monitor_id: str, send, **config) -> list[Path]:
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    settings = MonitorConfig(
+        monitor_id=monitor_id,
+        zenoh=ZenohSettings(listen=[endpoint]),
+        workers=1,
+        log=LogSettings(directory=directory, flush_seconds=0.05),
+        **config,
+    )
+    with MonitorServer(settings) as server:
+        send(endpoint)
+        files = list(server.log.files)
+    return files
+
+
+def _fleet(endpoint: str) -> None:
+    with (
+        Monitor("car_a", connect=[endpoint], timeout=10.0) as car_a,
+        Monitor("car_b", connect=[endpoint], timeout=10.0) as car_b,
+        Monitor("car_c", connect=[endpoint], timeout=10.0) as car_c,
+    ):
+        for i in range(FLEET_A_FRAMES):
+            verdicts = [car_a.check(highway(i), "accelerate" if i % 2 else "cruise")]
+            if i < PEDESTRIAN_FRAMES:
+                verdicts.append(car_b.check(town(i, pedestrian=True), "cruise"))
+            if i < CLEAR_FRAMES:
+                verdicts.append(car_c.check(town(i, pedestrian=False), "cruise"))
+            assert not any(v.failsafe for v in verdicts), [v.error for v in verdicts]
+            time.sleep(0.01)  # spread the log over several chunks
+        replies = car_b.session.get("discern/car_b/check", payload=b'{"action": "cruise", "scene": ', timeout=10.0)
+        assert any(r.ok is not None for r in replies)
+
+
+def _shadow(endpoint: str) -> None:
+    with Monitor("car_s", connect=[endpoint], timeout=10.0) as car_s:
+        for i in range(SHADOW_FRAMES):
+            car_s.check(highway(i, speed=32.0), "accelerate")
+
+
+def _memory(endpoint: str) -> None:
+    with Monitor("car_m", connect=[endpoint], timeout=10.0) as car_m:
+        for i in range(MEMORY_SEEN + MEMORY_LOST):
+            assert not car_m.check(town(i, pedestrian=i < MEMORY_SEEN), "cruise").failsafe
+
+
+def _slow(endpoint: str) -> None:
+    with Monitor("car_l", connect=[endpoint], timeout=10.0) as car_l:
+        for i in range(SLOW_FRAMES):
+            car_l.check(highway(i), "cruise")
+
+
+def monitor_logs(tmp_path_factory) -> dict[str, Path]:
+    """{'fleet': file, 'shadow': file, 'slow': file, 'memory': file}: one MCAP file each, made once per session."""
+    if not _made:
+        root = tmp_path_factory.mktemp("audit-logs")
+        for name, send, config in (
+            ("fleet", _fleet, {"budget_ms": 1000.0}),
+            ("shadow", _shadow, {"budget_ms": 1000.0, "shadow": True}),
+            ("memory", _memory, {"budget_ms": 1000.0}),
+            ("slow", _slow, {"budget_ms": 50.0, "test_decision_delay_ms": 1000.0}),
+        ):
+            directory = root / name
+            files = _serve(directory, f"audit-{name}", send, **config)
+            assert len(files) == 1, files
+            _made[name] = files[0]
+    return dict(_made)
+
+
+def audit(capsys, *args: str) -> tuple[int, str, str]:
+    """`discern audit ARGS` in this process: exit code, stdout, stderr."""
+    from discern.monitor.audit.cli import main
+
+    capsys.readouterr()
+    code = main(["audit", *args])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def tolerant_rules(directory: Path) -> Path:
+    """A copy of the shipped driving rules whose acc.at_limit tolerates 5 m/s over the limit."""
+    from discern.rules.catalog import catalog_dirs
+
+    rules = directory / "catalog"
+    shutil.copytree(catalog_dirs()[0], rules)
+    for path in rules.glob("*.lp"):
+        text = path.read_text()
+        start = text.find("%! rule acc.at_limit\n")
+        if start < 0:
+            continue
+        end = text.find("\n\n", start)
+        block = text[start:end]
+        edited = re.sub(r"V >= S\.$", "V >= S + 500.", block, flags=re.M)
+        assert edited != block, block
+        path.write_text(text[:start] + edited + text[end:])
+        return rules
+    raise AssertionError("rule acc.at_limit is not in the shipped catalog")

@@ -1,0 +1,152 @@
+"""`discern audit` on real monitor logs: the listing, its filters, the aggregates and the exports."""
+
+from __future__ import annotations
+
+import csv
+import json
+from datetime import datetime, timezone
+
+import pytest
+
+from tests.audit_logs import (
+    CLEAR_FRAMES,
+    FLEET_A_FRAMES,
+    FRAMES,
+    PEDESTRIAN_FRAMES,
+    SHADOW_FRAMES,
+    SLOW_FRAMES,
+    audit,
+    monitor_logs,
+)
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    return monitor_logs(tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def all_logs(logs):
+    return [str(logs[k]) for k in ("fleet", "shadow", "slow")]
+
+
+def export(capsys, tmp_path, *args: str) -> dict:
+    out = tmp_path / "audit.json"
+    code, _, err = audit(capsys, *args, "--json", str(out), "--workers", "1")
+    assert code == 0, err
+    return json.loads(out.read_text())
+
+
+def test_lists_every_veto_override_and_failsafe_with_rules_and_justification(capsys, all_logs):
+    code, out, err = audit(capsys, *all_logs, "--workers", "1")
+    assert code == 0, err
+    overrides = FLEET_A_FRAMES // 2 + PEDESTRIAN_FRAMES
+    assert f"override {overrides}, veto {SHADOW_FRAMES}, fail-safe {1 + SLOW_FRAMES}" in out
+    lines = [l for l in out.splitlines() if l.startswith("  20")]
+    assert len(lines) == overrides + SHADOW_FRAMES + 1 + SLOW_FRAMES
+    row = next(l for l in lines if " car_a  frame 1 " in l)
+    assert "override  accelerate -> cruise" in row and "[acc.at_limit]" in row
+    assert row.endswith("override accelerate with cruise: accelerate is forbidden by acc.at_limit")
+    veto = next(l for l in lines if " car_s  frame 3 " in l)
+    assert "veto      accelerate -> accelerate" in veto and "shadow mode, not enforced" in veto
+    bad = next(l for l in lines if "monitor.bad_input" in l)
+    assert " car_b  frame -  failsafe" in bad and "malformed JSON" in bad
+    assert sum("[monitor.deadline]" in l for l in lines) == SLOW_FRAMES
+    assert "1 refused input (logged on /discern/<vehicle>/rejected)" in out
+
+
+def test_filters_by_vehicle_rule_verdict_and_time(capsys, tmp_path, all_logs):
+    by_vehicle = export(capsys, tmp_path, *all_logs, "--vehicle", "car_b")
+    assert {d["vehicle"] for d in by_vehicle["disagreements"]} == {"car_b"}
+    assert len(by_vehicle["disagreements"]) == PEDESTRIAN_FRAMES + 1
+    assert by_vehicle["frames"] == PEDESTRIAN_FRAMES + 1  # the vehicle filter applies to frames too
+
+    by_rule = export(capsys, tmp_path, *all_logs, "--rule", "acc.*")
+    assert len(by_rule["disagreements"]) == FLEET_A_FRAMES // 2 + SHADOW_FRAMES
+    assert by_rule["frames"] == FRAMES  # rule and verdict filters only narrow the listing
+
+    vetoes = export(capsys, tmp_path, *all_logs, "--verdict", "veto", "--verdict", "failsafe")
+    assert {d["verdict"] for d in vetoes["disagreements"]} == {"veto", "failsafe"}
+    assert len(vetoes["disagreements"]) == SHADOW_FRAMES + 1 + SLOW_FRAMES
+
+    times = [d["log_time_ns"] for d in by_rule["disagreements"]]
+    since = (times[2] + times[3]) / 2e9  # epoch seconds, between two disagreements
+    until = datetime.fromtimestamp((times[7] + times[8]) / 2e9, tz=timezone.utc).isoformat()
+    window = export(capsys, tmp_path, *all_logs, "--rule", "acc.*", "--since", f"{since:.6f}", "--until", until)
+    assert [d["log_time_ns"] for d in window["disagreements"]] == times[3:8]
+
+
+def test_aggregates_per_rule_action_pair_scenario_and_time(capsys, tmp_path, all_logs):
+    doc = export(capsys, tmp_path, *all_logs)
+    assert doc["per_rule"]["acc.at_limit"] == FLEET_A_FRAMES // 2 + SHADOW_FRAMES
+    assert doc["per_rule"]["cruise.hazard"] == PEDESTRIAN_FRAMES
+    pairs = doc["per_action_pair"]
+    assert pairs["accelerate -> cruise"] == FLEET_A_FRAMES // 2 and pairs["accelerate -> accelerate"] == SHADOW_FRAMES
+    # braking for the pedestrian, the malformed payload (no proposal: '?'), and the deadline fail-safes
+    assert pairs.get("cruise -> brake", 0) + pairs.get("? -> brake", 0) == PEDESTRIAN_FRAMES + 1 + SLOW_FRAMES
+    assert pairs["? -> brake"] >= 1 and set(pairs) == {
+        "accelerate -> cruise",
+        "accelerate -> accelerate",
+        "cruise -> brake",
+        "? -> brake",
+    }
+    scenarios = {s["scenario"]: (s["disagreements"], s["frames"]) for s in doc["per_scenario"]}
+    assert scenarios["city/vulnerable_road_user"] == (PEDESTRIAN_FRAMES, PEDESTRIAN_FRAMES)
+    assert scenarios["city/open_road"] == (0, CLEAR_FRAMES)
+    assert sum(b["veto"] + b["override"] + b["failsafe"] for b in doc["over_time"]) == len(doc["disagreements"])
+    assert doc["latency_ms"]["samples"] == doc["frames"] == FRAMES
+
+
+def test_odometry_integrates_scene_speed_over_scene_time(capsys, tmp_path, all_logs):
+    doc = export(capsys, tmp_path, *all_logs)
+    km = {v["vehicle"]: v["km"] for v in doc["per_vehicle"]}
+    # 0.1 s between frames: car_a 39 steps at 31 m/s, car_s 29 at 32 m/s, car_b and car_c 9 each at 8 m/s
+    assert km["car_a"] == pytest.approx(39 * 0.1 * 31 / 1000)
+    assert km["car_s"] == pytest.approx(29 * 0.1 * 32 / 1000)
+    assert km["car_b"] == km["car_c"] == pytest.approx(9 * 0.1 * 8 / 1000)
+    total_km = sum(km.values())
+    assert doc["odometry"]["km"] == pytest.approx(total_km)
+    assert doc["odometry"]["per_km"] == pytest.approx(len(doc["disagreements"]) / total_km)
+    late = 2 if km.get("car_l") else 0  # the deadline fail-safes' scenes, when the monitor logged them
+    assert doc["odometry"]["driving_hours"] == pytest.approx((39 + 29 + 9 + 9 + late) * 0.1 / 3600)
+
+
+def test_csv_export_has_one_row_per_disagreement(capsys, tmp_path, all_logs):
+    out = tmp_path / "audit.csv"
+    code, _, err = audit(capsys, *all_logs, "--csv", str(out), "--workers", "1", "--quiet")
+    assert code == 0 and f"wrote {out}" in err
+    rows = list(csv.DictReader(out.open()))
+    assert len(rows) == FLEET_A_FRAMES // 2 + PEDESTRIAN_FRAMES + SHADOW_FRAMES + 1 + SLOW_FRAMES
+    first = next(r for r in rows if r["vehicle"] == "car_b" and r["frame_id"] == "0")
+    assert (first["proposed"], first["executed"], first["verdict"]) == ("cruise", "brake", "override")
+    assert first["rules"] == "cruise.hazard;brake.obstacle_ahead"
+    assert first["time"].endswith("Z") and float(first["latency_ms"]) > 0
+
+
+def test_worker_processes_give_the_same_audit_as_one_process(capsys, tmp_path, all_logs):
+    one = export(capsys, tmp_path, *all_logs)
+    out = tmp_path / "parallel.json"
+    code, _, err = audit(capsys, *all_logs, "--json", str(out), "--workers", "2", "--quiet")
+    assert code == 0, err
+    two = json.loads(out.read_text())
+    assert two == one
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["/nonexistent/run.mcap"], "/nonexistent/run.mcap: no such file or directory"),
+        (["{log}", "--since", "yesterday"], "time 'yesterday' is neither ISO 8601"),
+        (["{log}", "--since", "2026-01-02", "--until", "2026-01-01"], "--since 2026-01-02 is after --until 2026-01-01"),
+        (["{log}", "--rules", "/tmp"], "--rules only applies with --replay"),
+        (["{log}", "--replay", "--rules", "/nonexistent"], "--rules /nonexistent: not a directory"),
+        (["{log}", "--replay", "--verdict", "veto"], "--rule and --verdict filter the audit listing"),
+        (["{log}", "--workers", "0"], "--workers must be at least 1"),
+        (["{log}", "--html", "/nonexistent/dir/report.html"], "cannot write /nonexistent/dir/report.html"),
+    ],
+)
+def test_a_users_mistake_is_named_in_one_line(capsys, logs, args, message):
+    code, _, err = audit(capsys, *[a.format(log=logs["slow"]) for a in args])
+    assert code == 2
+    assert message in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1

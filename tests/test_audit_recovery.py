@@ -1,0 +1,123 @@
+"""Logs that are not whole: cut by a crash, split by rotation, carrying foreign channels, empty, or not MCAP at all."""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from tests.audit_logs import audit, monitor_logs
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory) -> Path:
+    return monitor_logs(tmp_path_factory)["fleet"]
+
+
+def audit_json(capsys, tmp_path, *paths) -> dict:
+    out = tmp_path / f"audit-{len(list(tmp_path.iterdir()))}.json"
+    code, _, err = audit(capsys, *map(str, paths), "--json", str(out), "--workers", "1", "--quiet")
+    assert code == 0, err
+    return json.loads(out.read_text())
+
+
+def rewrite(source: Path, targets: list[Path], split_after: int = -1, foreign: bool = False) -> None:
+    """Copy a log's messages, in order, into new files with the mcap library (as another recorder would)."""
+    with open(source, "rb") as f:
+        messages = list(make_reader(f).iter_messages(log_time_order=False))
+    outputs = [open(t, "wb") for t in targets]
+    writers = [Writer(o) for o in outputs]
+    ids: list[dict] = [{} for _ in targets]
+    for w in writers:
+        w.start(profile="", library="test")
+    for i, (schema, channel, message) in enumerate(messages):
+        k = 1 if 0 <= split_after < i and len(targets) > 1 else 0
+        w, known = writers[k], ids[k]
+        if channel.topic not in known:
+            schema_id = w.register_schema(schema.name, schema.encoding, schema.data)
+            known[channel.topic] = w.register_channel(channel.topic, channel.message_encoding, schema_id)
+        w.add_message(known[channel.topic], message.log_time, message.data, message.publish_time)
+        if foreign:
+            if "camera" not in known:
+                camera = w.register_schema("acme.CameraInfo", "jsonschema", b'{"type": "object"}')
+                known["camera"] = w.register_channel("/camera/front/info", "json", camera)
+                debug = w.register_schema("discern.Debug", "jsonschema", b'{"type": "object"}')
+                known["debug"] = w.register_channel("/discern/car_a/debug", "json", debug)
+            w.add_message(known["camera"], message.log_time, b'{"width": 1920}', message.log_time)
+            w.add_message(known["debug"], message.log_time, b'{"x": 1}', message.log_time)
+    for w, o in zip(writers, outputs, strict=True):
+        w.finish()
+        o.close()
+
+
+def test_a_file_cut_by_a_crash_is_read_up_to_its_last_complete_chunk(capsys, tmp_path, fleet):
+    whole = audit_json(capsys, tmp_path, fleet)
+    data = fleet.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    code, out, err = audit(capsys, str(cut), "--workers", "1")
+    assert code == 0, err
+    assert f"{cut}: truncated, " in out and "bytes recovered" in out and "stopped: " in out
+    doc = audit_json(capsys, tmp_path, cut)
+    (f,) = doc["files"]
+    assert f["state"] == "truncated" and 0 < f["recovered_bytes"] <= len(data) * 0.6
+    assert 0 < doc["frames"] < whole["frames"]
+    # what was recovered is exactly the beginning of the whole log
+    n = len(doc["disagreements"])
+    assert n > 0
+    strip = lambda rows: [{k: v for k, v in r.items() if k != "file"} for r in rows]  # noqa: E731
+    assert strip(doc["disagreements"]) == strip(whole["disagreements"][:n])
+
+
+def test_a_pair_split_by_file_rotation_is_joined(capsys, tmp_path, fleet):
+    whole = audit_json(capsys, tmp_path, fleet)
+    with open(fleet, "rb") as f:
+        topics = [c.topic for _, c, _ in make_reader(f).iter_messages(log_time_order=False)]
+    split = next(i for i, t in enumerate(topics) if i > 20 and t.endswith("/proposal"))
+    assert topics[split + 1].endswith("/verdict")
+    rotated = tmp_path / "rotated"
+    rotated.mkdir()
+    parts = [rotated / "discern-m1-20260101T000000-0000.mcap", rotated / "discern-m1-20260101T000100-0001.mcap"]
+    rewrite(fleet, parts, split_after=split)
+    doc = audit_json(capsys, tmp_path, rotated)
+    assert [f["state"] for f in doc["files"]] == ["complete", "complete"]
+    assert doc["frames"] == whole["frames"] and doc["unanswered_proposals"] == 0
+    assert doc["per_scenario"] == whole["per_scenario"]  # every verdict found its proposal's scene
+    assert doc["odometry"] == pytest.approx(whole["odometry"])
+
+
+def test_unknown_channels_are_skipped_with_a_warning(capsys, tmp_path, fleet, caplog):
+    mixed = tmp_path / "mixed.mcap"
+    rewrite(fleet, [mixed], foreign=True)
+    with caplog.at_level(logging.WARNING):
+        code, out, err = audit(capsys, str(mixed), "--workers", "1", "--quiet")
+    assert code == 0, err
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert any("skipping unknown channel '/camera/front/info'" in w for w in warnings)
+    assert any("skipping unknown channel '/discern/car_a/debug'" in w for w in warnings)
+    assert "messages skipped (unknown channel or bad payload)" in out
+    assert audit_json(capsys, tmp_path, mixed)["disagreements"] == [
+        {**d, "file": str(mixed)} for d in audit_json(capsys, tmp_path, fleet)["disagreements"]
+    ]
+
+
+def test_an_empty_file_audits_to_nothing(capsys, tmp_path):
+    empty = tmp_path / "empty.mcap"
+    empty.write_bytes(b"")
+    code, out, err = audit(capsys, str(empty), "--workers", "1")
+    assert code == 0 and err == ""
+    assert f"{empty}: empty, 0 records" in out
+    assert "frames: 0 " in out and "No disagreements." in out
+
+
+def test_a_file_that_is_not_mcap_is_named_with_the_reason(capsys, tmp_path):
+    wrong = tmp_path / "notes.mcap"
+    wrong.write_text('{"this is": "json"}')
+    code, out, err = audit(capsys, str(wrong), "--workers", "1")
+    assert code == 0
+    assert f"{wrong}: unreadable, 0 records" in out
+    assert f"warning: nothing could be read from {wrong}: InvalidMagic" in err and "Traceback" not in err

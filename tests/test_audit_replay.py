@@ -1,0 +1,149 @@
+"""`discern audit --replay`: every logged frame decided again, with the shipped rules or an edited copy."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.audit_logs import (
+    CLEAR_FRAMES,
+    FLEET_A_FRAMES,
+    MEMORY_LOST,
+    MEMORY_SEEN,
+    PEDESTRIAN_FRAMES,
+    SHADOW_FRAMES,
+    SLOW_FRAMES,
+    audit,
+    monitor_logs,
+    tolerant_rules,
+)
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    return monitor_logs(tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def tolerant(tmp_path_factory) -> Path:
+    return tolerant_rules(tmp_path_factory.mktemp("rules"))
+
+
+def replay(capsys, tmp_path, *args: str) -> tuple[int, dict, str]:
+    out = tmp_path / "replay.json"
+    code, text, err = audit(capsys, "--replay", *args, "--json", str(out))
+    assert "Traceback" not in err
+    return code, json.loads(out.read_text()), text
+
+
+def test_replay_with_the_shipped_rules_changes_no_decision(capsys, tmp_path, logs):
+    files = [str(logs[k]) for k in ("fleet", "shadow", "slow", "memory")]
+    code, doc, text = replay(capsys, tmp_path, *files, "--workers", "1")
+    assert code == 0
+    assert "no decision would change" in text
+    assert (
+        doc["frames"] == FLEET_A_FRAMES + PEDESTRIAN_FRAMES + CLEAR_FRAMES + SHADOW_FRAMES + MEMORY_SEEN + MEMORY_LOST
+    )
+    assert doc["changes"] == [] and doc["decided_in_full"] == 0
+    # not decided by the rules: the deadline fail-safes and the malformed payload (which has no proposal logged)
+    assert doc["skipped_failsafe"] + doc["skipped_refused"] == SLOW_FRAMES + 1 and doc["skipped_refused"] >= 1
+    assert doc["solved"] + doc["reused"] == doc["frames"]
+
+
+def test_replay_with_an_edited_rule_reports_each_changed_decision_side_by_side(capsys, tmp_path, logs, tolerant):
+    code, doc, text = replay(
+        capsys, tmp_path, str(logs["fleet"]), str(logs["shadow"]), "--rules", str(tolerant), "--workers", "1"
+    )
+    assert code == 1  # like diff: decisions changed
+    changes = doc["changes"]
+    assert len(changes) == FLEET_A_FRAMES // 2 + SHADOW_FRAMES
+    assert {(c["vehicle"], c["recorded_decision"], c["replayed_decision"]) for c in changes} == {
+        ("car_a", "override", "approve"),
+        ("car_s", "veto", "approve"),
+    }
+    first = changes[0]
+    assert first["proposed"] == "accelerate" and first["recorded_rules"] == "acc.at_limit"
+    assert first["recorded_justification"] == "override accelerate with cruise: accelerate is forbidden by acc.at_limit"
+    assert first["replayed_justification"].startswith("approve accelerate: permitted")
+    assert first["replayed_verdict"]["justification"]["tree"], "a changed decision carries its full justification tree"
+    assert first["recorded_verdict"]["justification"]["tree"]
+    assert doc["transitions"] == {
+        "accelerate: override cruise -> approve accelerate": FLEET_A_FRAMES // 2,
+        "accelerate: veto accelerate -> approve accelerate": SHADOW_FRAMES,
+    }
+    assert f"{len(changes)} decisions would change" in text
+    assert "    recorded: override cruise [acc.at_limit]  override accelerate with cruise" in text
+    assert "    replayed: approve accelerate [dec.permitted]  approve accelerate: permitted" in text
+
+
+def test_replay_rebuilds_the_history_the_monitor_decided_with(capsys, tmp_path, logs):
+    """car_m keeps braking for a pedestrian it lost: only the history window explains those overrides."""
+    listing = tmp_path / "memory.json"
+    audit(capsys, str(logs["memory"]), "--json", str(listing), "--workers", "1")
+    remembered = [d for d in json.loads(listing.read_text())["disagreements"] if d["frame_id"] >= MEMORY_SEEN]
+    assert remembered and all(any(r.startswith("san.") for r in d["rules"]) for d in remembered)
+
+    code, same, _ = replay(capsys, tmp_path, str(logs["memory"]), "--workers", "1")
+    assert code == 0 and same["changes"] == []
+    # the same frames with no history: the pedestrian is forgotten at once
+    code, forgetful, _ = replay(capsys, tmp_path, str(logs["memory"]), "--window", "0.01", "--workers", "1")
+    assert code == 1
+    assert {c["frame_id"] for c in forgetful["changes"]} == {d["frame_id"] for d in remembered}
+    assert {(c["recorded_decision"], c["replayed_decision"]) for c in forgetful["changes"]} == {("override", "approve")}
+
+
+def test_identical_frames_are_decided_once(capsys, tmp_path, logs):
+    _, doc, text = replay(capsys, tmp_path, str(logs["shadow"]), "--workers", "1")
+    # car_s proposes the same acceleration in the same scene every 0.1 s; once its 2 s history window is full,
+    # frame after frame is identical but for its id and time, and is answered from the first one's decision
+    assert doc["frames"] == SHADOW_FRAMES and doc["solved"] + doc["reused"] == SHADOW_FRAMES
+    assert doc["solved"] <= 22 and doc["reused"] >= SHADOW_FRAMES - 22
+    assert f"{doc['solved']} solved, {doc['reused']} identical to a frame solved before" in text
+
+
+def test_worker_processes_find_the_same_changes(capsys, tmp_path, logs, tolerant):
+    args = [str(logs["fleet"]), "--rules", str(tolerant)]
+    _, one, _ = replay(capsys, tmp_path, *args, "--workers", "1")
+    _, two, _ = replay(capsys, tmp_path, *args, "--workers", "2")
+    assert two["workers"] == 2
+    assert two["changes"] == one["changes"] and two["frames"] == one["frames"]
+
+
+def test_deciding_every_frame_in_full_finds_the_same_changes(capsys, tmp_path, logs, tolerant):
+    """The fast path trusts the logged permitted set and recommendation; deciding every frame must agree with it."""
+    args = [str(logs[k]) for k in ("fleet", "shadow", "memory")] + ["--rules", str(tolerant), "--workers", "1"]
+    _, fast, _ = replay(capsys, tmp_path, *args)
+    _, full, _ = replay(capsys, tmp_path, *args, "--compare-rules")
+    assert full["decided_in_full"] == full["solved"] > fast["decided_in_full"]
+    assert full["changes"] == fast["changes"] and len(fast["changes"]) == FLEET_A_FRAMES // 2 + SHADOW_FRAMES
+
+
+def test_compare_rules_finds_frames_citing_other_rules(capsys, tmp_path, logs):
+    renamed = tolerant_rules(tmp_path)  # a fresh copy; then undo the tolerance and rename the rule instead
+    for path in renamed.glob("*.lp"):
+        text = path.read_text()
+        if "%! rule acc.at_limit\n" in text:
+            text = text.replace("V >= S + 500.", "V >= S.").replace(
+                "%! rule acc.at_limit\n", "%! rule acc.not_over_limit\n"
+            )
+            path.write_text(text)
+    args = [str(logs["fleet"]), "--rules", str(renamed), "--workers", "1"]
+    code, fast, _ = replay(capsys, tmp_path, *args)
+    assert code == 0 and fast["changes"] == [] and fast["rules_only_changes"] == 0
+    code, full, text = replay(capsys, tmp_path, *args, "--compare-rules")
+    assert code == 0 and full["changes"] == []
+    assert full["rules_only_changes"] == FLEET_A_FRAMES // 2
+    assert f"{FLEET_A_FRAMES // 2} frames would keep the decision but cite other rules" in text
+    assert "[acc.at_limit] -> [acc.not_over_limit]" in text
+
+
+def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "10_bad.lp").write_text("%! rule x.bad\n%! says Nothing.\n%! source none\nforbidden(A) :- action(A\n")
+    code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(broken), "--workers", "1")
+    assert code == 2 and out == ""
+    assert err.startswith(f"discern audit: rules catalog: {broken / '10_bad.lp'}:5:1") and "syntax error" in err
+    assert "Traceback" not in err
