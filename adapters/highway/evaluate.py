@@ -208,8 +208,14 @@ def compare(rows: list[dict]) -> list[str]:
         for r in rows:
             if r["faults"] != faults or r["variant"] == "planner":
                 continue
-            cut = 1.0 - r["collisions_per_km"] / base["collisions_per_km"] if base["collisions_per_km"] else float("nan")
             kept = r["mean_speed"] / base["mean_speed"] if base["mean_speed"] else float("nan")
+            if not base["collisions_per_km"]:
+                lines.append(
+                    f"faults={faults:<14} {r['variant']:<8} the planner alone did not collide: nothing to cut; "
+                    f"mean speed kept {kept:6.1%}"
+                )
+                continue
+            cut = 1.0 - r["collisions_per_km"] / base["collisions_per_km"]
             met = cut >= 0.9 and kept >= 0.9
             lines.append(
                 f"faults={faults:<14} {r['variant']:<8} collisions/km cut {cut:6.1%}, mean speed kept {kept:6.1%} "
