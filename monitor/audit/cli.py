@@ -129,13 +129,14 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     from . import replay_report
     from .replay import ReplayCatalog, replay_logs
 
+    catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us")
     try:
-        catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us")
-        result = replay_logs(paths, catalog, filters, args.workers, args.window, args.compare_rules)
+        catalog.load()
     except CatalogError as exc:
         raise UsageError(f"rules catalog: {exc}") from None
     except RuntimeError as exc:  # clingo's parser: name the file and line it could not read
         raise UsageError(f"rules catalog: {_syntax_error(args.rules or []) or exc}") from None
+    result = replay_logs(paths, catalog, filters, args.workers, args.window, args.compare_rules)
     _warn_unreadable(result.tally.recovery)
     text = replay_report.render_text(result)
     if args.quiet:
