@@ -15,27 +15,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.report import machine, write_section  # noqa: E402
+from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
 from discern.rules.engine import Reasoner  # noqa: E402
 from discern.rules.scene import Scene  # noqa: E402
 
 KITTI = Path(__file__).resolve().parents[2] / "shared" / "avcsr" / "kitti"
 CLASSES = ["car", "truck", "bus", "pedestrian", "bicycle", "roadblock", "unknown", "plastic_bag"]
-
-
-def pct(values: list[float], q: float) -> float:
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
-
-
-def timed(fn, repeats: int) -> list[float]:
-    out = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        out.append((time.perf_counter() - start) * 1000)
-    return out
 
 
 def random_scene(rng: random.Random, n: int, frame: int) -> Scene:
@@ -80,9 +66,9 @@ def main() -> None:
     fast, approve_tree, veto_tree = [], [], []
     for f in frames:
         fast += timed(lambda: reasoner.decide(f.scene, f.expected), args.repeats)
-        approve_tree += timed(lambda: reasoner.decide(f.scene, f.expected, explain=True), args.repeats // 5)
+        approve_tree += timed(lambda: reasoner.decide(f.scene, f.expected, explain=True), max(1, args.repeats // 5))
         wrong = "accelerate" if f.expected.value != "accelerate" else "turn_left"
-        veto_tree += timed(lambda: reasoner.decide(f.scene, wrong), args.repeats // 5)
+        veto_tree += timed(lambda: reasoner.decide(f.scene, wrong), max(1, args.repeats // 5))
 
     rng = random.Random(2026)
     scaling = {}

@@ -14,7 +14,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.report import machine, write_section  # noqa: E402
+from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
 from discern.rules.catalog import catalog_dirs, load_catalog  # noqa: E402
 from discern.rules.engine import Reasoner, jurisdiction_pack  # noqa: E402
@@ -27,20 +27,6 @@ KITTI = ROOT.parent / "shared" / "avcsr" / "kitti"
 SCENARIOS = ROOT / "scenarios" / "sanity"
 RATE_HZ = 10.0  # frames per second of the synthetic window: 2 s = 20 frames of history
 CLASSES = ["car", "truck", "bus", "pedestrian", "bicycle", "roadblock", "unknown"]
-
-
-def pct(values: list[float], q: float) -> float:
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
-
-
-def timed(fn, repeats: int) -> list[float]:
-    out = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        out.append((time.perf_counter() - start) * 1000)
-    return out
 
 
 def window_before(scene: Scene, seconds: float) -> tuple[Scene, ...]:

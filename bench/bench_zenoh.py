@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import zenoh  # noqa: E402
 
-from bench.report import machine, write_section  # noqa: E402
+from bench.report import machine, pct, write_section  # noqa: E402
 from discern.monitor import keys  # noqa: E402
 from discern.monitor.config import ZenohSettings  # noqa: E402
 from discern.monitor.example_planner import highway_scene, planner_action  # noqa: E402
@@ -34,11 +34,6 @@ from discern.rules.scene import Proposal  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DRAIN_S = 2.0
-
-
-def pct(values: list[float], q: float) -> float:
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))] if ordered else float("nan")
 
 
 def free_port() -> int:

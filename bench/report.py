@@ -1,14 +1,33 @@
-"""Write one benchmark's section into docs/benchmarks.md, leaving the other sections alone."""
+"""What every benchmark shares: percentiles, timing, the machine, and its section of docs/benchmarks.md."""
 
 from __future__ import annotations
 
 import platform
 import re
 import subprocess
+import time
 from pathlib import Path
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md"
 HEADER = "# Benchmarks\n\nEvery figure below was measured by the command shown with it; none is estimated.\n"
+
+
+def pct(values: list[float], q: float) -> float:
+    """The q-th percentile by nearest rank: no interpolation between measured values."""
+    ordered = sorted(values)
+    if not ordered:
+        return float("nan")
+    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
+
+
+def timed(fn, repeats: int) -> list[float]:
+    """Wall-clock milliseconds of `repeats` calls."""
+    out = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        out.append((time.perf_counter() - start) * 1000)
+    return out
 
 
 def machine() -> str:

@@ -159,14 +159,3 @@ def _params(pairs: list[str], problems: list[str]) -> tuple[tuple[str, float], .
             parsed[name] = number
     return tuple(sorted(parsed.items()))
 
-
-def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry until the lead wires register() into `discern`."""
-    parser = argparse.ArgumentParser(prog="discern")
-    register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
-    return args.func(args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
