@@ -6,7 +6,8 @@ pytest.importorskip("highway_env")
 pytest.importorskip("torch")
 
 from discern.adapters.highway.actions import FASTER, from_catalog
-from discern.adapters.highway.cli import demo, main as cli_main
+from discern.adapters.highway.cli import demo
+from discern.monitor.cli import main as cli_main
 from discern.adapters.highway.envs import make_env
 from discern.adapters.highway.evaluate import Setup, evaluate, summarise
 from discern.adapters.highway.perception import Faults
