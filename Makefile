@@ -25,8 +25,12 @@ browser:
 	  || (apt-get update -q >/dev/null 2>&1 && apt-get install -y -q chromium >/dev/null 2>&1) \
 	  || echo "warning: could not install chromium (needs root and Debian's packages); the browser tests will skip"
 
+# Each benchmark writes its own section of docs/benchmarks.md; run them on an otherwise idle machine.
 bench: $(BIN)/.installed
 	$(BIN)/python bench/bench_core.py
+	$(BIN)/python bench/bench_sanity.py
+	$(BIN)/python bench/bench_zenoh.py
+	$(BIN)/python bench/bench_audit.py
 
 clean:
 	rm -rf $(VENV) out
