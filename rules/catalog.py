@@ -189,7 +189,12 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         return best
 
     parsed: list[ast.AST] = []
-    ast.parse_string(text, parsed.append)
+    messages: list[str] = []
+    try:
+        ast.parse_string(text, parsed.append, logger=lambda _code, message: messages.append(message.strip()))
+    except RuntimeError:
+        detail = "; ".join(m.replace("<string>", path) for m in messages) or "syntax error"
+        raise CatalogError(f"{path}: cannot parse: {detail}") from None
     for stm in parsed:
         if stm.ast_type in (ast.ASTType.Program, ast.ASTType.Comment):
             continue

@@ -41,3 +41,8 @@ def test_a_rule_through_its_own_negation_is_rejected_as_unstratified(tmp_path):
     text = "%! rule x.loop\n%! says L.\n%! source s\na :- not b.\nb :- not a.\n"
     with pytest.raises(CatalogError, match="must be stratified"):
         load_catalog(write_rules(tmp_path, text))
+
+
+def test_a_syntax_error_names_the_file_and_line(tmp_path):
+    with pytest.raises(CatalogError, match=r"r\.lp: cannot parse: .*r\.lp:4"):
+        load_catalog(write_rules(tmp_path, "%! rule x.a\n%! says A.\n%! source s\na :- b,.\n"))
