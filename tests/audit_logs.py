@@ -131,7 +131,7 @@ def monitor_logs(tmp_path_factory) -> dict[str, Path]:
 
 def audit(capsys, *args: str) -> tuple[int, str, str]:
     """`discern audit ARGS` in this process: exit code, stdout, stderr."""
-    from discern.monitor.audit.cli import main
+    from discern.monitor.cli import main
 
     capsys.readouterr()
     code = main(["audit", *args])

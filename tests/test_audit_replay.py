@@ -145,5 +145,6 @@ def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
     (broken / "10_bad.lp").write_text("%! rule x.bad\n%! says Nothing.\n%! source none\nforbidden(A) :- action(A\n")
     code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(broken), "--workers", "1")
     assert code == 2 and out == ""
-    assert err.startswith(f"discern audit: rules catalog: {broken / '10_bad.lp'}:5:1") and "syntax error" in err
+    assert err.startswith(f"discern audit: rules catalog: {broken / '10_bad.lp'}: cannot parse: ")
+    assert f"{broken / '10_bad.lp'}:5:1" in err and "syntax error" in err
     assert "Traceback" not in err

@@ -132,10 +132,8 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us")
     try:
         catalog.load()
-    except CatalogError as exc:
+    except CatalogError as exc:  # names the file and line it could not read
         raise UsageError(f"rules catalog: {exc}") from None
-    except RuntimeError as exc:  # clingo's parser: name the file and line it could not read
-        raise UsageError(f"rules catalog: {_syntax_error(args.rules or []) or exc}") from None
     result = replay_logs(paths, catalog, filters, args.workers, args.window, args.compare_rules)
     _warn_unreadable(result.tally.recovery)
     text = replay_report.render_text(result)
@@ -146,22 +144,6 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     _write(args.json, lambda: replay_report.render_json(result))
     _write(args.html, lambda: replay_report.render_html(result))
     return EXIT_CHANGED if result.tally.changes else EXIT_OK
-
-
-def _syntax_error(dirs: Sequence[str]) -> Optional[str]:
-    """clingo's message for the first rules file it cannot parse, with the file's name in it."""
-    from clingo import ast
-
-    for path in sorted(p for d in dirs for p in Path(d).glob("*.lp")):
-        messages: list[str] = []
-        try:
-            ast.parse_string(
-                path.read_text(encoding="utf-8"), lambda _s: None, logger=lambda _c, m, out=messages: out.append(m)
-            )
-        except RuntimeError:
-            first = messages[0].strip() if messages else "syntax error"
-            return first.replace("<string>", str(path), 1)
-    return None
 
 
 def _warn_unreadable(files) -> None:
@@ -218,9 +200,3 @@ def _rule_text() -> dict[str, str]:
     """What each shipped rule says (with the monitor's default rule pack), for the report's per-rule table."""
     return {r.id: r.says for r in load_catalog(extra_files=[jurisdiction_pack("us")]).rules}
 
-
-def main(argv: Optional[Sequence[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog="discern")
-    register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
-    return args.func(args)
