@@ -15,35 +15,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench.scenes import random_scene  # noqa: E402
 from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
 from discern.rules.engine import Reasoner  # noqa: E402
-from discern.rules.scene import Scene  # noqa: E402
 
 KITTI = Path(__file__).resolve().parents[2] / "shared" / "avcsr" / "kitti"
-CLASSES = ["car", "truck", "bus", "pedestrian", "bicycle", "roadblock", "unknown", "plastic_bag"]
-
-
-def random_scene(rng: random.Random, n: int, frame: int) -> Scene:
-    lanes = 4
-    objects = []
-    for i in range(1, n + 1):
-        kind = rng.choice(["current"] * 4 + ["oncoming", "sidewalk_right"])
-        objects.append({
-            "id": i, "class": rng.choice(CLASSES),
-            "position": {"x": rng.uniform(-12, 12), "y": rng.uniform(-60, 120)},
-            "lane": {"kind": kind, "id": rng.randint(1, lanes) if kind == "current" else 1},
-            "velocity": {"x": 0.0, "y": rng.uniform(0, 30)} if rng.random() < 0.7 else None,
-        })
-    return Scene.model_validate({
-        "frame_id": frame, "timestamp": frame * 0.05,
-        "ego": {"speed": rng.uniform(0, 30), "lane": rng.randint(1, lanes), "zone": "highway"},
-        "speed_limit": 30.0,
-        "lanes": [{"kind": "current", "id": i} for i in range(1, lanes + 1)]
-        + [{"kind": "oncoming", "id": 1}, {"kind": "sidewalk_right", "id": 1}],
-        "objects": objects,
-        "sensors": [{"side": "left", "distance": rng.uniform(0.2, 5)}],
-    })
 
 
 def rss_mib() -> float:

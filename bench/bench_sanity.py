@@ -14,6 +14,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench.scenes import random_scene  # noqa: E402
 from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
 from discern.rules.catalog import catalog_dirs, load_catalog  # noqa: E402
@@ -26,7 +27,6 @@ ROOT = Path(__file__).resolve().parents[1]
 KITTI = ROOT.parent / "shared" / "avcsr" / "kitti"
 SCENARIOS = ROOT / "scenarios" / "sanity"
 RATE_HZ = 10.0  # frames per second of the synthetic window: 2 s = 20 frames of history
-CLASSES = ["car", "truck", "bus", "pedestrian", "bicycle", "roadblock", "unknown"]
 
 
 def window_before(scene: Scene, seconds: float) -> tuple[Scene, ...]:
@@ -51,30 +51,6 @@ def load_average() -> str:
         return Path("/proc/loadavg").read_text().split()[0]
     except OSError:
         return "?"
-
-
-def random_scene(rng: random.Random, n: int, frame: int) -> Scene:
-    lanes = 4
-    objects = []
-    for i in range(1, n + 1):
-        kind = rng.choice(["current"] * 4 + ["oncoming", "sidewalk_right"])
-        objects.append({
-            "id": i, "class": rng.choice(CLASSES),
-            "position": {"x": rng.uniform(-12, 12), "y": rng.uniform(-60, 120)},
-            "lane": {"kind": kind, "id": rng.randint(1, lanes) if kind == "current" else 1},
-            "velocity": {"x": rng.uniform(-1, 1), "y": rng.uniform(0, 30)} if rng.random() < 0.7 else None,
-            "sources": rng.choice([["camera", "radar"], ["camera", "radar"], ["camera"], ["radar"]]),
-        })
-    return Scene.model_validate({
-        "frame_id": frame + 100, "timestamp": 10.0 + frame,
-        "ego": {"speed": rng.uniform(0, 30), "lane": rng.randint(1, lanes), "zone": "highway"},
-        "speed_limit": 30.0, "map_speed_limit": 30.0,
-        "lanes": [{"kind": "current", "id": i} for i in range(1, lanes + 1)]
-        + [{"kind": "oncoming", "id": 1}, {"kind": "sidewalk_right", "id": 1}],
-        "objects": objects,
-        "signs": [{"kind": "speed_limit", "value": 30.0, "source": "camera"}],
-        "sensors": [{"side": "left", "distance": rng.uniform(0.2, 5)}, {"side": "front", "distance": rng.uniform(5, 100)}],
-    })
 
 
 def main() -> None:
@@ -122,7 +98,7 @@ def main() -> None:
     rng = random.Random(2026)
     scaling: dict[int, tuple[list[float], list[float]]] = {}
     for n in (10, 50):
-        scenes = [random_scene(rng, n, i) for i in range(30)]
+        scenes = [random_scene(rng, n, i, perception=True) for i in range(30)]
         hists = [window_before(sc, args.window) for sc in scenes]
         for sc, h in zip(scenes[:3], hists[:3]):
             core.decide(sc, "cruise")
