@@ -46,7 +46,8 @@ class AnswerSet:
     def of(self, name: str, arity: int) -> list[Symbol]:
         found = self._by_sig.get((name, arity))
         if found is None:
-            found = [a.symbol for a in self._atoms.by_signature(name, arity) if a.is_fact]
+            # sorted: a proof must not depend on the order the grounder happened to derive atoms in
+            found = sorted(a.symbol for a in self._atoms.by_signature(name, arity) if a.is_fact)
             self._by_sig[(name, arity)] = found
         return found
 

@@ -1,0 +1,68 @@
+import random
+
+import pytest
+
+from discern.adapters.avcsr import read_dir
+from discern.rules.batch import FrameTagger, static_predicates
+from discern.rules.engine import Request
+from tests.test_engine import full_model, random_scene
+
+
+def _comparable(verdict):
+    return verdict.model_dump(exclude={"latency_ms"})
+
+
+def _frames(seed, count):
+    rng = random.Random(seed)
+    previous = random_scene(rng)
+    out = []
+    for _ in range(count):
+        sc = random_scene(rng)
+        history = (previous.model_copy(update={"frame_id": sc.frame_id - 1, "timestamp": sc.timestamp - 0.1}),)
+        out.append((sc, rng.choice(["cruise", "accelerate", "brake", "change_lane_left", "turn_right"]), history))
+        previous = sc
+    return out
+
+
+def test_each_frame_of_a_batch_has_exactly_its_solo_answer_set(reasoner):
+    frames = _frames(3, 30)
+    solved = reasoner.solve_many([(sc, "cruise", history) for sc, _, history in frames])
+    for (sc, _, history), one in zip(frames, solved):
+        assert set(one.answer.all()) == full_model(reasoner, sc, history)
+
+
+def test_batched_verdicts_equal_one_by_one_verdicts_with_their_proofs(reasoner):
+    frames = _frames(5, 24)
+    requests = [Request(sc, action, history, explain=i % 3 == 0, shadow=i % 5 == 0, vehicle=f"v{i % 4}")
+                for i, (sc, action, history) in enumerate(frames)]
+    batched = reasoner.decide_many(requests)
+    for request, verdict in zip(requests, batched):
+        alone = reasoner.decide(request.scene, request.proposed, request.history, explain=request.explain,
+                                shadow=request.shadow, vehicle=request.vehicle)
+        assert _comparable(verdict) == _comparable(alone)
+
+
+def test_the_papers_kitti_frames_decide_the_same_in_one_batch(reasoner, avcsr_dir):
+    frames = read_dir(avcsr_dir)
+    batched = reasoner.decide_many([Request(f.scene, f.expected) for f in frames])
+    assert [v.action for v in batched] == [f.expected for f in frames]
+    assert [_comparable(v) for v in batched] == [_comparable(reasoner.decide(f.scene, f.expected)) for f in frames]
+
+
+def test_class_hierarchy_and_parameters_are_shared_but_scene_derived_predicates_are_per_frame(reasoner):
+    static = static_predicates(reasoner.catalog, shared={"param"})
+    assert {"is_a", "rank", "param"} <= static
+    assert not {"hazard", "permitted", "applicable", "ego_speed"} & static
+
+
+def test_frame_tagging_leaves_quoted_strings_alone(reasoner):
+    tagger = FrameTagger(reasoner.catalog)
+    text = 'ego_path("a.b(c"). stop_line.obj_path(3,"x\\"y.z(").'.replace(" ", "")
+    assert tagger.facts(text, 7) == (
+        'discern_frame(7).ego_path(7,"a.b(c").stop_line(7).obj_path(7,3,"x\\"y.z(").'
+    )
+
+
+def test_a_frame_fact_that_the_catalog_defines_is_refused(reasoner):
+    with pytest.raises(ValueError, match="is_a"):
+        FrameTagger(reasoner.catalog).facts("is_a(car,vehicle).", 0)
