@@ -67,9 +67,10 @@ class SolvedFrame:
     def __init__(self, answer: AnswerSet, proposed: Action):
         self.answer = answer
         self.proposed = proposed
-        self.permitted = [a for a in Action if answer.holds(Function("permitted", [Function(a.value)]))]
-        recommended = [a for a in RANK if answer.holds(Function("recommended", [Function(a.value)]))]
-        self.recommended: Optional[Action] = recommended[0] if recommended else None
+        permitted = {s.arguments[0].name for s in answer.of("permitted", 1)}
+        self.permitted = [a for a in Action if a.value in permitted]
+        recommended = {s.arguments[0].name for s in answer.of("recommended", 1)}
+        self.recommended: Optional[Action] = next((a for a in RANK if a.value in recommended), None)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,8 @@ from mcap.writer import Writer
 
 from discern.monitor.config import LogSettings
 from discern.monitor.example_planner import highway_scene
-from discern.monitor.log import McapLogWriter, RecoveryReport, RejectedInput, read_log, vehicle_topic
+from discern.monitor.log import (McapLogWriter, RecoveryReport, RejectedInput, first_log_time_ns, read_log,
+                                 vehicle_topic)
 from discern.monitor.log.channels import STATUS_TOPIC
 from discern.monitor.protocol import RULE_BAD_INPUT, failsafe_verdict
 from discern.monitor.status import StatusCounters
@@ -124,6 +125,19 @@ def test_files_rotate_by_size_and_read_back_in_order(tmp_path):
     report = RecoveryReport()
     frames = [r.proposal.scene.frame_id for r in read_log(tmp_path, report)]
     assert frames == list(range(12)) and all(f.complete for f in report.files)
+
+
+def test_reading_since_a_time_skips_earlier_messages_undecoded(tmp_path):
+    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02), "since")
+    for f in range(8):
+        writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 2)))
+        time.sleep(0.05)
+    writer.close()
+    times = [r.log_time_ns for r in read_log(tmp_path)]
+    assert first_log_time_ns(writer.files[0]) == times[0]
+    report = RecoveryReport()
+    later = [r.proposal.scene.frame_id for r in read_log(tmp_path, report, since_ns=times[5])]
+    assert later == [5, 6, 7] and report.files[0].complete
 
 
 def test_files_rotate_by_age(tmp_path):

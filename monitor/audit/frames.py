@@ -8,7 +8,8 @@ parsed has no proposal record: its frame carries the verdict alone.
 Rotated files are read one at a time (that is what runs in parallel); the
 file before, when it is the same monitor's previous file, is read first as a
 lead-in so that a pair cut by the rotation still meets and the replay gets the
-same history window the monitor had.
+same history window the monitor had. Only the lead-in's tail is decoded: the
+history window plus a slack far longer than any decision takes.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator, Optional
 
-from discern.monitor.log import LogRecord, RecoveryReport, log_files, read_log
+from discern.monitor.log import LogRecord, RecoveryReport, first_log_time_ns, log_files, read_log
 from discern.monitor.protocol import InputError
 from discern.monitor.vehicle_state import VehicleState
 from discern.rules.scene import Proposal, Scene
@@ -27,6 +28,7 @@ from discern.rules.verdict import Verdict
 
 # discern-<monitor id>-<UTC stamp>-<index>.mcap, as monitor/log/writer.py names its files
 _ROTATED = re.compile(r"^(discern-.+)-\d{8}T\d{6}-\d{4}\.mcap$")
+LEAD_IN_SLACK_S = 10.0  # of the previous file read beyond the window: a verdict is never this late
 PENDING_PER_VEHICLE = 256  # proposals waiting for their verdict; more means the log lost verdicts
 
 
@@ -166,7 +168,9 @@ def read_frames(
 
     def frames() -> Iterator[Frame]:
         if task.lead_in is not None:
-            for record in read_log(task.lead_in, RecoveryReport()):
+            start = first_log_time_ns(task.path)
+            since = None if start is None else start - int(((window_s or 0.0) + LEAD_IN_SLACK_S) * 1e9)
+            for record in read_log(task.lead_in, RecoveryReport(), since_ns=since):
                 frame = pairing.feed(record)
                 if frame is not None:
                     frame.lead_in = True

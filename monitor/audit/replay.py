@@ -6,6 +6,7 @@ frame whose decision or executed action would change is reported with both
 justifications. Fail-safe verdicts and refused inputs were not decided by the
 rules and are counted, not replayed.
 
+Frames are solved in batches, many in one grounding (Reasoner.solve_many).
 Each frame is first only solved: a verdict's decision and action follow from
 the proposed action, the shadow flag and the permitted set and recommended
 action (Reasoner.decide), and the logged verdict carries all four, so when the
@@ -37,7 +38,7 @@ from typing import Optional, Sequence
 from discern.monitor.config import MonitorConfig
 from discern.monitor.log import FileRecovery, RecoveryReport
 from discern.rules.catalog import Catalog, catalog_dirs, load_catalog
-from discern.rules.engine import Reasoner, jurisdiction_pack
+from discern.rules.engine import Reasoner, Request, jurisdiction_pack
 from discern.rules.scene import Action, Scene
 from discern.rules.verdict import Verdict
 
@@ -45,6 +46,7 @@ from .aggregate import Filters, scenario_kind
 from .frames import FrameTask, PairingCounts, plan_tasks, read_frames
 from .parallel import run_jobs
 
+BATCH = 96  # distinct frames grounded together: the per-rule cost is paid once per batch (rules/batch.py)
 CACHE_LIMIT = 100_000  # decided frames kept per worker for reuse
 SCENE_DIGESTS = 8192  # scenes whose content digest is kept (a history window repeats them)
 
@@ -201,6 +203,7 @@ def replay_file(job: ReplayJob) -> ReplayTally:
     frames, pairing = read_frames(job.task, report, window_s=job.window_s)
     tally = ReplayTally()
     first_shard = job.shard == 0
+    selected: list[tuple[object, bytes]] = []
     for frame in frames:
         if frame.lead_in or not job.filters.frame_selected(frame):
             continue
@@ -211,47 +214,67 @@ def replay_file(job: ReplayJob) -> ReplayTally:
         if recorded.failsafe or frame.history is None:
             tally.skipped_failsafe += first_shard
             continue
-        scene, action = frame.proposal.scene, frame.proposal.action
-        key = worker.key(scene, action, frame.history, recorded.shadow)
+        key = worker.key(frame.proposal.scene, frame.proposal.action, frame.history, recorded.shadow)
         if job.shards > 1 and int.from_bytes(key[:4], "big") % job.shards != job.shard:
             continue
-        tally.frames += 1
-        known = worker.solved.get(key)
-        if known is None:
-            start = time.perf_counter()
-            if job.compare_rules:
-                verdict = worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow)
-                known = Solved(frozenset(verdict.permitted), verdict.recommended, Outcome.of(verdict))
-                tally.decided += 1
-            else:
-                solved = worker.reasoner.solve(scene, action, frame.history)
-                known = Solved(frozenset(solved.permitted), solved.recommended)
-            tally.solve_s += time.perf_counter() - start
-            tally.solved += 1
-            _remember(worker.solved, key, known)
-        else:
-            tally.reused += 1
-        if known.outcome is None:
-            if known.permitted == frozenset(recorded.permitted) and known.recommended == recorded.recommended:
-                continue  # same permitted set and recommendation: the same decision and action
-            start = time.perf_counter()
-            known.outcome = Outcome.of(
-                worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow)
-            )
-            tally.solve_s += time.perf_counter() - start
-            tally.decided += 1
-        outcome, before = known.outcome, Outcome.of(recorded)
-        if (outcome.decision, outcome.action) != (before.decision, before.action):
-            tally.changes.append(_change(worker, key, frame))
-            tally.transitions[f"{action.value}: {before.describe()} -> {outcome.describe()}"] += 1
-        elif outcome.rules != before.rules:
-            tally.rules_only += 1
-            tally.rules_only_examples[(", ".join(before.rules), ", ".join(outcome.rules))] += 1
+        selected.append((frame, key))
+    for at in range(0, len(selected), BATCH):
+        chunk = selected[at : at + BATCH]
+        _solve_new(worker, chunk, job.compare_rules, tally)
+        for frame, key in chunk:
+            _compare(worker, frame, key, tally)
     if first_shard:
         tally.counts = pairing.counts
         tally.recovery = report.files
     tally.cpu_s = time.process_time() - cpu_start
     return tally
+
+
+def _solve_new(worker: _Worker, chunk: list, compare_rules: bool, tally: ReplayTally) -> None:
+    """Solve the chunk's frames not solved before, all in one grounding (Reasoner.solve_many)."""
+    pending: dict[bytes, object] = {}
+    for frame, key in chunk:
+        if key not in worker.solved and key not in pending:
+            pending[key] = frame
+    tally.frames += len(chunk)
+    tally.solved += len(pending)
+    tally.reused += len(chunk) - len(pending)
+    if not pending:
+        return
+    start = time.perf_counter()
+    frames = list(pending.values())
+    if compare_rules:
+        verdicts = worker.reasoner.decide_many(
+            [Request(f.proposal.scene, f.proposal.action, f.history, shadow=f.verdict.shadow) for f in frames]
+        )
+        results = [Solved(frozenset(v.permitted), v.recommended, Outcome.of(v)) for v in verdicts]
+        tally.decided += len(results)
+    else:
+        solved = worker.reasoner.solve_many([(f.proposal.scene, f.proposal.action, f.history) for f in frames])
+        results = [Solved(frozenset(s.permitted), s.recommended) for s in solved]
+    tally.solve_s += time.perf_counter() - start
+    for key, known in zip(pending, results):
+        _remember(worker.solved, key, known)
+
+
+def _compare(worker: _Worker, frame, key: bytes, tally: ReplayTally) -> None:
+    """Count the frame as unchanged, changed (with both justifications) or citing other rules."""
+    recorded, scene, action = frame.verdict, frame.proposal.scene, frame.proposal.action
+    known = worker.solved[key]
+    if known.outcome is None:
+        if known.permitted == frozenset(recorded.permitted) and known.recommended == recorded.recommended:
+            return  # same permitted set and recommendation: the same decision and action
+        start = time.perf_counter()
+        known.outcome = Outcome.of(worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow))
+        tally.solve_s += time.perf_counter() - start
+        tally.decided += 1
+    outcome, before = known.outcome, Outcome.of(recorded)
+    if (outcome.decision, outcome.action) != (before.decision, before.action):
+        tally.changes.append(_change(worker, key, frame))
+        tally.transitions[f"{action.value}: {before.describe()} -> {outcome.describe()}"] += 1
+    elif outcome.rules != before.rules:
+        tally.rules_only += 1
+        tally.rules_only_examples[(", ".join(before.rules), ", ".join(outcome.rules))] += 1
 
 
 def _remember(cache: OrderedDict, key: bytes, value) -> None:

@@ -10,7 +10,7 @@ Reader API for audits::
 """
 
 from .channels import STATUS_TOPIC, RejectedInput, parse_topic, vehicle_topic
-from .reader import FileRecovery, LogRecord, RecoveryReport, log_files, read_log
+from .reader import FileRecovery, LogRecord, RecoveryReport, first_log_time_ns, log_files, read_log
 from .writer import McapLogWriter
 
 __all__ = [
@@ -20,6 +20,7 @@ __all__ = [
     "RecoveryReport",
     "RejectedInput",
     "STATUS_TOPIC",
+    "first_log_time_ns",
     "log_files",
     "parse_topic",
     "read_log",

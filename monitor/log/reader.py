@@ -109,18 +109,20 @@ def read_log(
     report: Optional[RecoveryReport] = None,
     *,
     merge: bool = False,
+    since_ns: Optional[int] = None,
 ) -> Iterator[LogRecord]:
     """Every record of the given files, file after file (or merged by log time with `merge=True`).
 
     Pass a `RecoveryReport` to learn, once iteration ends, how much of each file was read.
-    A missing or unreadable file is reported and skipped, never raised.
+    A missing or unreadable file is reported and skipped, never raised. With `since_ns`,
+    earlier messages are skipped undecoded (their chunks still are read: they declare the channels).
     """
     report = report if report is not None else RecoveryReport()
     streams = []
     for path in log_files(paths):
         recovery = FileRecovery(path=path)
         report.files.append(recovery)
-        streams.append(_read_file(path, recovery))
+        streams.append(_read_file(path, recovery, since_ns))
     if merge:
         yield from heapq.merge(*streams, key=lambda r: r.log_time_ns)
     else:
@@ -128,7 +130,21 @@ def read_log(
             yield from stream
 
 
-def _read_file(path: Path, recovery: FileRecovery) -> Iterator[LogRecord]:
+def first_log_time_ns(path: PathLike) -> Optional[int]:
+    """Log time of a file's first message, from its first chunk's header; None when it has none."""
+    try:
+        with open(path, "rb") as f:
+            for record in StreamReader(f, emit_chunks=True, record_size_limit=RECORD_SIZE_LIMIT).records:
+                if isinstance(record, Chunk):
+                    return record.message_start_time
+                if isinstance(record, Message):
+                    return record.log_time
+    except Exception:  # unreadable or cut before its first message: nothing to anchor on
+        return None
+    return None
+
+
+def _read_file(path: Path, recovery: FileRecovery, since_ns: Optional[int] = None) -> Iterator[LogRecord]:
     try:
         f = open(path, "rb")
     except OSError as exc:
@@ -158,6 +174,8 @@ def _read_file(path: Path, recovery: FileRecovery) -> Iterator[LogRecord]:
                 inner = [record]
             recovery.recovered_bytes = f.tell()
             for item in inner:
+                if since_ns is not None and isinstance(item, Message) and item.log_time < since_ns:
+                    continue
                 out = decoder.feed(item)
                 if out is not None:
                     recovery.records += 1
