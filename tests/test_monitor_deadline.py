@@ -68,15 +68,16 @@ def test_a_late_failsafe_uses_the_most_cautious_recently_permitted_action():
 def test_a_worker_that_once_was_slow_still_tries_fresh_proposals():
     """The decision-time estimate must never lock every proposal out (it only learns from decisions)."""
     import time
+    from collections import deque
 
     from discern.monitor.decision_pool import Job, WorkerSettings, _Judge
     from discern.rules.scene import Proposal
 
     judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
-    judge.typical_s = 10.0  # after a pathological decision
+    judge.time.learn(1, 10.0)  # after a pathological decision
     payload = Proposal(vehicle="v", action="cruise", scene=highway_scene(0, 4)).model_dump_json().encode()
     now = time.monotonic()
-    fresh = judge(Job(1, "v", payload, now, now + BUDGET_MS / 1000))
+    [fresh] = judge.next_batch(deque([Job(1, "v", payload, now, now + BUDGET_MS / 1000)]))
     assert fresh.verdict is not None and fresh.decision == "approve"
-    stale = judge(Job(2, "v", payload, now - 0.045, now + 0.005))  # 5 ms of 50 left
+    [stale] = judge.next_batch(deque([Job(2, "v", payload, now - 0.045, now + 0.005)]))  # 5 ms of 50 left
     assert stale.verdict is None and "left after queueing" in stale.no_verdict

@@ -1,0 +1,152 @@
+"""A decision worker decides the proposals queued for it in batches: each verdict as if decided alone."""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections import deque
+
+import pytest
+import zenoh
+
+from discern.monitor.config import ZenohSettings
+from discern.monitor.decision_pool import BatchTime, Job, WorkerSettings, _Judge
+from discern.monitor.example_planner import highway_scene
+from discern.rules.engine import Reasoner
+from discern.rules.scene import Proposal
+from discern.rules.verdict import Verdict
+from tests.monitor_process import serve
+
+BUDGET_MS = 3000
+DELAY_MS = 150  # test-only hook: each batch sleeps this long first
+VEHICLES, FRAMES = 6, 4  # 24 proposals: one by one they would need 3.6 s, over the budget
+ACTIONS = ("cruise", "accelerate", "change_lane_left", "brake")
+
+
+@pytest.fixture(scope="module")
+def monitor():
+    proc, ep = serve("--id", "batch", "--budget-ms", str(BUDGET_MS), "--test-only-decision-delay-ms", str(DELAY_MS))
+    session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
+    yield session
+    session.close()
+    assert proc.stop() == 0, proc.output
+
+
+def payload(vehicle: str, scene, action: str) -> bytes:
+    return Proposal(vehicle=vehicle, action=action, scene=scene).model_dump_json(by_alias=True).encode()
+
+
+def burst(session, proposals: list[tuple[str, bytes]]) -> list[Verdict]:
+    """Send every proposal at once (one session: each vehicle's frames arrive in order), then collect the verdicts."""
+    pending = [session.get(f"discern/{vehicle}/check", payload=data, timeout=10) for vehicle, data in proposals]
+    verdicts = []
+    for replies in pending:
+        [reply] = [r.ok for r in replies if r.ok is not None]
+        verdicts.append(Verdict.model_validate_json(reply.payload.to_bytes()))
+    return verdicts
+
+
+def alone(reasoner: Reasoner, vehicle: str, scene, action: str, history: tuple) -> dict:
+    verdict = reasoner.decide(scene, action, history=history, vehicle=vehicle)
+    return comparable(Verdict.model_validate_json(verdict.model_dump_json()))
+
+
+def comparable(verdict: Verdict) -> dict:
+    return verdict.model_dump(exclude={"latency_ms"})
+
+
+def test_a_burst_from_several_vehicles_is_decided_by_the_rules_each_as_if_alone(monitor):
+    frames = {
+        f"burst_{v}": [(highway_scene(100 * f + 280, 8, seed=v), ACTIONS[(v + f) % len(ACTIONS)]) for f in range(FRAMES)]
+        for v in range(VEHICLES)
+    }
+    order = [(vehicle, f) for f in range(FRAMES) for vehicle in frames]  # interleaved, as a fleet sends
+    verdicts = burst(monitor, [(v, payload(v, *frames[v][f])) for v, f in order])
+    assert not [v for v in verdicts if v.failsafe], [v.error for v in verdicts if v.failsafe]
+    reasoner = Reasoner()
+    for (vehicle, f), verdict in zip(order, verdicts):
+        history = tuple(scene for scene, _ in frames[vehicle][:f])
+        assert comparable(verdict) == alone(reasoner, vehicle, *frames[vehicle][f], history)
+        assert 0 < verdict.latency_ms < BUDGET_MS
+    assert {v.decision.value for v in verdicts} >= {"approve", "override"}
+
+
+def test_a_bad_proposal_in_a_burst_gets_its_error_and_the_rest_of_its_batch_is_decided(monitor):
+    one, two, three = (highway_scene(f, 8, seed=9) for f in (1, 2, 3))
+    other = highway_scene(5, 8, seed=10)
+    proposals = [
+        ("mixed_pacer", payload("mixed_pacer", highway_scene(0, 4), "cruise")),  # the others queue behind it
+        ("mixed_a", payload("mixed_a", one, "cruise")),
+        ("mixed_a", payload("mixed_a", two, "accelerate")),
+        ("mixed_a", payload("mixed_a", two, "cruise")),  # a duplicate frame
+        ("mixed_bad", b'{"action": "cruise", "scene": {'),
+        ("mixed_b", payload("mixed_b", other, "change_lane_left")),
+        ("mixed_a", payload("mixed_a", three, "cruise")),
+    ]
+    pacer, a1, a2, duplicate, malformed, b, a3 = burst(monitor, proposals)
+    assert duplicate.failsafe and "duplicate frame 2" in duplicate.error and duplicate.rules == ["monitor.bad_input"]
+    assert malformed.failsafe and "malformed JSON" in malformed.error and malformed.vehicle == "mixed_bad"
+    reasoner = Reasoner()
+    assert comparable(a1) == alone(reasoner, "mixed_a", one, "cruise", ())
+    assert comparable(a2) == alone(reasoner, "mixed_a", two, "accelerate", (one,))
+    assert comparable(a3) == alone(reasoner, "mixed_a", three, "cruise", (one, two))  # the duplicate left no trace
+    assert comparable(b) == alone(reasoner, "mixed_b", other, "change_lane_left", ())
+    assert not any(v.failsafe for v in (pacer, a1, a2, a3, b))
+
+
+# -- one worker's judge, in this process -------------------------------------------
+
+
+def jobs(count: int, budget_s: float, scene_of=lambda i: highway_scene(i, 4)) -> deque:
+    now = time.monotonic()
+    return deque(
+        Job(i, f"v{i}", Proposal(vehicle=f"v{i}", action="cruise", scene=scene_of(i)).model_dump_json().encode(), now,
+            now + budget_s)
+        for i in range(count)
+    )
+
+
+def test_a_batch_that_fails_is_decided_one_by_one_so_only_the_poisoned_frame_fails():
+    calls = itertools.count()
+
+    def poison():  # the engine's own solve hook: the batch's grounding fails, then the second frame's alone
+        if next(calls) in (0, 2):
+            raise RuntimeError("poisoned")
+
+    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge.reasoner = Reasoner(solve_hook=poison)
+    judge.time.learn(1, 0.001)  # timed once: it may batch
+    backlog = jobs(3, 10.0)
+    first, poisoned, third = judge.next_batch(backlog)
+    assert not backlog
+    assert first.verdict is not None and third.verdict is not None and first.decision == third.decision == "approve"
+    assert poisoned.verdict is None and poisoned.internal and poisoned.no_verdict == "internal error: RuntimeError: poisoned"
+    assert poisoned.frame_id == 1 and poisoned.action == "cruise"
+
+
+def test_a_batch_holds_only_what_can_be_decided_before_the_oldest_deadline():
+    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge.time.learn(1, 0.01)
+    judge.time.fixed_s, judge.time.per_proposal_s = 0.0, 0.01  # 10 ms a proposal
+    backlog = jobs(10, 0.055)  # 1.5 x 30 ms fits in 55 ms, 1.5 x 40 ms does not
+    decided = list(judge.next_batch(backlog))
+    assert [o.rid for o in decided] == [0, 1, 2] and all(o.verdict is not None for o in decided)
+    assert [job.rid for job in backlog] == list(range(3, 10))  # left for the next batch
+
+
+def test_a_worker_decides_one_at_a_time_until_it_has_timed_a_decision():
+    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    backlog = jobs(5, 10.0)
+    assert [o.rid for o in judge.next_batch(backlog)] == [0]
+    assert judge.time.known and len(list(judge.next_batch(backlog))) == 4
+
+
+def test_the_batch_time_estimate_learns_a_fixed_part_and_a_part_per_proposal():
+    estimate = BatchTime()
+    took = lambda n: 0.005 + 0.0013 * n  # noqa: E731  (8-object highway frames, about)
+    for i in range(300):
+        n = 1 + i * 7 % 32
+        estimate.learn(n, took(n))
+    for n in (1, 8, 32):
+        assert estimate.predict(n) == pytest.approx(took(n), rel=0.2)
+    assert estimate.predict(32) < 0.3 * 32 * estimate.predict(1)  # a batch costs far less than its frames alone
