@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import platform
 import random
 import sys
@@ -139,14 +138,19 @@ def write_fleet(directory: Path, frames: int, vehicles: int, waiting_share: floa
     return writer.files
 
 
-def measure(files: list[Path], workers: int) -> dict:
-    load = os.getloadavg()[0]
+def measure(files: list[Path], workers: int, repeats: int) -> dict:
+    """The audit once, then the replay `repeats` times: the run with the median rate, and the range."""
     start = time.perf_counter()
     tally = audit_logs([str(f) for f in files], workers=workers)
     audit_s = time.perf_counter() - start
-    result = replay_logs([str(f) for f in files], workers=workers)
+    runs = []
+    for _ in range(repeats):
+        result = replay_logs([str(f) for f in files], workers=workers)
+        assert not result.tally.changes, "the shipped rules must reproduce their own log"
+        runs.append(result)
+    runs.sort(key=lambda r: r.frames_per_s)
+    result = runs[len(runs) // 2]
     t = result.tally
-    assert not t.changes, "the shipped rules must reproduce their own log"
     return {
         "frames": tally.frames,
         "disagreements": len(tally.disagreements),
@@ -157,12 +161,10 @@ def measure(files: list[Path], workers: int) -> dict:
         "reused": t.reused,
         "wall_s": result.wall_s,
         "fps": result.frames_per_s,
-        "solve_ms": 1000
-        * t.solve_s
-        / max(1, t.solved),  # reasoner time (solve, plus any full decision) per solved frame
+        "fps_range": (runs[0].frames_per_s, runs[-1].frames_per_s),
+        "solve_ms": 1000 * t.solve_s / max(1, t.solved),  # reasoner time (solve, plus any full decision) per solved frame
         "cpu_ms": 1000 * t.cpu_s / max(1, t.frames),
         "workers": result.workers,
-        "load": load,
     }
 
 
@@ -180,6 +182,7 @@ def main() -> None:
     parser.add_argument("--vehicles", type=int, default=16)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--rotate-mb", type=float, default=1.0, help="log file size: more files, more parallel jobs")
+    parser.add_argument("--repeats", type=int, default=3, help="replays per case; the median is reported")
     parser.add_argument(
         "--no-write", action="store_true", help="print the section instead of writing docs/benchmarks.md"
     )
@@ -195,24 +198,27 @@ def main() -> None:
             size_mb = sum(f.stat().st_size for f in files) / 2**20
             reading = read_cost(files)
             for workers in sorted({1, args.workers}):
-                m = measure(files, workers)
+                m = measure(files, workers, args.repeats)
                 rows.append((label, len(files), size_mb, reading, m))
                 print(label, workers, m, flush=True)
-    command = f"python bench/bench_audit.py --frames {args.frames} --vehicles {args.vehicles} --workers {args.workers} --rotate-mb {args.rotate_mb:g}"
+    command = (f"python bench/bench_audit.py --frames {args.frames} --vehicles {args.vehicles} "
+               f"--workers {args.workers} --rotate-mb {args.rotate_mb:g} --repeats {args.repeats}")
     lines = [
         "## Audit replay",
         "",
         f"Command: `{command}`  ",
-        f"Machine: {machine()}; logs written by the monitor's McapLogWriter (zstd), verdicts from the shipped catalog.",
+        f"Machine: {machine()}; logs written by the monitor's McapLogWriter (zstd), verdicts from the shipped catalog; "
+        f"each replay run {args.repeats} times, the median run shown with the range of its rate.",
         "",
-        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s | solved / reused (decided in full) | reasoner ms per solved frame | worker CPU ms per frame | load avg before |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s (range) | solved / reused (decided in full) | reasoner ms per solved frame | worker CPU ms per frame |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for label, nfiles, size_mb, _reading, m in rows:
+        low, high = m["fps_range"]
         lines.append(
             f"| {label} | {nfiles} ({size_mb:.1f}) | {m['workers']} | {m['replayed']} ({m['disagreements']}) | {m['audit_s']:.2f} "
-            f"({m['frames'] / m['audit_s']:.0f}) | {m['wall_s']:.2f} | **{m['fps']:.0f}** | {m['solved']} / {m['reused']} ({m['decided']}) | "
-            f"{m['solve_ms']:.2f} | {m['cpu_ms']:.2f} | {m['load']:.2f} |"
+            f"({m['frames'] / m['audit_s']:.0f}) | {m['wall_s']:.2f} | **{m['fps']:.0f}** ({low:.0f}–{high:.0f}) | "
+            f"{m['solved']} / {m['reused']} ({m['decided']}) | {m['solve_ms']:.2f} | {m['cpu_ms']:.2f} |"
         )
     lines.append("")
     lines.append(
@@ -220,25 +226,18 @@ def main() -> None:
         + ", ".join(f"{label}: {reading:.2f} s" for label, _, _, reading, _ in rows[:: len({1, args.workers})])
         + f". Python {platform.python_version()}."
     )
-    distinct = [m for label, _, _, _, m in rows if m["reused"] == 0 and m["workers"] == 1]
+    distinct = [m for label, _, _, _, m in rows if m["reused"] == 0]
     if distinct:
-        per_frame = distinct[0]["solve_ms"]
+        best = max(distinct, key=lambda m: m["fps"])
         lines += [
             "",
-            f"Target ≥ 2,000 frames/s on 2 cores: {'met' if max(m['fps'] for *_, m in rows) >= 2000 else 'missed'}. "
-            f"Each distinct frame costs one clingo grounding and solve of the whole catalog, sanity layer included "
-            f"({per_frame:.2f} ms of reasoner time per frame in the one-worker run above); the audit adds reading "
-            "and keying (the CPU column) and skips the proof of every frame whose permitted set and recommendation "
-            f"come out as logged. So two processes replay at most about 2 × 1000 / {per_frame:.2f} = "
-            f"{2000 / per_frame:.0f} distinct frames per second on this machine; more only comes from frames that "
-            "repeat (a vehicle standing still repeats itself once its 2 s history window is full) or from more cores. "
-            "The grounding itself is the reasoning core's (rules/engine.py): one clingo Control per frame.",
-        ]
-    if max(m["load"] for *_, m in rows) > 0.5:
-        lines += [
-            "",
-            "The machine was shared with other jobs during this run (load average column, 2 cores): "
-            "two workers then compete with them and can be slower than one.",
+            f"Target ≥ 2,000 frames/s on 2 cores, every scene distinct: {'met' if best['fps'] >= 2000 else 'missed'} "
+            f"({best['fps']:.0f} frames/s with {best['workers']} worker(s)). Frames are grounded 96 at a time in one "
+            "clingo Control (rules/batch.py), so the per-rule cost of grounding is paid once per batch; what is left "
+            f"per frame is clingo's own work on the frame's facts and rule instances and the Python around it "
+            f"({distinct[0]['solve_ms']:.2f} ms of reasoner time and {distinct[0]['cpu_ms']:.2f} ms of worker CPU per "
+            "frame in the one-worker run). Frames that repeat (a vehicle standing at a light, once its 2 s history "
+            "window is full) are solved once.",
         ]
     body = "\n".join(lines)
     if args.no_write:

@@ -51,17 +51,13 @@ class FrameTagger:
 
     def __init__(self, catalog: Catalog, shared: Iterable[str] = ()):
         self.static = static_predicates(catalog, shared)
-        self._tagged: dict[int, ast.AST] = {}
         self._var = ast.Variable(_LOC, _FRAME_VAR)
+        # tagged once, up front: tagging on first use made a process's first batches several times slower
+        self._tagged = {id(stm): self._rule(stm) for stm in catalog.facts + [rule.statement for rule in catalog.compiled]}
 
     def program(self, statements: Iterable[ast.AST]) -> list[ast.AST]:
-        out = []
-        for stm in statements:
-            tagged = self._tagged.get(id(stm))
-            if tagged is None:
-                tagged = self._tagged[id(stm)] = (stm, self._rule(stm))
-            out.append(tagged[1])
-        return out
+        """The catalog statements given (a slice of the catalog), tagged."""
+        return [self._tagged[id(stm)] for stm in statements]
 
     def facts(self, text: str, frame: int) -> str:
         """A frame's facts with its number first in every atom, and its discern_frame fact."""
@@ -116,6 +112,7 @@ class BatchAnswers:
         self.control = control
         self.static = static
         self._split: dict[tuple[str, int], dict[int, list[Symbol]]] = {}
+        self._constants: dict[str, dict[int, set[str]]] = {}
 
     def of_frame(self, name: str, arity: int, frame: int) -> list[Symbol]:
         split = self._split.get((name, arity))
@@ -128,6 +125,16 @@ class BatchAnswers:
             for found in split.values():
                 found.sort()
         return split.get(frame, [])
+
+    def constants_of_frame(self, name: str, frame: int) -> set[str]:
+        split = self._constants.get(name)
+        if split is None:
+            split = self._constants[name] = {}
+            for atom in self.control.symbolic_atoms.by_signature(name, 2):
+                if atom.is_fact:
+                    number, constant = atom.symbol.arguments
+                    split.setdefault(number.number, set()).add(constant.name)
+        return split.get(frame, set())
 
 
 class FrameAnswers(AnswerSet):
@@ -151,6 +158,11 @@ class FrameAnswers(AnswerSet):
         if found is None:
             found = self._by_sig[(name, arity)] = self._batch.of_frame(name, arity, self._number)
         return found
+
+    def constants(self, name: str) -> set[str]:
+        if name in self._batch.static:
+            return super().constants(name)
+        return self._batch.constants_of_frame(name, self._number)
 
     def all(self) -> list[Symbol]:
         out = []

@@ -67,9 +67,9 @@ class SolvedFrame:
     def __init__(self, answer: AnswerSet, proposed: Action):
         self.answer = answer
         self.proposed = proposed
-        permitted = {s.arguments[0].name for s in answer.of("permitted", 1)}
+        permitted = answer.constants("permitted")
         self.permitted = [a for a in Action if a.value in permitted]
-        recommended = {s.arguments[0].name for s in answer.of("recommended", 1)}
+        recommended = answer.constants("recommended")
         self.recommended: Optional[Action] = next((a for a in RANK if a.value in recommended), None)
 
 
@@ -101,7 +101,7 @@ class Reasoner:
         self._param_facts = params.facts()
         self.providers = list(providers) if providers is not None else _default_providers()
         self._solve_hook = solve_hook
-        self._tagger: Optional[FrameTagger] = None
+        self._tagger = FrameTagger(self.catalog, shared={"param"})
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
         proposed = Action(proposed)
@@ -122,8 +122,6 @@ class Reasoner:
         """Solve (scene, proposed, history) frames in one grounding; each answer is the frame's solo answer."""
         if len(frames) == 1:
             return [self.solve(*frames[0])]
-        if self._tagger is None:
-            self._tagger = FrameTagger(self.catalog, shared={"param"})
         texts, names = [], set()
         for scene, proposed, history in frames:
             text = scene_facts(scene, Action(proposed)) + "".join(p.facts(scene, history) for p in self.providers)

@@ -51,6 +51,10 @@ class AnswerSet:
             self._by_sig[(name, arity)] = found
         return found
 
+    def constants(self, name: str) -> set[str]:
+        """The constants c with name(c) true: the verdict's permitted and recommended actions."""
+        return {sym.arguments[0].name for sym in self.of(name, 1)}
+
     def with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
         """Atoms of a predicate whose first argument is given: the prover's common lookup."""
         index = self._by_first.get((name, arity))

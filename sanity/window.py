@@ -14,6 +14,7 @@ in the rules, where they are justified.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Iterable, Optional, Sequence
 
@@ -59,11 +60,40 @@ class WindowConfig:
             raise ValueError(f"window horizon_s must be > 0, got {self.horizon_s}")
 
 
+SUMMARIES_KEPT = 4096  # frames whose summary is kept: every frame is read again by the next windows
+
+
+@dataclass(frozen=True)
+class _Summary:
+    """What the window facts read of one frame, worked out once: a frame sits in many later windows."""
+
+    readings: frozenset[int]
+    primary: Optional[int]
+    lights: frozenset[LightColour]
+    flashing: frozenset[LightColour]
+    stop_sign: bool
+    stopped: bool
+    objects: tuple[tuple[int, DetectedObject, frozenset[Source]], ...]  # id, object, its confirming sources
+
+    @classmethod
+    def of(cls, scene: Scene) -> "_Summary":
+        return cls(
+            readings=frozenset(_readings(scene)),
+            primary=_primary(scene),
+            lights=frozenset(l.colour for l in scene.traffic_lights),
+            flashing=frozenset(l.colour for l in scene.traffic_lights if l.flashing),
+            stop_sign=any(s.kind is SignKind.stop for s in scene.signs),
+            stopped=scene.ego.speed < 0.5,
+            objects=tuple((o.id, o, frozenset(CONFIRMING.intersection(o.sources))) for o in scene.objects),
+        )
+
+
 class WindowProvider:
     """FactProvider for the sanity rules (see discern.rules.engine.FactProvider)."""
 
     def __init__(self, config: WindowConfig = WindowConfig()):
         self.config = config
+        self._summaries: OrderedDict[int, tuple[Scene, _Summary]] = OrderedDict()
 
     def facts(self, scene: Scene, history: Sequence[Scene]) -> str:
         out: list[str] = []
@@ -76,13 +106,24 @@ class WindowProvider:
                 f"window_frames({len(window) + 1}).window_param(confirm_frames,{c.confirm_frames})."
                 f"window_param(track_frames,{c.track_frames})."
             )
-            out.extend(_limit_facts(scene, window, c.confirm_frames))
-            out.extend(_light_facts(scene, window))
-            out.extend(_sign_facts(scene, window))
-            out.extend(_memory_facts(scene, window, c))
-            if any(s.ego.speed < 0.5 for s in window):
+            now, past = self._summary(scene), [self._summary(s) for s in window]
+            out.extend(_limit_facts(now, past, c.confirm_frames))
+            out.extend(_light_facts(now, past))
+            out.extend(_sign_facts(now, past))
+            out.extend(_memory_facts(scene, now, window, past, c))
+            if any(p.stopped for p in past):
                 out.append("ego_stopped_recently.")
         return "".join(out)
+
+    def _summary(self, scene: Scene) -> _Summary:
+        hit = self._summaries.get(id(scene))
+        if hit is not None and hit[0] is scene:  # the scene is kept with it, so its id() is not reused
+            return hit[1]
+        summary = _Summary.of(scene)
+        self._summaries[id(scene)] = (scene, summary)
+        if len(self._summaries) > SUMMARIES_KEPT:
+            self._summaries.popitem(last=False)
+        return summary
 
     def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:
         """The recent frames, oldest first: newer than `seconds` before this one and not from its future."""
@@ -127,19 +168,17 @@ def _runs(values: Iterable[Optional[int]]) -> list[tuple[int, int]]:
     return runs
 
 
-def _limit_facts(scene: Scene, window: list[Scene], confirm: int) -> list[str]:
+def _limit_facts(now: _Summary, past: list[_Summary], confirm: int) -> list[str]:
     out = []
-    now = _readings(scene)
-    past = [_readings(s) for s in window]
-    for value in sorted(now):
+    for value in sorted(now.readings):
         run = 1
-        for read in reversed(past):
-            if value not in read:
+        for frame in reversed(past):
+            if value not in frame.readings:
                 break
             run += 1
         out.append(f"reading_run({value},{run}).")
-    primary = _primary(scene)
-    runs = _runs(_primary(s) for s in window)
+    primary = now.primary
+    runs = _runs(p.primary for p in past)
     if primary is not None:
         while runs and runs[-1][0] == primary:  # the current reading's own run
             runs.pop()
@@ -157,24 +196,23 @@ def _limit_facts(scene: Scene, window: list[Scene], confirm: int) -> list[str]:
 # --- lights and signs ---------------------------------------------------------
 
 
-def _light_facts(scene: Scene, window: list[Scene]) -> list[str]:
-    frames = window + [scene]
+def _light_facts(now: _Summary, past: list[_Summary]) -> list[str]:
+    frames = past + [now]
     out = []
     for colour in (LightColour.red, LightColour.yellow):
-        on = [any(l.colour is colour for l in s.traffic_lights) for s in frames]
+        on = [colour in f.lights for f in frames]
         changes = sum(a != b for a, b in zip(on, on[1:]))
-        flagged = any(l.colour is colour and l.flashing for s in window for l in s.traffic_lights)
+        flagged = any(colour in p.flashing for p in past)
         if (changes >= 2 and any(on)) or flagged:
             out.append(f"light_flashes({colour.value}).")
-    if not scene.traffic_lights and any(l.colour is LightColour.red for s in window for l in s.traffic_lights):
+    if not now.lights and any(LightColour.red in p.lights for p in past):
         out.append("light_seen_recently(red).")
     return out
 
 
-def _sign_facts(scene: Scene, window: list[Scene]) -> list[str]:
+def _sign_facts(now: _Summary, past: list[_Summary]) -> list[str]:
     """A stop sign seen before and hidden now (the only sign whose memory the rules use)."""
-    hidden = not any(s.kind is SignKind.stop for s in scene.signs)
-    if hidden and any(s.kind is SignKind.stop for past in window for s in past.signs):
+    if not now.stop_sign and any(p.stop_sign for p in past):
         return ["sign_seen_recently(stop)."]
     return []
 
@@ -260,24 +298,24 @@ def _side_of(x: float, y: float) -> SensorSide:
     return SensorSide.rear_left if left else SensorSide.rear_right
 
 
-def _memory_facts(scene: Scene, window: list[Scene], config: WindowConfig) -> list[str]:
+def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: list[_Summary],
+                  config: WindowConfig) -> list[str]:
     """Objects the camera lost, where their track puts them now, and what says they are still there;
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
-    present = {o.id: o for o in scene.objects}
-    unconfirmed = {o.id for o in scene.objects if not CONFIRMING.intersection(o.sources)}
+    present = {oid: obj for oid, obj, _ in now.objects}
+    unconfirmed = {oid for oid, _, confirming in now.objects if not confirming}
     last: dict[int, tuple[Scene, DetectedObject]] = {}
     frames: dict[int, int] = {}
     lights: dict[int, int] = {}
     earlier: dict[int, set[Source]] = {}
-    for past in window:
-        for obj in past.objects:
-            oid = obj.id
+    for past, summary in zip(window, summaries):
+        for oid, obj, confirming in summary.objects:
             if oid not in present:
                 last[oid] = (past, obj)
                 frames[oid] = frames.get(oid, 0) + 1
             elif oid in unconfirmed:
-                earlier.setdefault(oid, set()).update(CONFIRMING.intersection(obj.sources))
+                earlier.setdefault(oid, set()).update(confirming)
             if obj.emergency_lights:
                 lights[oid] = lights.get(oid, 0) + 1
     for oid, found in earlier.items():

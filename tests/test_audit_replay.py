@@ -109,6 +109,8 @@ def test_worker_processes_find_the_same_changes(capsys, tmp_path, logs, tolerant
     _, two, _ = replay(capsys, tmp_path, *args, "--workers", "2")
     assert two["workers"] == 2
     assert two["changes"] == one["changes"] and two["frames"] == one["frames"]
+    for count in ("skipped_failsafe", "skipped_refused", "unanswered_proposals"):  # each vehicle counted once
+        assert two[count] == one[count]
 
 
 def test_deciding_every_frame_in_full_finds_the_same_changes(capsys, tmp_path, logs, tolerant):

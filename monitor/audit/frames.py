@@ -18,7 +18,7 @@ import re
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Optional
+from typing import Callable, Iterator, Optional
 
 from discern.monitor.log import LogRecord, RecoveryReport, first_log_time_ns, log_files, read_log
 from discern.monitor.protocol import InputError
@@ -74,13 +74,17 @@ class Pairing:
     did, with the monitor's own VehicleState, timed by the proposal's arrival.
     """
 
-    def __init__(self, window_s: Optional[float] = None):
+    def __init__(self, window_s: Optional[float] = None, keep: Optional[Callable[[Optional[str]], bool]] = None):
+        """`keep(vehicle)` picks the vehicles to pair (None: records of no vehicle); the others are not counted."""
         self.window_s = window_s
+        self.keep = keep
         self.pending: dict[str, deque[LogRecord]] = {}
         self.states: dict[str, VehicleState] = {}
         self.counts = PairingCounts()
 
     def feed(self, record: LogRecord) -> Optional[Frame]:
+        if self.keep is not None and not self.keep(record.vehicle or (record.verdict and record.verdict.vehicle)):
+            return None
         self.counts.records += 1
         kind = record.kind
         if kind == "proposal":
@@ -158,13 +162,16 @@ def _same_sequence(before: str, after: str) -> bool:
 
 
 def read_frames(
-    task: FrameTask, report: RecoveryReport, window_s: Optional[float] = None
+    task: FrameTask,
+    report: RecoveryReport,
+    window_s: Optional[float] = None,
+    keep: Optional[Callable[[Optional[str]], bool]] = None,
 ) -> tuple[Iterator[Frame], Pairing]:
-    """The lead-in's frames (flagged), then those whose verdict is in `task.path`.
+    """The lead-in's frames (flagged), then those whose verdict is in `task.path` (of the vehicles `keep` picks).
 
     The Pairing holds this file's counts once iteration ends.
     """
-    pairing = Pairing(window_s)
+    pairing = Pairing(window_s, keep)
 
     def frames() -> Iterator[Frame]:
         if task.lead_in is not None:
