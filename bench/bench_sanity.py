@@ -6,6 +6,7 @@ Run: python bench/bench_sanity.py [--repeats 30]   (one process; writes the "San
 from __future__ import annotations
 
 import argparse
+import gc
 import random
 import statistics
 import sys
@@ -71,6 +72,7 @@ def main() -> None:
         for f, w in zip(frames, windows):
             core.decide(f.scene, f.expected)
             sanity.decide(f.scene, f.expected, history=w)
+    gc.freeze()  # as the monitor's decision workers do once the rules are loaded
     provider = sanity.providers[0]
     for f, w in zip(frames, windows):
         # Interleaved so that load on the machine hits every case alike.

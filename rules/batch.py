@@ -19,6 +19,7 @@ from clingo import Control, Function, Number, Symbol, ast
 
 from .catalog import Catalog
 from .justify import AnswerSet
+from .terms import Shape
 
 FRAME_PREDICATE = "discern_frame"  # discern_frame(K): frame K is in the batch
 _FRAME_VAR = "DiscernFrame"
@@ -114,16 +115,20 @@ class BatchAnswers:
         self._split: dict[tuple[str, int], dict[int, list[Symbol]]] = {}
         self._constants: dict[str, dict[int, set[str]]] = {}
 
-    def of_frame(self, name: str, arity: int, frame: int) -> list[Symbol]:
+    def of_frame(self, name: str, arity: int, frame: int) -> list[tuple[Symbol, Shape]]:
+        """The frame's atoms of name/arity with the frame argument stripped, each with its shape."""
         split = self._split.get((name, arity))
         if split is None:
             split = self._split[(name, arity)] = {}
+            # every ground atom of a stratified program is a fact (load_catalog checks it): no is_fact calls
             for atom in self.control.symbolic_atoms.by_signature(name, arity + 1):
-                if atom.is_fact:
-                    args = atom.symbol.arguments
-                    split.setdefault(args[0].number, []).append(Function(name, args[1:]))
+                args = atom.symbol.arguments
+                stripped = Function(name, args[1:])
+                split.setdefault(args[0].number, []).append((str(stripped), stripped, (True, name, tuple(args[1:]))))
             for found in split.values():
-                found.sort()
+                found.sort(key=lambda item: item[0])
+            for key, found in split.items():
+                split[key] = [(sym, shape) for _, sym, shape in found]
         return split.get(frame, [])
 
     def constants_of_frame(self, name: str, frame: int) -> set[str]:
@@ -131,9 +136,8 @@ class BatchAnswers:
         if split is None:
             split = self._constants[name] = {}
             for atom in self.control.symbolic_atoms.by_signature(name, 2):
-                if atom.is_fact:
-                    number, constant = atom.symbol.arguments
-                    split.setdefault(number.number, set()).add(constant.name)
+                number, constant = atom.symbol.arguments
+                split.setdefault(number.number, set()).add(constant.name)
         return split.get(frame, set())
 
 
@@ -147,8 +151,9 @@ class FrameAnswers(AnswerSet):
         self._number = frame
 
     def holds(self, sym: Symbol) -> bool:
-        if sym.name not in self._batch.static:
-            sym = Function(sym.name, [self._frame, *sym.arguments], sym.positive)
+        _, name, args = self.shape(sym)
+        if name not in self._batch.static:
+            sym = Function(name, [self._frame, *args])
         return super().holds(sym)
 
     def of(self, name: str, arity: int) -> list[Symbol]:
@@ -156,7 +161,9 @@ class FrameAnswers(AnswerSet):
             return super().of(name, arity)
         found = self._by_sig.get((name, arity))
         if found is None:
-            found = self._by_sig[(name, arity)] = self._batch.of_frame(name, arity, self._number)
+            pairs = self._batch.of_frame(name, arity, self._number)
+            self._shapes.update(pairs)
+            found = self._by_sig[(name, arity)] = [sym for sym, _ in pairs]
         return found
 
     def constants(self, name: str) -> set[str]:

@@ -46,8 +46,9 @@ class AnswerSet:
     def of(self, name: str, arity: int) -> list[Symbol]:
         found = self._by_sig.get((name, arity))
         if found is None:
-            # sorted: a proof must not depend on the order the grounder happened to derive atoms in
-            found = sorted(a.symbol for a in self._atoms.by_signature(name, arity) if a.is_fact)
+            # sorted (by text: one C call an atom) so that a proof does not depend on the order the grounder
+            # happened to derive atoms in; every ground atom is a fact, the catalog being stratified
+            found = sorted((a.symbol for a in self._atoms.by_signature(name, arity)), key=str)
             self._by_sig[(name, arity)] = found
         return found
 
