@@ -105,9 +105,7 @@ class Reasoner:
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
         proposed = Action(proposed)
-        facts = [self._param_facts, scene_facts(scene, proposed)]
-        facts.extend(p.facts(scene, history) for p in self.providers)
-        text = "".join(facts)
+        text = self._param_facts + self._frame_facts(scene, proposed, history)
         ctl = clingo.Control(["--warn=none"])
         with ast.ProgramBuilder(ctl) as builder:
             for statement in self.catalog.program_for(frozenset(_FACT_NAME.findall(text))):
@@ -124,7 +122,7 @@ class Reasoner:
             return [self.solve(*frames[0])]
         texts, names = [], set()
         for scene, proposed, history in frames:
-            text = scene_facts(scene, Action(proposed)) + "".join(p.facts(scene, history) for p in self.providers)
+            text = self._frame_facts(scene, Action(proposed), history)
             found = set(_FACT_NAME.findall(text))
             names |= found
             texts.append((text, found))
@@ -138,6 +136,10 @@ class Reasoner:
             self._solve_hook()
         batch = BatchAnswers(ctl, self._tagger.static)
         return [SolvedFrame(FrameAnswers(batch, k), Action(f[1])) for k, f in enumerate(frames)]
+
+    def _frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
+        """The frame's own facts: the scene, the proposal, and what the providers read from the history."""
+        return scene_facts(scene, proposed) + "".join(p.facts(scene, history) for p in self.providers)
 
     def decide_many(self, requests: Sequence[Request]) -> list[Verdict]:
         """Decide many frames with one grounding; each verdict's latency runs from the batch's start to it."""
