@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import itertools
 import time
 from collections import deque
@@ -9,6 +10,7 @@ from collections import deque
 import pytest
 import zenoh
 
+from discern.monitor import decision_pool
 from discern.monitor.config import ZenohSettings
 from discern.monitor.decision_pool import BatchTime, Job, WorkerSettings, _Judge
 from discern.monitor.example_planner import highway_scene
@@ -150,3 +152,24 @@ def test_the_batch_time_estimate_learns_a_fixed_part_and_a_part_per_proposal():
     for n in (1, 8, 32):
         assert estimate.predict(n) == pytest.approx(took(n), rel=0.2)
     assert estimate.predict(32) < 0.3 * 32 * estimate.predict(1)  # a batch costs far less than its frames alone
+
+
+def test_an_idle_worker_runs_a_full_collection_at_most_every_few_seconds(monkeypatch):
+    full = []
+
+    def count(phase, info):
+        if phase == "start" and info["generation"] == 2:
+            full.append(info)
+
+    clock = [1000.0]
+    monkeypatch.setattr(decision_pool.time, "monotonic", lambda: clock[0])
+    idle = decision_pool.IdleCollector()
+    gc.callbacks.append(count)
+    try:
+        idle.collect()  # just started: too soon
+        clock[0] += decision_pool.FULL_COLLECTION_S
+        idle.collect()
+        idle.collect()  # just collected: too soon again
+    finally:
+        gc.callbacks.remove(count)
+    assert len(full) == 1
