@@ -28,8 +28,6 @@ _LOC = ast.Location(ast.Position("<batch>", 1, 1), ast.Position("<batch>", 1, 1)
 # A fact's name starts the text or follows the '.' that ends the previous fact;
 # quoted strings are matched whole first, so nothing inside them is touched.
 _FACT_START = re.compile(r'"(?:[^"\\]|\\.)*"|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)([(.])')
-_OPEN_FACT = re.compile(r"(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)\(")  # for text without quoted strings
-_BARE_FACT = re.compile(r"(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)\.")
 
 
 def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset[str]:
@@ -62,18 +60,8 @@ class FrameTagger:
         """The catalog statements given (a slice of the catalog), tagged."""
         return [self._tagged[id(stm)] for stm in statements]
 
-    def facts(self, text: str, frame: int, names: Iterable[str] = ()) -> str:
-        """A frame's facts with its number first in every atom, and its discern_frame fact.
-
-        `names` are the text's predicate names when the caller has them: without quoted strings
-        in the text, two plain substitutions then do (a fifth of a replayed frame's Python time).
-        """
-        if names and '"' not in text:
-            clash = self.static.intersection(names)
-            if clash:
-                raise ValueError(f"frame fact {min(clash)} is defined by the catalog and cannot be given per frame")
-            tagged = _BARE_FACT.sub(rf"\1({frame}).", _OPEN_FACT.sub(rf"\1({frame},", text))
-            return f"{FRAME_PREDICATE}({frame})." + tagged
+    def facts(self, text: str, frame: int) -> str:
+        """A frame's facts with its number first in every atom, and its discern_frame fact."""
 
         def tag(match: re.Match) -> str:
             name = match.group(1)

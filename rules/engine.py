@@ -123,14 +123,13 @@ class Reasoner:
         texts, names = [], set()
         for scene, proposed, history in frames:
             text = self._frame_facts(scene, Action(proposed), history)
-            found = set(_FACT_NAME.findall(text))
-            names |= found
-            texts.append((text, found))
+            names.update(_FACT_NAME.findall(text))
+            texts.append(text)
         ctl = clingo.Control(["--warn=none"])
         with ast.ProgramBuilder(ctl) as builder:
             for statement in self._tagger.program(self.catalog.program_for(frozenset(names) | {"param"})):
                 builder.add(statement)
-        ctl.add("base", [], self._param_facts + "".join(self._tagger.facts(t, k, n) for k, (t, n) in enumerate(texts)))
+        ctl.add("base", [], self._param_facts + "".join(self._tagger.facts(t, k) for k, t in enumerate(texts)))
         ctl.ground([("base", [])])
         if self._solve_hook is not None:
             self._solve_hook()
