@@ -45,7 +45,7 @@ from discern.rules.scene import Action, Scene
 from discern.rules.verdict import Verdict
 
 from .aggregate import Filters, scenario_kind
-from .frames import FrameTask, PairingCounts, plan_tasks, read_frames
+from .frames import Frame, FrameTask, PairingCounts, plan_tasks, read_frames
 from .parallel import run_jobs
 
 BATCH = 96  # distinct frames grounded together: the per-rule cost is paid once per batch (rules/batch.py)
@@ -222,7 +222,7 @@ def _replay_file(job: ReplayJob) -> ReplayTally:
     keep = None if job.shards == 1 else lambda vehicle: vehicle_shard(vehicle, job.shards) == job.shard
     frames, pairing = read_frames(job.task, report, window_s=job.window_s, keep=keep)
     tally = ReplayTally()
-    selected: list[tuple[object, bytes]] = []
+    selected: list[tuple[Frame, bytes]] = []
     for frame in frames:
         if frame.lead_in or not job.filters.frame_selected(frame):
             continue
@@ -251,9 +251,9 @@ def vehicle_shard(vehicle: Optional[str], shards: int) -> int:
     return zlib.crc32(vehicle.encode()) % shards if vehicle else 0
 
 
-def _solve_new(worker: _Worker, chunk: list, compare_rules: bool, tally: ReplayTally) -> None:
+def _solve_new(worker: _Worker, chunk: list[tuple[Frame, bytes]], compare_rules: bool, tally: ReplayTally) -> None:
     """Solve the chunk's frames not solved before, all in one grounding (Reasoner.solve_many)."""
-    pending: dict[bytes, object] = {}
+    pending: dict[bytes, Frame] = {}
     for frame, key in chunk:
         if key not in worker.solved and key not in pending:
             pending[key] = frame
@@ -278,7 +278,7 @@ def _solve_new(worker: _Worker, chunk: list, compare_rules: bool, tally: ReplayT
         _remember(worker.solved, key, known)
 
 
-def _compare(worker: _Worker, frame, key: bytes, tally: ReplayTally) -> None:
+def _compare(worker: _Worker, frame: Frame, key: bytes, tally: ReplayTally) -> None:
     """Count the frame as unchanged, changed (with both justifications) or citing other rules."""
     recorded, scene, action = frame.verdict, frame.proposal.scene, frame.proposal.action
     known = worker.solved[key]
