@@ -1,6 +1,6 @@
 """Audit and replay throughput on monitor-format MCAP logs, across worker processes.
 
-Run: python bench/bench_audit.py [--frames 8000] [--vehicles 16] [--workers 2]
+Run: python bench/bench_audit.py [--frames 8000] [--vehicles 16] [--workers 2] [--repeats 3]
 (writes the "Audit replay" section of docs/benchmarks.md)
 
 The logs are written by the monitor's own McapLogWriter with verdicts from the

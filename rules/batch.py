@@ -123,12 +123,9 @@ class BatchAnswers:
             # every ground atom of a stratified program is a fact (load_catalog checks it): no is_fact calls
             for atom in self.control.symbolic_atoms.by_signature(name, arity + 1):
                 args = atom.symbol.arguments
-                stripped = Function(name, args[1:])
-                split.setdefault(args[0].number, []).append((str(stripped), stripped, (True, name, tuple(args[1:]))))
+                split.setdefault(args[0].number, []).append((Function(name, args[1:]), (True, name, tuple(args[1:]))))
             for found in split.values():
-                found.sort(key=lambda item: item[0])
-            for key, found in split.items():
-                split[key] = [(sym, shape) for _, sym, shape in found]
+                found.sort(key=lambda pair: str(pair[0]))  # the order AnswerSet.of reads a solo frame in
         return split.get(frame, [])
 
     def constants_of_frame(self, name: str, frame: int) -> set[str]:
