@@ -16,9 +16,11 @@ solves each distinct frame once).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import platform
 import random
+import subprocess
 import sys
 import tempfile
 import time
@@ -28,7 +30,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.report import machine, write_section  # noqa: E402
 from discern.monitor.audit.aggregate import audit_logs  # noqa: E402
-from discern.monitor.audit.replay import replay_logs  # noqa: E402
 from discern.monitor.config import LogSettings, MonitorConfig  # noqa: E402
 from discern.monitor.example_planner import planner_action  # noqa: E402
 from discern.monitor.log import McapLogWriter, read_log, vehicle_topic  # noqa: E402
@@ -138,6 +139,14 @@ def write_fleet(directory: Path, frames: int, vehicles: int, waiting_share: floa
     return writer.files
 
 
+def replay_cli(files: list[Path], workers: int, out: Path) -> dict:
+    """`discern audit --replay` in its own process, as a user runs it; its JSON report (which times the replay)."""
+    command = [str(Path(sys.executable).with_name("discern")), "audit", "--replay", *map(str, files),
+               "--workers", str(workers), "--json", str(out), "--quiet"]
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    return json.loads(out.read_text())
+
+
 def measure(files: list[Path], workers: int, repeats: int) -> dict:
     """The audit once, then the replay `repeats` times: the run with the median rate, and the range."""
     start = time.perf_counter()
@@ -145,26 +154,25 @@ def measure(files: list[Path], workers: int, repeats: int) -> dict:
     audit_s = time.perf_counter() - start
     runs = []
     for _ in range(repeats):
-        result = replay_logs([str(f) for f in files], workers=workers)
-        assert not result.tally.changes, "the shipped rules must reproduce their own log"
-        runs.append(result)
-    runs.sort(key=lambda r: r.frames_per_s)
-    result = runs[len(runs) // 2]
-    t = result.tally
+        doc = replay_cli(files, workers, files[0].parent / "replay.json")
+        assert not doc["changes"], "the shipped rules must reproduce their own log"
+        runs.append(doc)
+    runs.sort(key=lambda r: r["frames_per_s"])
+    doc = runs[len(runs) // 2]
     return {
         "frames": tally.frames,
         "disagreements": len(tally.disagreements),
         "audit_s": audit_s,
-        "replayed": t.frames,
-        "solved": t.solved,
-        "decided": t.decided,
-        "reused": t.reused,
-        "wall_s": result.wall_s,
-        "fps": result.frames_per_s,
-        "fps_range": (runs[0].frames_per_s, runs[-1].frames_per_s),
-        "solve_ms": 1000 * t.solve_s / max(1, t.solved),  # reasoner time (solve, plus any full decision) per solved frame
-        "cpu_ms": 1000 * t.cpu_s / max(1, t.frames),
-        "workers": result.workers,
+        "replayed": doc["frames"],
+        "solved": doc["solved"],
+        "decided": doc["decided_in_full"],
+        "reused": doc["reused"],
+        "wall_s": doc["wall_s"],
+        "fps": doc["frames_per_s"],
+        "fps_range": (runs[0]["frames_per_s"], runs[-1]["frames_per_s"]),
+        "solve_ms": 1000 * doc["solver_s"] / max(1, doc["solved"]),  # grounding and reading answers (+ full decisions)
+        "cpu_ms": 1000 * doc["worker_cpu_s"] / max(1, doc["frames"]),
+        "workers": doc["workers"],
     }
 
 
@@ -208,9 +216,11 @@ def main() -> None:
         "",
         f"Command: `{command}`  ",
         f"Machine: {machine()}; logs written by the monitor's McapLogWriter (zstd), verdicts from the shipped catalog; "
-        f"each replay run {args.repeats} times, the median run shown with the range of its rate.",
+        f"each replay run {args.repeats} times as a user runs it (`discern audit --replay FILES --workers N --json`, "
+        "its own process; the rate is its report's, from loading the rules to the last frame), the median run shown "
+        "with the range of its rate.",
         "",
-        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s (range) | solved / reused (decided in full) | reasoner ms per solved frame | worker CPU ms per frame |",
+        "| fleet | files (MiB) | workers | frames (disagreements) | audit s (frames/s) | replay s | replay frames/s (range) | solved / reused (decided in full) | solver ms per solved frame | worker CPU ms per frame |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for label, nfiles, size_mb, _reading, m in rows:
@@ -229,13 +239,17 @@ def main() -> None:
     distinct = [m for label, _, _, _, m in rows if m["reused"] == 0]
     if distinct:
         best = max(distinct, key=lambda m: m["fps"])
+        low = best["fps_range"][0]
+        verdict = "met" if best["fps"] >= 2000 else "missed"
+        spread = (f"every run at or above it (slowest {low:.0f})" if low >= 2000
+                  else f"the slowest of the {args.repeats} runs gave {low:.0f}")
         lines += [
             "",
-            f"Target ≥ 2,000 frames/s on 2 cores, every scene distinct: {'met' if best['fps'] >= 2000 else 'missed'} "
-            f"({best['fps']:.0f} frames/s with {best['workers']} worker(s)). Frames are grounded 96 at a time in one "
-            "clingo Control (rules/batch.py), so the per-rule cost of grounding is paid once per batch; what is left "
-            f"per frame is clingo's own work on the frame's facts and rule instances and the Python around it "
-            f"({distinct[0]['solve_ms']:.2f} ms of reasoner time and {distinct[0]['cpu_ms']:.2f} ms of worker CPU per "
+            f"Target ≥ 2,000 frames/s on 2 cores, every scene distinct: {verdict} by the median run "
+            f"({best['fps']:.0f} frames/s with {best['workers']} worker(s)); {spread}. Frames are grounded 96 at a time "
+            "in one clingo Control (rules/batch.py), so the per-rule cost of grounding is paid once per batch; what is "
+            "left per frame is clingo's own work on the frame's facts and rule instances and the Python around it "
+            f"({distinct[0]['solve_ms']:.2f} ms of solver time and {distinct[0]['cpu_ms']:.2f} ms of worker CPU per "
             "frame in the one-worker run). Frames that repeat (a vehicle standing at a light, once its 2 s history "
             "window is full) are solved once.",
         ]

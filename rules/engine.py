@@ -20,7 +20,7 @@ import clingo
 from clingo import Function
 from clingo import ast
 
-from .batch import BatchAnswers, FrameAnswers, FrameTagger
+from .batch import BatchAnswers, FrameAnswers, FrameTagger, show_constants
 from .catalog import Catalog, load_catalog
 from .facts import Params, scene_facts
 from .justify import AnswerSet, Prover, rule_ids
@@ -64,6 +64,8 @@ class FactProvider(Protocol):
 class SolvedFrame:
     """The solved frame: model plus what the verdict needs from it."""
 
+    READS = ("permitted", "recommended")  # the constants every verdict reads
+
     def __init__(self, answer: AnswerSet, proposed: Action):
         self.answer = answer
         self.proposed = proposed
@@ -105,7 +107,7 @@ class Reasoner:
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
         proposed = Action(proposed)
-        text = self._param_facts + self._frame_facts(scene, proposed, history)
+        text = self._param_facts + self.frame_facts(scene, proposed, history)
         ctl = clingo.Control(["--warn=none"])
         with ast.ProgramBuilder(ctl) as builder:
             for statement in self.catalog.program_for(frozenset(_FACT_NAME.findall(text))):
@@ -120,24 +122,33 @@ class Reasoner:
         """Solve (scene, proposed, history) frames in one grounding; each answer is the frame's solo answer."""
         if len(frames) == 1:
             return [self.solve(*frames[0])]
-        texts, names = [], set()
-        for scene, proposed, history in frames:
-            text = self._frame_facts(scene, Action(proposed), history)
+        return self.solve_facts(
+            [self.frame_facts(scene, Action(proposed), history) for scene, proposed, history in frames],
+            [Action(proposed) for _, proposed, _ in frames],
+        )
+
+    def solve_facts(self, texts: Sequence[str], proposed: Sequence[Action]) -> list[SolvedFrame]:
+        """Solve frames given by their `frame_facts` in one grounding (for callers that keyed frames on them)."""
+        names: set[str] = set()
+        for text in texts:
             names.update(_FACT_NAME.findall(text))
-            texts.append(text)
         ctl = clingo.Control(["--warn=none"])
         with ast.ProgramBuilder(ctl) as builder:
             for statement in self._tagger.program(self.catalog.program_for(frozenset(names) | {"param"})):
                 builder.add(statement)
-        ctl.add("base", [], self._param_facts + "".join(self._tagger.facts(t, k) for k, t in enumerate(texts)))
+        facts = "".join(self._tagger.facts(t, k) for k, t in enumerate(texts))
+        ctl.add("base", [], self._param_facts + facts + show_constants(SolvedFrame.READS))
         ctl.ground([("base", [])])
         if self._solve_hook is not None:
             self._solve_hook()
-        batch = BatchAnswers(ctl, self._tagger.static)
-        return [SolvedFrame(FrameAnswers(batch, k), Action(f[1])) for k, f in enumerate(frames)]
+        batch = BatchAnswers(ctl, self._tagger.static, SolvedFrame.READS)
+        return [SolvedFrame(FrameAnswers(batch, k), Action(action)) for k, action in enumerate(proposed)]
 
-    def _frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
-        """The frame's own facts: the scene, the proposal, and what the providers read from the history."""
+    def frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
+        """The frame's own facts: the scene, the proposal, and what the providers read from the history.
+
+        With the catalog and the parameters, they are all the solver sees: equal facts, equal answer sets.
+        """
         return scene_facts(scene, proposed) + "".join(p.facts(scene, history) for p in self.providers)
 
     def decide_many(self, requests: Sequence[Request]) -> list[Verdict]:

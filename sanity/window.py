@@ -73,10 +73,14 @@ class _Summary:
     flashing: frozenset[LightColour]
     stop_sign: bool
     stopped: bool
-    objects: tuple[tuple[int, DetectedObject, frozenset[Source]], ...]  # id, object, its confirming sources
+    objects: dict[int, DetectedObject]  # by id
+    ids: frozenset[int]
+    confirmed: tuple[tuple[int, frozenset[Source]], ...]  # objects a range sensor saw, with those sensors
+    lit: tuple[int, ...]  # objects showing emergency lights
 
     @classmethod
     def of(cls, scene: Scene) -> "_Summary":
+        confirming = [(o.id, frozenset(CONFIRMING.intersection(o.sources))) for o in scene.objects]
         return cls(
             readings=frozenset(_readings(scene)),
             primary=_primary(scene),
@@ -84,7 +88,10 @@ class _Summary:
             flashing=frozenset(l.colour for l in scene.traffic_lights if l.flashing),
             stop_sign=any(s.kind is SignKind.stop for s in scene.signs),
             stopped=scene.ego.speed < 0.5,
-            objects=tuple((o.id, o, frozenset(CONFIRMING.intersection(o.sources))) for o in scene.objects),
+            objects={o.id: o for o in scene.objects},
+            ids=frozenset(o.id for o in scene.objects),
+            confirmed=tuple((oid, sources) for oid, sources in confirming if sources),
+            lit=tuple(o.id for o in scene.objects if o.emergency_lights),
         )
 
 
@@ -303,21 +310,22 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     """Objects the camera lost, where their track puts them now, and what says they are still there;
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
-    present = {oid: obj for oid, obj, _ in now.objects}
-    unconfirmed = {oid for oid, _, confirming in now.objects if not confirming}
+    present = now.objects
+    unconfirmed = now.ids.difference(oid for oid, _ in now.confirmed)
     last: dict[int, tuple[Scene, DetectedObject]] = {}
     frames: dict[int, int] = {}
     lights: dict[int, int] = {}
     earlier: dict[int, set[Source]] = {}
+    # a frame sits in some twenty windows: set operations on its summary, not a pass over its objects
     for past, summary in zip(window, summaries):
-        for oid, obj, confirming in summary.objects:
-            if oid not in present:
-                last[oid] = (past, obj)
-                frames[oid] = frames.get(oid, 0) + 1
-            elif oid in unconfirmed:
+        for oid in sorted(summary.ids - now.ids):
+            last[oid] = (past, summary.objects[oid])
+            frames[oid] = frames.get(oid, 0) + 1
+        for oid, confirming in summary.confirmed:
+            if oid in unconfirmed:
                 earlier.setdefault(oid, set()).update(confirming)
-            if obj.emergency_lights:
-                lights[oid] = lights.get(oid, 0) + 1
+        for oid in summary.lit:
+            lights[oid] = lights.get(oid, 0) + 1
     for oid, found in earlier.items():
         out.extend(f"obj_source_before({oid},{s.value})." for s in sorted(found, key=lambda s: s.value))
     kept: set[int] = set()

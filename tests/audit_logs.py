@@ -20,6 +20,9 @@ import socket
 import time
 from pathlib import Path
 
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings
 from discern.monitor.server import MonitorServer
@@ -157,3 +160,35 @@ def tolerant_rules(directory: Path) -> Path:
         path.write_text(text[:start] + edited + text[end:])
         return rules
     raise AssertionError("rule acc.at_limit is not in the shipped catalog")
+
+
+def rewrite(source: Path, targets: list[Path], splits: tuple[int, ...] = (), foreign: bool = False) -> None:
+    """Copy a log's messages, in order, into new files with the mcap library (as another recorder would).
+
+    Messages after the k-th index in `splits` go to targets[k + 1]: a rotation, where the monitor's would be.
+    """
+    with open(source, "rb") as f:
+        messages = list(make_reader(f).iter_messages(log_time_order=False))
+    outputs = [open(t, "wb") for t in targets]
+    writers = [Writer(o) for o in outputs]
+    ids: list[dict] = [{} for _ in targets]
+    for w in writers:
+        w.start(profile="", library="test")
+    for i, (schema, channel, message) in enumerate(messages):
+        k = min(sum(split < i for split in splits), len(targets) - 1)
+        w, known = writers[k], ids[k]
+        if channel.topic not in known:
+            schema_id = w.register_schema(schema.name, schema.encoding, schema.data)
+            known[channel.topic] = w.register_channel(channel.topic, channel.message_encoding, schema_id)
+        w.add_message(known[channel.topic], message.log_time, message.data, message.publish_time)
+        if foreign:
+            if "camera" not in known:
+                camera = w.register_schema("acme.CameraInfo", "jsonschema", b'{"type": "object"}')
+                known["camera"] = w.register_channel("/camera/front/info", "json", camera)
+                debug = w.register_schema("discern.Debug", "jsonschema", b'{"type": "object"}')
+                known["debug"] = w.register_channel("/discern/car_a/debug", "json", debug)
+            w.add_message(known["camera"], message.log_time, b'{"width": 1920}', message.log_time)
+            w.add_message(known["debug"], message.log_time, b'{"x": 1}', message.log_time)
+    for w, o in zip(writers, outputs, strict=True):
+        w.finish()
+        o.close()

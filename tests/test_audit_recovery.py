@@ -8,9 +8,8 @@ from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
-from mcap.writer import Writer
 
-from tests.audit_logs import audit, monitor_logs
+from tests.audit_logs import audit, monitor_logs, rewrite
 
 
 @pytest.fixture(scope="module")
@@ -23,35 +22,6 @@ def audit_json(capsys, tmp_path, *paths) -> dict:
     code, _, err = audit(capsys, *map(str, paths), "--json", str(out), "--workers", "1", "--quiet")
     assert code == 0, err
     return json.loads(out.read_text())
-
-
-def rewrite(source: Path, targets: list[Path], split_after: int = -1, foreign: bool = False) -> None:
-    """Copy a log's messages, in order, into new files with the mcap library (as another recorder would)."""
-    with open(source, "rb") as f:
-        messages = list(make_reader(f).iter_messages(log_time_order=False))
-    outputs = [open(t, "wb") for t in targets]
-    writers = [Writer(o) for o in outputs]
-    ids: list[dict] = [{} for _ in targets]
-    for w in writers:
-        w.start(profile="", library="test")
-    for i, (schema, channel, message) in enumerate(messages):
-        k = 1 if 0 <= split_after < i and len(targets) > 1 else 0
-        w, known = writers[k], ids[k]
-        if channel.topic not in known:
-            schema_id = w.register_schema(schema.name, schema.encoding, schema.data)
-            known[channel.topic] = w.register_channel(channel.topic, channel.message_encoding, schema_id)
-        w.add_message(known[channel.topic], message.log_time, message.data, message.publish_time)
-        if foreign:
-            if "camera" not in known:
-                camera = w.register_schema("acme.CameraInfo", "jsonschema", b'{"type": "object"}')
-                known["camera"] = w.register_channel("/camera/front/info", "json", camera)
-                debug = w.register_schema("discern.Debug", "jsonschema", b'{"type": "object"}')
-                known["debug"] = w.register_channel("/discern/car_a/debug", "json", debug)
-            w.add_message(known["camera"], message.log_time, b'{"width": 1920}', message.log_time)
-            w.add_message(known["debug"], message.log_time, b'{"x": 1}', message.log_time)
-    for w, o in zip(writers, outputs, strict=True):
-        w.finish()
-        o.close()
 
 
 def test_a_file_cut_by_a_crash_is_read_up_to_its_last_complete_chunk(capsys, tmp_path, fleet):
@@ -82,7 +52,7 @@ def test_a_pair_split_by_file_rotation_is_joined(capsys, tmp_path, fleet):
     rotated = tmp_path / "rotated"
     rotated.mkdir()
     parts = [rotated / "discern-m1-20260101T000000-0000.mcap", rotated / "discern-m1-20260101T000100-0001.mcap"]
-    rewrite(fleet, parts, split_after=split)
+    rewrite(fleet, parts, splits=(split,))
     doc = audit_json(capsys, tmp_path, rotated)
     assert [f["state"] for f in doc["files"]] == ["complete", "complete"]
     assert doc["frames"] == whole["frames"] and doc["unanswered_proposals"] == 0

@@ -6,7 +6,10 @@ import json
 from pathlib import Path
 
 import pytest
+from mcap.reader import make_reader
 
+from discern.monitor.audit.frames import plan_tasks
+from discern.monitor.audit.replay import ReplayCatalog, replay_logs
 from tests.audit_logs import (
     CLEAR_FRAMES,
     FLEET_A_FRAMES,
@@ -17,6 +20,7 @@ from tests.audit_logs import (
     SLOW_FRAMES,
     audit,
     monitor_logs,
+    rewrite,
     tolerant_rules,
 )
 
@@ -111,6 +115,42 @@ def test_worker_processes_find_the_same_changes(capsys, tmp_path, logs, tolerant
     assert two["changes"] == one["changes"] and two["frames"] == one["frames"]
     for count in ("skipped_failsafe", "skipped_refused", "unanswered_proposals"):  # each vehicle counted once
         assert two[count] == one[count]
+
+
+@pytest.fixture(scope="module")
+def rotated(tmp_path_factory, logs) -> list[Path]:
+    """The fleet's log rotated twice, as a monitor with a small size limit would have written it."""
+    directory = tmp_path_factory.mktemp("rotated")
+    with open(logs["fleet"], "rb") as f:
+        count = sum(1 for _ in make_reader(f).iter_messages(log_time_order=False))
+    parts = [directory / f"discern-m1-20260101T0{i}0000-000{i}.mcap" for i in range(3)]
+    rewrite(logs["fleet"], parts, splits=(count // 3, 2 * count // 3))
+    return parts
+
+
+def test_a_monitors_rotated_files_are_cut_into_runs_each_led_in_by_the_file_before(rotated, tmp_path):
+    other = tmp_path / "discern-m2-20260101T000000-0000.mcap"  # another monitor's file: never a lead-in
+    other.write_bytes(rotated[0].read_bytes())
+    tasks = plan_tasks([str(p) for p in rotated] + [str(other)], parts=2)
+    mine = [t for t in tasks if t.paths[0] != str(other)]
+    assert [p for t in mine for p in t.paths] == [str(p) for p in rotated] and len(mine) == 2
+    assert mine[0].lead_in is None and mine[1].lead_in == mine[0].paths[-1]
+    assert [t for t in tasks if t not in mine] == [type(tasks[0])((str(other),), None)]
+    assert len(plan_tasks([str(p) for p in rotated], parts=1)) == 1
+
+
+def test_a_rotated_log_replays_as_the_whole_one_in_one_process_or_split_by_vehicle(logs, rotated, tolerant):
+    catalog = ReplayCatalog.of([str(tolerant)])
+    whole = replay_logs([str(logs["fleet"])], catalog, workers=1).tally
+    assert whole.changes
+    for workers in (1, 2, 3):
+        t = replay_logs([str(p) for p in rotated], catalog, workers=workers).tally
+        assert (t.frames, t.unanswered, t.skipped_refused) == (whole.frames, 0, whole.skipped_refused)
+        assert [(c.vehicle, c.frame_id, c.transition) for c in t.changes] == [
+            (c.vehicle, c.frame_id, c.transition) for c in whole.changes
+        ]
+        assert [f.path for f in t.recovery] == rotated  # every file once, its shards' records added up
+        assert sum(f.records for f in t.recovery) == whole.recovery[0].records
 
 
 def test_deciding_every_frame_in_full_finds_the_same_changes(capsys, tmp_path, logs, tolerant):

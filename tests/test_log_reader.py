@@ -140,6 +140,19 @@ def test_reading_since_a_time_skips_earlier_messages_undecoded(tmp_path):
     assert later == [5, 6, 7] and report.files[0].complete
 
 
+def test_readers_split_by_vehicle_decode_their_own_records_and_their_counts_add_up(tmp_path):
+    write_session(tmp_path)
+    shares = {}
+    for name, pick in (("car_1", lambda v: v == "car_1"), ("rest", lambda v: v != "car_1")):
+        report = RecoveryReport()
+        shares[name] = ([(r.vehicle, r.kind) for r in read_log(tmp_path, report, vehicles=pick)], report.files[0])
+    records, recovery = shares["car_1"]
+    assert set(records) == {("car_1", "proposal"), ("car_1", "verdict")} and len(records) == 10
+    rest, rest_recovery = shares["rest"]  # the other vehicle's, and the monitor-wide status (no vehicle)
+    assert rest == [("car_2", "rejected"), ("car_2", "verdict"), (None, "status")]
+    assert recovery.records + rest_recovery.records == 13 and recovery.complete and rest_recovery.complete
+
+
 def test_files_rotate_by_age(tmp_path):
     writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_seconds=0.1), "age")
     writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(0, 2)))

@@ -346,8 +346,8 @@ def _over_time(rows: list[Disagreement], first: Optional[int], last: Optional[in
     return out
 
 
-def tally_file(job: tuple[FrameTask, Filters]) -> Tally:
-    """One file's tally (runs in a worker process)."""
+def tally_task(job: tuple[FrameTask, Filters]) -> Tally:
+    """One task's tally (runs in a worker process)."""
     task, filters = job
     report = RecoveryReport()
     frames, pairing = read_frames(task, report)
@@ -360,10 +360,10 @@ def tally_file(job: tuple[FrameTask, Filters]) -> Tally:
 
 
 def audit_logs(paths: list[str], filters: Optional[Filters] = None, workers: int = 1) -> Tally:
-    """The merged tally of every file, each read by its own job."""
+    """The merged tally of every file, read in runs of consecutive files, one job each."""
     filters = filters if filters is not None else Filters()
     total = Tally()
-    jobs = [(task, filters) for task in plan_tasks(paths)]
-    for tally in run_jobs(tally_file, jobs, workers):
+    jobs = [(task, filters) for task in plan_tasks(paths, parts=max(1, workers))]
+    for tally in run_jobs(tally_task, jobs, workers):
         total.merge(tally)
     return total.finish()

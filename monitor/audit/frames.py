@@ -5,11 +5,12 @@ The monitor logs a proposal and its verdict on two channels
 the pair is matched here by vehicle and frame id. A proposal refused before it
 parsed has no proposal record: its frame carries the verdict alone.
 
-Rotated files are read one at a time (that is what runs in parallel); the
-file before, when it is the same monitor's previous file, is read first as a
-lead-in so that a pair cut by the rotation still meets and the replay gets the
-same history window the monitor had. Only the lead-in's tail is decoded: the
-history window plus a slack far longer than any decision takes.
+A task reads a run of consecutive files of one monitor (that is what runs in
+parallel), pairing across their rotations. The file before the run, when it is
+the same monitor's previous file, is read first as a lead-in so that a pair cut
+by the rotation still meets and the replay gets the same history window the
+monitor had. Only the lead-in's tail is decoded: the history window plus a
+slack far longer than any decision takes.
 """
 
 from __future__ import annotations
@@ -46,9 +47,9 @@ class Frame:
 
 @dataclass
 class FrameTask:
-    """One file to read, with the file it continues (or None)."""
+    """Consecutive files of one monitor to read, with the file they continue (or None)."""
 
-    path: str
+    paths: tuple[str, ...]
     lead_in: Optional[str] = None
 
 
@@ -74,17 +75,15 @@ class Pairing:
     did, with the monitor's own VehicleState, timed by the proposal's arrival.
     """
 
-    def __init__(self, window_s: Optional[float] = None, keep: Optional[Callable[[Optional[str]], bool]] = None):
-        """`keep(vehicle)` picks the vehicles to pair (None: records of no vehicle); the others are not counted."""
+    def __init__(self, window_s: Optional[float] = None, lead_in: Optional[str] = None):
+        """`lead_in`: the file read for context only, whose leftover proposals its own task counted."""
         self.window_s = window_s
-        self.keep = keep
+        self.lead_in = lead_in
         self.pending: dict[str, deque[LogRecord]] = {}
         self.states: dict[str, VehicleState] = {}
         self.counts = PairingCounts()
 
     def feed(self, record: LogRecord) -> Optional[Frame]:
-        if self.keep is not None and not self.keep(record.vehicle or (record.verdict and record.verdict.vehicle)):
-            return None
         self.counts.records += 1
         kind = record.kind
         if kind == "proposal":
@@ -104,9 +103,9 @@ class Pairing:
             self.counts.status += 1
         return None
 
-    def finish(self, path: str) -> None:
-        """Count the proposals of `path` left without a verdict (the lead-in's were counted with their file)."""
-        self.counts.unanswered += sum(str(r.path) == path for q in self.pending.values() for r in q)
+    def finish(self) -> None:
+        """Count the proposals left without a verdict (the lead-in's were counted with their own task)."""
+        self.counts.unanswered += sum(str(r.path) != self.lead_in for q in self.pending.values() for r in q)
         self.pending.clear()
 
     def _frame(self, record: LogRecord) -> Frame:
@@ -115,7 +114,7 @@ class Pairing:
         proposal_record = self._take(vehicle, verdict.frame_id)
         frame = Frame(file=str(record.path), log_time_ns=record.log_time_ns, vehicle=vehicle, verdict=verdict)
         if proposal_record is not None:
-            if proposal_record.path != record.path:
+            if self.lead_in is not None and str(proposal_record.path) == self.lead_in:
                 self.counts.carried += 1
             frame.proposal = proposal_record.proposal
             frame.arrived_ns = proposal_record.log_time_ns
@@ -144,15 +143,47 @@ class Pairing:
             return None
 
 
-def plan_tasks(paths: list[str]) -> list[FrameTask]:
-    """One task per file; a rotated file's predecessor from the same monitor is its lead-in."""
+def plan_tasks(paths: list[str], parts: int = 1) -> list[FrameTask]:
+    """Each monitor's run of rotated files cut into at most `parts` tasks of consecutive files, even in bytes.
+
+    A task's lead-in is the file before its first one, when that is the same
+    monitor's previous file. Fewer, longer tasks read fewer lead-ins.
+    """
     files = [str(p) for p in log_files(paths)]
-    tasks = []
-    previous: Optional[str] = None
+    sequences: list[list[str]] = []
     for path in files:
-        tasks.append(FrameTask(path, previous if previous is not None and _same_sequence(previous, path) else None))
-        previous = path
+        if sequences and _same_sequence(sequences[-1][-1], path):
+            sequences[-1].append(path)
+        else:
+            sequences.append([path])
+    tasks = []
+    for sequence in sequences:
+        previous: Optional[str] = None
+        for run in _even_runs(sequence, parts):
+            tasks.append(FrameTask(tuple(run), previous))
+            previous = run[-1]
     return tasks
+
+
+def _even_runs(files: list[str], parts: int) -> list[list[str]]:
+    """Consecutive files cut into at most `parts` runs of about equal size."""
+    sizes = [_size(f) for f in files]
+    share = max(1, sum(sizes)) / max(1, min(parts, len(files)))
+    runs: list[list[str]] = [[]]
+    done = 0
+    for path, size in zip(files, sizes):
+        if runs[-1] and done >= share * len(runs):
+            runs.append([])
+        runs[-1].append(path)
+        done += size
+    return runs
+
+
+def _size(path: str) -> int:
+    try:
+        return Path(path).stat().st_size
+    except OSError:  # missing: read_log reports it
+        return 0
 
 
 def _same_sequence(before: str, after: str) -> bool:
@@ -167,26 +198,28 @@ def read_frames(
     window_s: Optional[float] = None,
     keep: Optional[Callable[[Optional[str]], bool]] = None,
 ) -> tuple[Iterator[Frame], Pairing]:
-    """The lead-in's frames (flagged), then those whose verdict is in `task.path` (of the vehicles `keep` picks).
+    """The lead-in's frames (flagged), then those whose verdict is in the task's files.
 
-    The Pairing holds this file's counts once iteration ends.
+    `keep(vehicle)` picks the vehicles whose records are read (None: the
+    monitor-wide ones); the others are skipped undecoded and not counted.
+    The Pairing holds the task's counts once iteration ends.
     """
-    pairing = Pairing(window_s, keep)
+    pairing = Pairing(window_s, task.lead_in)
 
     def frames() -> Iterator[Frame]:
         if task.lead_in is not None:
-            start = first_log_time_ns(task.path)
+            start = first_log_time_ns(task.paths[0])
             since = None if start is None else start - int(((window_s or 0.0) + LEAD_IN_SLACK_S) * 1e9)
-            for record in read_log(task.lead_in, RecoveryReport(), since_ns=since):
+            for record in read_log(task.lead_in, RecoveryReport(), since_ns=since, vehicles=keep):
                 frame = pairing.feed(record)
                 if frame is not None:
                     frame.lead_in = True
                     yield frame
             pairing.counts = PairingCounts()
-        for record in read_log(task.path, report):
+        for record in read_log(task.paths, report, vehicles=keep):
             frame = pairing.feed(record)
             if frame is not None:
                 yield frame
-        pairing.finish(task.path)
+        pairing.finish()
 
     return frames(), pairing

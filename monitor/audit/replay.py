@@ -6,7 +6,7 @@ frame whose decision or executed action would change is reported with both
 justifications. Fail-safe verdicts and refused inputs were not decided by the
 rules and are counted, not replayed.
 
-Frames are solved in batches, many in one grounding (Reasoner.solve_many).
+Frames are solved in batches, many in one grounding (Reasoner.solve_facts).
 Each frame is first only solved: a verdict's decision and action follow from
 the proposed action, the shadow flag and the permitted set and recommended
 action (Reasoner.decide), and the logged verdict carries all four, so when the
@@ -16,14 +16,13 @@ explained with its whole justification tree. `compare_rules` decides every
 frame in full, to also find frames that keep their decision but cite other
 rules.
 
-Work is split by file and, with several workers, each file by vehicle: a
-shard decodes the whole file (cheap) but pairs, rebuilds the history of and
-solves only its own vehicles' frames. Identical frames are solved once per
-worker (a vehicle stopped at a light repeats itself): the content key is the
-scene, the action, the shadow flag and, when the reasoner has fact providers
-(the sanity layer, the only readers of the history), the history; frame ids
-and timestamps enter it relative to the frame, since a decision depends on
-time differences, not on the wall clock.
+Work is split into runs of consecutive files (frames.plan_tasks) and, with
+several workers, each run by vehicle: a shard reads the whole run but decodes,
+pairs, rebuilds the history of and solves only its own vehicles' frames.
+Identical frames are solved once per worker (a vehicle stopped at a light
+repeats itself): the content key is the frame's facts, all the solver sees of
+the scene, the proposal and the history (Reasoner.frame_facts), and the shadow
+flag. Frame ids and clock times are not among the facts, only time differences.
 """
 
 from __future__ import annotations
@@ -41,7 +40,7 @@ from discern.monitor.config import MonitorConfig
 from discern.monitor.log import FileRecovery, RecoveryReport
 from discern.rules.catalog import Catalog, catalog_dirs, load_catalog
 from discern.rules.engine import Reasoner, Request, jurisdiction_pack
-from discern.rules.scene import Action, Scene
+from discern.rules.scene import Action
 from discern.rules.verdict import Verdict
 
 from .aggregate import Filters, scenario_kind
@@ -50,7 +49,6 @@ from .parallel import run_jobs
 
 BATCH = 96  # distinct frames grounded together: the per-rule cost is paid once per batch (rules/batch.py)
 CACHE_LIMIT = 100_000  # decided frames kept per worker for reuse
-SCENE_DIGESTS = 8192  # scenes whose content digest is kept (a history window repeats them)
 
 
 @dataclass
@@ -128,7 +126,12 @@ class ReplayTally:
         self.rules_only_examples.update(other.rules_only_examples)
         self.transitions.update(other.transitions)
         self.counts.merge(other.counts)
-        self.recovery.extend(other.recovery)
+        mine = {f.path: f for f in self.recovery}
+        for share in other.recovery:  # each shard read its vehicles' records of the file
+            if share.path in mine:
+                mine[share.path].add_share(share)
+            else:
+                self.recovery.append(share)
 
     @property
     def unanswered(self) -> int:
@@ -159,46 +162,33 @@ class ReplayJob:
 
 
 class _Worker:
-    """Per-process state: one Reasoner, the decided frames, the scene digests."""
+    """Per-process state: one Reasoner and the decided frames."""
 
     def __init__(self, catalog: "ReplayCatalog"):
+        self.catalog = catalog
         self.reasoner = Reasoner(catalog=catalog.load(), jurisdiction=catalog.jurisdiction)
         self.solved: OrderedDict[bytes, Solved] = OrderedDict()
         self.explained: OrderedDict[bytes, Verdict] = OrderedDict()  # changed frames, with their full tree
-        self.digests: OrderedDict[int, tuple[Scene, bytes]] = OrderedDict()
 
-    def digest(self, scene: Scene) -> bytes:
-        """Content of a scene without its frame id and time (kept alive so its id() stays unique)."""
-        hit = self.digests.get(id(scene))
-        if hit is not None and hit[0] is scene:
-            return hit[1]
-        data = scene.model_dump_json(exclude={"frame_id", "timestamp"}).encode()
-        value = hashlib.blake2b(data, digest_size=16).digest()
-        self.digests[id(scene)] = (scene, value)
-        if len(self.digests) > SCENE_DIGESTS:
-            self.digests.popitem(last=False)
-        return value
-
-    def key(self, scene: Scene, action: Action, history: Sequence[Scene], shadow: bool) -> bytes:
-        h = hashlib.blake2b(digest_size=16)
-        h.update(self.digest(scene))
-        h.update(f"|{action.value}|{int(shadow)}".encode())
-        for past in history if self.reasoner.providers else ():  # only fact providers read the history
-            h.update(self.digest(past))
-            h.update(f"|{past.frame_id - scene.frame_id}|{past.timestamp - scene.timestamp:.6f}".encode())
-        return h.digest()
+    def key(self, facts: str, shadow: bool) -> bytes:
+        """The frame's content: what the solver sees of it, and whether the verdict was to be enforced."""
+        return hashlib.blake2b(f"{int(shadow)}|{facts}".encode(), digest_size=16).digest()
 
 
 _worker: Optional[_Worker] = None
 
 
 def _init_worker(catalog: Optional["ReplayCatalog"]) -> None:
+    """Load the rules, unless this process already holds them (a forked worker inherits the parent's)."""
     global _worker
-    _worker = _Worker(catalog) if catalog is not None else None
+    if catalog is None:
+        _worker = None
+    elif _worker is None or _worker.catalog != catalog:
+        _worker = _Worker(catalog)
 
 
-def replay_file(job: ReplayJob) -> ReplayTally:
-    """Re-decide one file's frames of this job's shard (runs in a worker process).
+def replay_task(job: ReplayJob) -> ReplayTally:
+    """Re-decide the frames of this job's files and shard (runs in a worker process).
 
     The cyclic garbage collector is off for the job: it found nothing to free
     here (a collection after a job finds 0 objects, measured) but rescanned the
@@ -208,21 +198,21 @@ def replay_file(job: ReplayJob) -> ReplayTally:
     enabled = gc.isenabled()
     gc.disable()
     try:
-        return _replay_file(job)
+        return _replay_task(job)
     finally:
         gc.freeze()
         if enabled:
             gc.enable()
 
 
-def _replay_file(job: ReplayJob) -> ReplayTally:
+def _replay_task(job: ReplayJob) -> ReplayTally:
     worker = _worker
     cpu_start = time.process_time()
     report = RecoveryReport()
     keep = None if job.shards == 1 else lambda vehicle: vehicle_shard(vehicle, job.shards) == job.shard
     frames, pairing = read_frames(job.task, report, window_s=job.window_s, keep=keep)
     tally = ReplayTally()
-    selected: list[tuple[Frame, bytes]] = []
+    chunk: list[tuple[Frame, bytes, str]] = []  # decided as the frames stream by: memory stays flat on long logs
     for frame in frames:
         if frame.lead_in or not job.filters.frame_selected(frame):
             continue
@@ -233,15 +223,14 @@ def _replay_file(job: ReplayJob) -> ReplayTally:
         if recorded.failsafe or frame.history is None:
             tally.skipped_failsafe += 1
             continue
-        selected.append((frame, worker.key(frame.proposal.scene, frame.proposal.action, frame.history, recorded.shadow)))
-    for at in range(0, len(selected), BATCH):
-        chunk = selected[at : at + BATCH]
-        _solve_new(worker, chunk, job.compare_rules, tally)
-        for frame, key in chunk:
-            _compare(worker, frame, key, tally)
+        facts = worker.reasoner.frame_facts(frame.proposal.scene, frame.proposal.action, frame.history)
+        chunk.append((frame, worker.key(facts, recorded.shadow), facts))
+        if len(chunk) == BATCH:
+            _replay_chunk(worker, chunk, job.compare_rules, tally)
+            chunk = []
+    _replay_chunk(worker, chunk, job.compare_rules, tally)
     tally.counts = pairing.counts  # of this shard's vehicles: the shards' counts add up to the file's
-    if job.shard == 0:
-        tally.recovery = report.files
+    tally.recovery = report.files
     tally.cpu_s = time.process_time() - cpu_start
     return tally
 
@@ -251,19 +240,29 @@ def vehicle_shard(vehicle: Optional[str], shards: int) -> int:
     return zlib.crc32(vehicle.encode()) % shards if vehicle else 0
 
 
-def _solve_new(worker: _Worker, chunk: list[tuple[Frame, bytes]], compare_rules: bool, tally: ReplayTally) -> None:
-    """Solve the chunk's frames not solved before, all in one grounding (Reasoner.solve_many)."""
-    pending: dict[bytes, Frame] = {}
-    for frame, key in chunk:
+def _replay_chunk(
+    worker: _Worker, chunk: list[tuple[Frame, bytes, str]], compare_rules: bool, tally: ReplayTally
+) -> None:
+    _solve_new(worker, chunk, compare_rules, tally)
+    for frame, key, _ in chunk:
+        _compare(worker, frame, key, tally)
+
+
+def _solve_new(
+    worker: _Worker, chunk: list[tuple[Frame, bytes, str]], compare_rules: bool, tally: ReplayTally
+) -> None:
+    """Solve the chunk's frames not solved before, all in one grounding (Reasoner.solve_facts)."""
+    pending: dict[bytes, tuple[Frame, str]] = {}
+    for frame, key, facts in chunk:
         if key not in worker.solved and key not in pending:
-            pending[key] = frame
+            pending[key] = (frame, facts)
     tally.frames += len(chunk)
     tally.solved += len(pending)
     tally.reused += len(chunk) - len(pending)
     if not pending:
         return
     start = time.perf_counter()
-    frames = list(pending.values())
+    frames = [frame for frame, _ in pending.values()]
     if compare_rules:
         verdicts = worker.reasoner.decide_many(
             [Request(f.proposal.scene, f.proposal.action, f.history, shadow=f.verdict.shadow) for f in frames]
@@ -271,7 +270,8 @@ def _solve_new(worker: _Worker, chunk: list[tuple[Frame, bytes]], compare_rules:
         results = [Solved(frozenset(v.permitted), v.recommended, Outcome.of(v)) for v in verdicts]
         tally.decided += len(results)
     else:
-        solved = worker.reasoner.solve_many([(f.proposal.scene, f.proposal.action, f.history) for f in frames])
+        texts = [facts for _, facts in pending.values()]
+        solved = worker.reasoner.solve_facts(texts, [f.proposal.action for f in frames])
         results = [Solved(frozenset(s.permitted), s.recommended) for s in solved]
     tally.solve_s += time.perf_counter() - start
     for key, known in zip(pending, results):
@@ -365,15 +365,17 @@ def replay_logs(
     window = window_s if window_s is not None else MonitorConfig().window_s
     catalog = catalog if catalog is not None else ReplayCatalog.of()
     filters = filters if filters is not None else Filters()
-    catalog.load()  # a broken catalog fails here, once, not in every worker
-    tasks = plan_tasks(list(paths))
-    shards = max(1, workers)  # every file split by vehicle: even shares for the workers, whatever the file sizes
-    jobs = [ReplayJob(task, shard, shards, filters, window, compare_rules) for task in tasks for shard in range(shards)]
     start = time.perf_counter()
-    total = ReplayTally()
-    for tally in run_jobs(replay_file, jobs, workers, _init_worker, (catalog,)):
-        total.merge(tally)
+    _init_worker(catalog)  # a broken catalog fails here, once; forked workers inherit the loaded rules
+    try:
+        tasks = plan_tasks(list(paths), parts=max(1, workers))
+        shards = max(1, workers)  # every run of files split by vehicle: even shares, whatever the file sizes
+        jobs = [ReplayJob(task, shard, shards, filters, window, compare_rules) for task in tasks for shard in range(shards)]
+        total = ReplayTally()
+        for tally in run_jobs(replay_task, jobs, workers, _init_worker, (catalog,)):
+            total.merge(tally)
+    finally:
+        _init_worker(None)  # drop the rules and caches, or a later fork inherits them
     wall = time.perf_counter() - start
-    _init_worker(None)  # one worker ran in this process: drop its caches, or a later fork inherits them
     total.changes.sort(key=lambda c: (c.time_ns, c.vehicle))
     return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))), compare_rules)

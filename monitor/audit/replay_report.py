@@ -124,6 +124,7 @@ def render_json(result: ReplayResult) -> str:
         "compared_rules": result.compare_rules,
         "wall_s": result.wall_s,
         "worker_cpu_s": t.cpu_s,
+        "solver_s": t.solve_s,
         "frames_per_s": result.frames_per_s,
         "workers": result.workers,
         "skipped_failsafe": t.skipped_failsafe,

@@ -14,7 +14,7 @@ import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, Iterator, Optional, Union
+from typing import Callable, Iterable, Iterator, Optional, Union
 
 from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
@@ -60,6 +60,11 @@ class FileRecovery:
     @property
     def truncated(self) -> bool:
         return not self.complete and self.size_bytes > 0
+
+    def add_share(self, other: "FileRecovery") -> None:
+        """Another reader's share of the same file (read_log's `vehicles`): records and skips add up."""
+        self.records += other.records
+        self.skipped += other.skipped
 
 
 @dataclass
@@ -110,19 +115,23 @@ def read_log(
     *,
     merge: bool = False,
     since_ns: Optional[int] = None,
+    vehicles: Optional[Callable[[Optional[str]], bool]] = None,
 ) -> Iterator[LogRecord]:
     """Every record of the given files, file after file (or merged by log time with `merge=True`).
 
     Pass a `RecoveryReport` to learn, once iteration ends, how much of each file was read.
     A missing or unreadable file is reported and skipped, never raised. With `since_ns`,
     earlier messages are skipped undecoded (their chunks still are read: they declare the channels).
+    With `vehicles`, only the messages of the vehicles it picks are decoded and counted
+    (`vehicles(None)` picks the monitor-wide ones and those of unknown channels): readers
+    that split a file between them by vehicle each decode their share, and their counts add up.
     """
     report = report if report is not None else RecoveryReport()
     streams = []
     for path in log_files(paths):
         recovery = FileRecovery(path=path)
         report.files.append(recovery)
-        streams.append(_read_file(path, recovery, since_ns))
+        streams.append(_read_file(path, recovery, since_ns, vehicles))
     if merge:
         yield from heapq.merge(*streams, key=lambda r: r.log_time_ns)
     else:
@@ -144,7 +153,12 @@ def first_log_time_ns(path: PathLike) -> Optional[int]:
     return None
 
 
-def _read_file(path: Path, recovery: FileRecovery, since_ns: Optional[int] = None) -> Iterator[LogRecord]:
+def _read_file(
+    path: Path,
+    recovery: FileRecovery,
+    since_ns: Optional[int] = None,
+    vehicles: Optional[Callable[[Optional[str]], bool]] = None,
+) -> Iterator[LogRecord]:
     try:
         f = open(path, "rb")
     except OSError as exc:
@@ -154,7 +168,7 @@ def _read_file(path: Path, recovery: FileRecovery, since_ns: Optional[int] = Non
         recovery.size_bytes = os.fstat(f.fileno()).st_size
         if recovery.size_bytes == 0:
             return
-        decoder = _ChannelDecoder(path, recovery)
+        decoder = _ChannelDecoder(path, recovery, vehicles)
         records = StreamReader(f, emit_chunks=True, record_size_limit=RECORD_SIZE_LIMIT).records
         while True:
             try:
@@ -194,18 +208,26 @@ def _describe(exc: Exception) -> str:
 class _ChannelDecoder:
     """Turns schema, channel and message records of one file into LogRecords."""
 
-    def __init__(self, path: Path, recovery: FileRecovery):
+    def __init__(self, path: Path, recovery: FileRecovery, vehicles: Optional[Callable[[Optional[str]], bool]] = None):
         self.path = path
         self.recovery = recovery
+        self.vehicles = vehicles
         self.schemas: dict[int, Schema] = {}
         self.channels: dict[int, Optional[tuple[Optional[str], str, str]]] = {}
+        self.elsewhere: set[int] = set()  # channels of vehicles another reader decodes
 
     def feed(self, record) -> Optional[LogRecord]:
         if isinstance(record, Schema):
             self.schemas[record.id] = record
         elif isinstance(record, Channel):
-            self.channels[record.id] = self._known(record)
+            known = self.channels[record.id] = self._known(record)
+            if self.vehicles is not None and not self.vehicles(known[0] if known is not None else None):
+                self.elsewhere.add(record.id)
         elif isinstance(record, Message):
+            if record.channel_id in self.elsewhere:
+                return None
+            if record.channel_id not in self.channels and self.vehicles is not None and not self.vehicles(None):
+                return None  # an undeclared channel: counted by the reader of monitor-wide records
             return self._message(record)
         return None
 
