@@ -18,7 +18,7 @@ from typing import Iterable
 from clingo import Control, Function, Number, Symbol, ast
 
 from .catalog import Catalog
-from .justify import AnswerSet
+from .justify import AnswerSet, shown_atoms
 from .terms import Shape
 
 FRAME_PREDICATE = "discern_frame"  # discern_frame(K): frame K is in the batch
@@ -106,17 +106,11 @@ def _predicate(atom: ast.AST) -> str:
     return term.name if term.ast_type == ast.ASTType.Function else term.symbol.name
 
 
-def show_constants(names: Iterable[str]) -> str:
-    """`#show` statements for the frame predicates name(F,c) every frame's verdict reads (see BatchAnswers)."""
-    return "".join(f"#show {name}/2." for name in names)
-
-
 class BatchAnswers:
     """The grounded batch: each predicate's atoms split by frame once, on first use.
 
-    The predicates `shown` (given `#show` statements, show_constants) come back
-    from one solve call: reading atoms one by one through clingo's symbolic
-    atoms costs about 5 us each, the model's shown symbols a fraction of it.
+    The constants of the frame predicates `shown` (name(F,c), given `#show`
+    statements) are read from one solve (justify.shown_atoms).
     """
 
     def __init__(self, control: Control, static: frozenset[str], shown: Iterable[str] = ()):
@@ -155,12 +149,9 @@ class BatchAnswers:
     def _read_shown(self) -> None:
         for name in self.shown:
             self._constants[name] = {}
-        with self.control.solve(yield_=True) as models:  # stratified: one model, found without search
-            for model in models:
-                for text in map(str, model.symbols(shown=True)):  # name(F,c): one C call each
-                    name, _, arguments = text[:-1].partition("(")
-                    number, _, constant = arguments.partition(",")
-                    self._constants[name].setdefault(int(number), set()).add(constant)
+        for name, arguments in shown_atoms(self.control):
+            number, _, constant = arguments.partition(",")
+            self._constants[name].setdefault(int(number), set()).add(constant)
 
 
 class FrameAnswers(AnswerSet):

@@ -20,10 +20,10 @@ import clingo
 from clingo import Function
 from clingo import ast
 
-from .batch import BatchAnswers, FrameAnswers, FrameTagger, show_constants
+from .batch import BatchAnswers, FrameAnswers, FrameTagger
 from .catalog import Catalog, load_catalog
 from .facts import Params, scene_facts
-from .justify import AnswerSet, Prover, rule_ids
+from .justify import AnswerSet, Prover, rule_ids, show_statements
 from .render import render_text
 from .scene import Action, Scene
 from .verdict import Decision, Justification, JustificationNode, Verdict
@@ -101,22 +101,24 @@ class Reasoner:
         self.catalog = catalog if catalog is not None else load_catalog(extra_files=[jurisdiction_pack(jurisdiction)])
         self.params = params
         self._param_facts = params.facts()
+        self._param_names = frozenset(_FACT_NAME.findall(self._param_facts))
+        self._show_reads = show_statements(SolvedFrame.READS, 1)
         self.providers = list(providers) if providers is not None else _default_providers()
         self._solve_hook = solve_hook
         self._tagger = FrameTagger(self.catalog, shared={"param"})
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
         proposed = Action(proposed)
-        text = self._param_facts + self.frame_facts(scene, proposed, history)
+        text = self.frame_facts(scene, proposed, history)
         ctl = clingo.Control(["--warn=none"])
         with ast.ProgramBuilder(ctl) as builder:
-            for statement in self.catalog.program_for(frozenset(_FACT_NAME.findall(text))):
+            for statement in self.catalog.program_for(self._param_names.union(_FACT_NAME.findall(text))):
                 builder.add(statement)
-        ctl.add("base", [], text)
+        ctl.add("base", [], self._param_facts + text + self._show_reads)
         ctl.ground([("base", [])])
         if self._solve_hook is not None:
             self._solve_hook()
-        return SolvedFrame(AnswerSet(ctl), proposed)
+        return SolvedFrame(AnswerSet(ctl, SolvedFrame.READS), proposed)
 
     def solve_many(self, frames: Sequence[tuple[Scene, Action, Sequence[Scene]]]) -> list[SolvedFrame]:
         """Solve (scene, proposed, history) frames in one grounding; each answer is the frame's solo answer."""
@@ -134,10 +136,10 @@ class Reasoner:
             names.update(_FACT_NAME.findall(text))
         ctl = clingo.Control(["--warn=none"])
         with ast.ProgramBuilder(ctl) as builder:
-            for statement in self._tagger.program(self.catalog.program_for(frozenset(names) | {"param"})):
+            for statement in self._tagger.program(self.catalog.program_for(self._param_names.union(names))):
                 builder.add(statement)
         facts = "".join(self._tagger.facts(t, k) for k, t in enumerate(texts))
-        ctl.add("base", [], self._param_facts + facts + show_constants(SolvedFrame.READS))
+        ctl.add("base", [], self._param_facts + facts + show_statements(SolvedFrame.READS, 2))
         ctl.ground([("base", [])])
         if self._solve_hook is not None:
             self._solve_hook()
