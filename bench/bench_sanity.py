@@ -6,7 +6,6 @@ Run: python bench/bench_sanity.py [--repeats 30]   (one process; writes the "San
 from __future__ import annotations
 
 import argparse
-import gc
 import random
 import statistics
 import sys
@@ -17,6 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench.scenes import random_scene  # noqa: E402
 from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
+from discern.monitor.decision_pool import defer_full_collections  # noqa: E402
 from discern.rules.catalog import catalog_dirs, load_catalog  # noqa: E402
 from discern.rules.engine import Reasoner, jurisdiction_pack  # noqa: E402
 from discern.rules.scene import Scene  # noqa: E402
@@ -72,7 +72,7 @@ def main() -> None:
         for f, w in zip(frames, windows):
             core.decide(f.scene, f.expected)
             sanity.decide(f.scene, f.expected, history=w)
-    gc.freeze()  # as the monitor's decision workers do once the rules are loaded
+    defer_full_collections()  # the monitor's decision workers' policy: rules frozen, full collections when idle
     provider = sanity.providers[0]
     for f, w in zip(frames, windows):
         # Interleaved so that load on the machine hits every case alike.

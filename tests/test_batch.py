@@ -5,6 +5,7 @@ import pytest
 from discern.adapters.avcsr import read_dir
 from discern.rules.batch import FrameTagger, static_predicates
 from discern.rules.engine import Request
+from discern.rules.scene import Action
 from tests.test_engine import full_model, random_scene
 
 
@@ -63,6 +64,16 @@ def test_frame_tagging_leaves_quoted_strings_alone(reasoner):
     )
 
 
+def test_generated_facts_are_tagged_as_the_general_rule_tags_them(reasoner, avcsr_dir):
+    """Generated fact text is split on '.'; any other text goes through the regular expression: same tags."""
+    tagger = FrameTagger(reasoner.catalog, shared={"param"})
+    texts = [reasoner.frame_facts(sc, Action(action), history) for sc, action, history in _frames(7, 20)]
+    texts += [reasoner.frame_facts(f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
+    for k, text in enumerate(texts):
+        assert tagger.facts(text, k) + " " == tagger.facts(text + " ", k)  # the trailing space: not plain text
+
+
 def test_a_frame_fact_that_the_catalog_defines_is_refused(reasoner):
-    with pytest.raises(ValueError, match="is_a"):
-        FrameTagger(reasoner.catalog).facts("is_a(car,vehicle).", 0)
+    for text in ("is_a(car,vehicle).", "is_a(car, vehicle)."):  # plain text, and text with a space
+        with pytest.raises(ValueError, match="is_a"):
+            FrameTagger(reasoner.catalog).facts(text, 0)
