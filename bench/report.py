@@ -30,6 +30,23 @@ def timed(fn, repeats: int) -> list[float]:
     return out
 
 
+def reference_loop_s() -> float:
+    """Seconds for a fixed pure-Python loop (best of 3): how fast this machine runs at the moment.
+
+    A shared VM's speed drifts with its neighbours' load (a loop like this one ran up to 1.6 times
+    slower on the development VM within the hour); figures measured at different moments compare
+    through it.
+    """
+    best = float("inf")
+    for _ in range(3):
+        start = time.perf_counter()
+        total = 0
+        for i in range(5_000_000):
+            total += i
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
 def machine() -> str:
     cpu = "unknown CPU"
     try:
@@ -40,7 +57,8 @@ def machine() -> str:
     except OSError:
         pass
     cores = subprocess.run(["nproc"], capture_output=True, text=True).stdout.strip() or "?"
-    return f"{cpu}, {cores} cores, Python {platform.python_version()}, {platform.system()} {platform.machine()}"
+    return (f"{cpu}, {cores} cores, Python {platform.python_version()}, {platform.system()} {platform.machine()}, "
+            f"reference loop {reference_loop_s():.2f} s (bench/report.py)")
 
 
 def write_section(key: str, body: str) -> None:
