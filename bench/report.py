@@ -33,9 +33,8 @@ def timed(fn, repeats: int) -> list[float]:
 def reference_loop_s() -> float:
     """Seconds for a fixed pure-Python loop (best of 3): how fast this machine runs at the moment.
 
-    A shared VM's speed drifts with its neighbours' load (a loop like this one ran up to 1.6 times
-    slower on the development VM within the hour); figures measured at different moments compare
-    through it.
+    A shared VM's speed drifts with its neighbours' load (this loop took 0.11 s and, a quarter of an
+    hour later, 0.21 s on the development VM); figures measured at different moments compare through it.
     """
     best = float("inf")
     for _ in range(3):
