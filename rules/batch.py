@@ -165,7 +165,7 @@ class BatchAnswers:
     def _read_shown(self) -> None:
         for name in self.shown:
             self._constants[name] = {}
-        for name, arguments in shown_atoms(self.control):
+        for name, arguments in shown_atoms(self.control, self.shown):
             number, _, constant = arguments.partition(",")
             self._constants[name].setdefault(int(number), set()).add(constant)
 

@@ -29,18 +29,20 @@ def show_statements(names: Iterable[str], arity: int) -> str:
     return "".join(f"#show {name}/{arity}." for name in names)
 
 
-def shown_atoms(control: Control) -> Iterator[tuple[str, str]]:
-    """(name, arguments as text) of every shown atom of the grounded program's unique model.
+def shown_atoms(control: Control, names: frozenset[str]) -> Iterator[tuple[str, str]]:
+    """(name, arguments as text) of the shown atoms of these predicates in the grounded program's unique model.
 
     Reading atoms one by one through clingo's symbolic atoms costs about 5 us
     each; the model's shown symbols, a fraction of it. The program is
-    stratified, so the one model is found without search.
+    stratified, so the one model is found without search. What else a catalog
+    may `#show` is passed over.
     """
     with control.solve(yield_=True) as models:
         for model in models:
             for text in map(str, model.symbols(shown=True)):
-                name, _, arguments = text[:-1].partition("(")
-                yield name, arguments
+                name, paren, arguments = text.partition("(")
+                if paren and name in names:
+                    yield name, arguments[:-1]
 
 
 class AnswerSet:
@@ -79,7 +81,7 @@ class AnswerSet:
         if name in self._shown:
             if self._shown_constants is None:
                 self._shown_constants = {shown: set() for shown in self._shown}
-                for found, argument in shown_atoms(self._control):
+                for found, argument in shown_atoms(self._control, self._shown):
                     self._shown_constants[found].add(argument)
             return self._shown_constants[name]
         return {sym.arguments[0].name for sym in self.of(name, 1)}
