@@ -136,17 +136,18 @@ class BatchAnswers:
         self._split: dict[tuple[str, int], dict[int, list[Symbol]]] = {}
         self._constants: dict[str, dict[int, set[str]]] = {}
 
-    def of_frame(self, name: str, arity: int, frame: int) -> list[tuple[Symbol, Shape]]:
-        """The frame's atoms of name/arity with the frame argument stripped, each with its shape."""
+    def of_frame(self, name: str, arity: int, frame: int) -> list[tuple[str, Symbol, Shape]]:
+        """The frame's atoms of name/arity with the frame argument stripped: text, atom and shape, by text."""
         split = self._split.get((name, arity))
         if split is None:
             split = self._split[(name, arity)] = {}
             # every ground atom of a stratified program is a fact (load_catalog checks it): no is_fact calls
             for atom in self.control.symbolic_atoms.by_signature(name, arity + 1):
                 args = atom.symbol.arguments
-                split.setdefault(args[0].number, []).append((Function(name, args[1:]), (True, name, tuple(args[1:]))))
+                sym = Function(name, args[1:])
+                split.setdefault(args[0].number, []).append((str(sym), sym, (True, name, tuple(args[1:]))))
             for found in split.values():
-                found.sort(key=lambda pair: str(pair[0]))  # the order AnswerSet.of reads a solo frame in
+                found.sort(key=lambda entry: entry[0])  # the order AnswerSet.of reads a solo frame in
         return split.get(frame, [])
 
     def constants_of_frame(self, name: str, frame: int) -> set[str]:
@@ -190,9 +191,10 @@ class FrameAnswers(AnswerSet):
             return super().of(name, arity)
         found = self._by_sig.get((name, arity))
         if found is None:
-            pairs = self._batch.of_frame(name, arity, self._number)
-            self._shapes.update(pairs)
-            found = self._by_sig[(name, arity)] = [sym for sym, _ in pairs]
+            entries = self._batch.of_frame(name, arity, self._number)
+            self._shapes.update((sym, shape) for _, sym, shape in entries)
+            self._texts[(name, arity)] = [text for text, _, _ in entries]
+            found = self._by_sig[(name, arity)] = [sym for _, sym, _ in entries]
         return found
 
     def constants(self, name: str) -> set[str]:

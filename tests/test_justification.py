@@ -1,5 +1,8 @@
 import json
 
+from clingo import Function, Number, String
+
+from discern.rules.justify import first_argument
 from discern.rules.render import render_html, render_json, render_text
 from discern.rules.verdict import Verdict
 from tests.scenes import obj, scene
@@ -51,3 +54,12 @@ def test_veto_proof_is_compact_unless_an_explanation_is_asked_for(reasoner):
     full = reasoner.decide(sc, "accelerate", explain=True).justification.text
     assert "braking from 4.0 m/s takes 5.3 m" in full and "braking from" not in brief
     assert "pedestrian 1 is 6.0 m ahead" in brief and len(brief) < len(full)
+
+
+def test_an_atoms_first_argument_is_cut_from_its_text_as_clingo_prints_it():
+    args = [Number(-5), Function("obstacle", [Number(1), Number(2)]), Function("", [Number(1), Function("a")]),
+            String('a,b"),('), Function("cruise")]
+    for first in args:
+        atom = Function("p", [first, Number(3)])
+        assert first_argument(str(atom)) == str(first)
+        assert first_argument(str(Function("q", [first]))) == str(first)
