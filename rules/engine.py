@@ -153,10 +153,16 @@ class Reasoner:
         """
         return scene_facts(scene, proposed) + "".join(p.facts(scene, history) for p in self.providers)
 
-    def decide_many(self, requests: Sequence[Request]) -> list[Verdict]:
-        """Decide many frames with one grounding; each verdict's latency runs from the batch's start to it."""
+    def decide_many(self, requests: Sequence[Request], facts: Optional[Sequence[str]] = None) -> list[Verdict]:
+        """Decide many frames with one grounding; each verdict's latency runs from the batch's start to it.
+
+        `facts`: the requests' `frame_facts`, when the caller has them already.
+        """
         start = time.perf_counter()
-        solved = self.solve_many([(r.scene, Action(r.proposed), r.history) for r in requests])
+        if facts is None:
+            solved = self.solve_many([(r.scene, Action(r.proposed), r.history) for r in requests])
+        else:
+            solved = self.solve_facts(facts, [Action(r.proposed) for r in requests])
         return [self._verdict(r, s, start) for r, s in zip(requests, solved)]
 
     def decide(

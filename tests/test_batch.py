@@ -43,6 +43,13 @@ def test_batched_verdicts_equal_one_by_one_verdicts_with_their_proofs(reasoner):
         assert _comparable(verdict) == _comparable(alone)
 
 
+def test_a_batch_decided_from_facts_given_by_the_caller_equals_the_batch_decided_from_scenes(reasoner):
+    requests = [Request(sc, Action(action), history) for sc, action, history in _frames(9, 12)]
+    facts = [reasoner.frame_facts(r.scene, r.proposed, r.history) for r in requests]
+    from_facts = reasoner.decide_many(requests, facts)
+    assert [_comparable(v) for v in from_facts] == [_comparable(v) for v in reasoner.decide_many(requests)]
+
+
 def test_the_papers_kitti_frames_decide_the_same_in_one_batch(reasoner, avcsr_dir):
     frames = read_dir(avcsr_dir)
     batched = reasoner.decide_many([Request(f.scene, f.expected) for f in frames])

@@ -263,14 +263,14 @@ def _solve_new(
         return
     start = time.perf_counter()
     frames = [frame for frame, _ in pending.values()]
+    texts = [facts for _, facts in pending.values()]
     if compare_rules:
         verdicts = worker.reasoner.decide_many(
-            [Request(f.proposal.scene, f.proposal.action, f.history, shadow=f.verdict.shadow) for f in frames]
+            [Request(f.proposal.scene, f.proposal.action, f.history, shadow=f.verdict.shadow) for f in frames], texts
         )
         results = [Solved(frozenset(v.permitted), v.recommended, Outcome.of(v)) for v in verdicts]
         tally.decided += len(results)
     else:
-        texts = [facts for _, facts in pending.values()]
         solved = worker.reasoner.solve_facts(texts, [f.proposal.action for f in frames])
         results = [Solved(frozenset(s.permitted), s.recommended) for s in solved]
     tally.solve_s += time.perf_counter() - start
