@@ -193,7 +193,16 @@ def test_unknown_channels_are_skipped_with_a_warning(tmp_path, caplog):
         records = list(read_log(path, report))
     assert [r.proposal for r in records] == [p]
     assert report.skipped == 2
-    assert "unknown channel '/camera/front'" in caplog.text and "fails its schema" in caplog.text
+    assert caplog.text.count("unknown channel '/camera/front'") == 1 and "fails its schema" in caplog.text
+
+    before = len(caplog.records)  # readers split by vehicle: the unknown channel is warned about once in all
+    shares = [RecoveryReport(), RecoveryReport()]
+    with caplog.at_level(logging.WARNING, logger="discern.monitor.log.reader"):
+        for share, pick in zip(shares, (lambda v: v is None, lambda v: v is not None)):
+            list(read_log(path, share, vehicles=pick))
+    warned = [r.getMessage() for r in caplog.records[before:] if "unknown channel '/camera/front'" in r.getMessage()]
+    assert len(warned) == 1
+    assert [share.skipped for share in shares] == [1, 1]  # the foreign message; the bad proposal of v
 
 
 def test_empty_missing_and_foreign_files_yield_nothing_but_are_reported(tmp_path):

@@ -220,9 +220,19 @@ class _ChannelDecoder:
         if isinstance(record, Schema):
             self.schemas[record.id] = record
         elif isinstance(record, Channel):
+            first = record.id not in self.channels  # a summary section declares the channels again
             known = self.channels[record.id] = self._known(record)
             if self.vehicles is not None and not self.vehicles(known[0] if known is not None else None):
                 self.elsewhere.add(record.id)
+            elif known is None and first:  # warned by one reader only: the one that counts what is skipped
+                schema = self.schemas.get(record.schema_id)
+                log.warning(
+                    "%s: skipping unknown channel %r (schema %r, encoding %r)",
+                    self.path,
+                    record.topic,
+                    schema.name if schema else None,
+                    record.message_encoding,
+                )
         elif isinstance(record, Message):
             if record.channel_id in self.elsewhere:
                 return None
@@ -236,13 +246,6 @@ class _ChannelDecoder:
         parsed = parse_topic(channel.topic)
         kind = SCHEMA_NAMES.get(schema.name) if schema is not None else None
         if parsed is None or kind is None or parsed[1] != kind or channel.message_encoding != MESSAGE_ENCODING:
-            log.warning(
-                "%s: skipping unknown channel %r (schema %r, encoding %r)",
-                self.path,
-                channel.topic,
-                schema.name if schema else None,
-                channel.message_encoding,
-            )
             return None
         return parsed[0], kind, channel.topic
 
