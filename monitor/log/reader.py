@@ -222,7 +222,7 @@ class _ChannelDecoder:
         elif isinstance(record, Channel):
             first = record.id not in self.channels  # a summary section declares the channels again
             known = self.channels[record.id] = self._known(record)
-            if self.vehicles is not None and not self.vehicles(known[0] if known is not None else None):
+            if not self._mine(known[0] if known is not None else None):
                 self.elsewhere.add(record.id)
             elif known is None and first:  # warned by one reader only: the one that counts what is skipped
                 schema = self.schemas.get(record.schema_id)
@@ -236,10 +236,14 @@ class _ChannelDecoder:
         elif isinstance(record, Message):
             if record.channel_id in self.elsewhere:
                 return None
-            if record.channel_id not in self.channels and self.vehicles is not None and not self.vehicles(None):
+            if record.channel_id not in self.channels and not self._mine(None):
                 return None  # an undeclared channel: counted by the reader of monitor-wide records
             return self._message(record)
         return None
+
+    def _mine(self, vehicle: Optional[str]) -> bool:
+        """Whether this reader decodes the vehicle's records (None: monitor-wide and unknown channels)."""
+        return self.vehicles is None or self.vehicles(vehicle)
 
     def _known(self, channel: Channel) -> Optional[tuple[Optional[str], str, str]]:
         schema = self.schemas.get(channel.schema_id)
