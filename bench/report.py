@@ -20,10 +20,12 @@ def pct(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
 
 
-def timed(fn, repeats: int) -> list[float]:
-    """Wall-clock milliseconds of `repeats` calls."""
+def timed(fn, repeats: int, between=None) -> list[float]:
+    """Wall-clock milliseconds of `repeats` calls; `between`, if given, runs untimed before each."""
     out = []
     for _ in range(repeats):
+        if between is not None:
+            between()
         start = time.perf_counter()
         fn()
         out.append((time.perf_counter() - start) * 1000)

@@ -219,7 +219,7 @@ def _worker_main(conn, settings: WorkerSettings) -> None:
         conn.send(("failed", f"{type(exc).__name__}: {exc}"))
         return
     defer_full_collections()
-    idle = IdleCollector()
+    idle = IdleWork(judge.reasoner)
     conn.send(("ready", os.getpid()))
     backlog: deque[Job] = deque()
     stopping = False
@@ -233,11 +233,11 @@ def _worker_main(conn, settings: WorkerSettings) -> None:
             return
 
 
-def _take_waiting(conn, backlog: deque, idle: "IdleCollector") -> bool:
+def _take_waiting(conn, backlog: deque, idle: "IdleWork") -> bool:
     """Move every job waiting on the pipe to the backlog, waiting for one if there is none; True once told to stop."""
     while not backlog or conn.poll(0):
         if not backlog and not conn.poll(0):
-            idle.collect()
+            idle.run()
         job = conn.recv()
         if job is _STOP:
             return True
@@ -253,20 +253,25 @@ def defer_full_collections() -> None:
     200-object decisions from ~150 ms to ~40 (measured). Full collections still
     rescan every scene in the vehicles' windows (tens of milliseconds with
     50-object scenes, about 75 ms after a few thousand 200-object decisions,
-    finding nothing to free): automatic ones are off, and IdleCollector runs
+    finding nothing to free): automatic ones are off, and IdleWork runs
     them while the worker waits for work, never in the middle of a batch.
     """
     gc.freeze()
     gc.set_threshold(*gc.get_threshold()[:2], NO_AUTOMATIC_FULL_COLLECTION)
 
 
-class IdleCollector:
-    """A full garbage collection when the worker has nothing to do, at most every FULL_COLLECTION_S."""
+class IdleWork:
+    """What a worker does while it waits: ready the next frames' Controls, and a full collection at most every FULL_COLLECTION_S.
 
-    def __init__(self):
+    Both are work a decision would otherwise pay for on its way to the verdict.
+    """
+
+    def __init__(self, reasoner: Reasoner):
+        self.reasoner = reasoner
         self.last = time.monotonic()
 
-    def collect(self) -> None:
+    def run(self) -> None:
+        self.reasoner.prepare()
         now = time.monotonic()
         if now - self.last >= FULL_COLLECTION_S:
             gc.collect()

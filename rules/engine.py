@@ -22,6 +22,7 @@ from clingo import ast
 
 from .batch import BatchAnswers, FrameAnswers, FrameTagger
 from .catalog import Catalog, load_catalog
+from .controls import PreparedControls
 from .facts import Params, scene_facts
 from .justify import AnswerSet, Prover, rule_ids, show_statements
 from .render import render_text
@@ -66,9 +67,10 @@ class SolvedFrame:
 
     READS = ("permitted", "recommended")  # the constants every verdict reads
 
-    def __init__(self, answer: AnswerSet, proposed: Action):
+    def __init__(self, answer: AnswerSet, proposed: Action, owns: Optional[clingo.Control] = None):
         self.answer = answer
         self.proposed = proposed
+        self.owns = owns  # the Control that only this frame uses, to retire once its verdict is made
         permitted = answer.constants("permitted")
         self.permitted = [a for a in Action if a.value in permitted]
         recommended = answer.constants("recommended")
@@ -106,24 +108,14 @@ class Reasoner:
         self.providers = list(providers) if providers is not None else _default_providers()
         self._solve_hook = solve_hook
         self._tagger = FrameTagger(self.catalog, shared={"param"})
+        self._controls = PreparedControls(self.catalog.program_for, self._param_facts + self._show_reads)
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
         proposed = Action(proposed)
-        text = self.frame_facts(scene, proposed, history)
-        ctl = clingo.Control(["--warn=none"])
-        with ast.ProgramBuilder(ctl) as builder:
-            for statement in self.catalog.program_for(self._param_names.union(_FACT_NAME.findall(text))):
-                builder.add(statement)
-        ctl.add("base", [], self._param_facts + text + self._show_reads)
-        ctl.ground([("base", [])])
-        if self._solve_hook is not None:
-            self._solve_hook()
-        return SolvedFrame(AnswerSet(ctl, SolvedFrame.READS), proposed)
+        return self._solve_text(self.frame_facts(scene, proposed, history), proposed)
 
     def solve_many(self, frames: Sequence[tuple[Scene, Action, Sequence[Scene]]]) -> list[SolvedFrame]:
         """Solve (scene, proposed, history) frames in one grounding; each answer is the frame's solo answer."""
-        if len(frames) == 1:
-            return [self.solve(*frames[0])]
         return self.solve_facts(
             [self.frame_facts(scene, Action(proposed), history) for scene, proposed, history in frames],
             [Action(proposed) for _, proposed, _ in frames],
@@ -131,6 +123,8 @@ class Reasoner:
 
     def solve_facts(self, texts: Sequence[str], proposed: Sequence[Action]) -> list[SolvedFrame]:
         """Solve frames given by their `frame_facts` in one grounding (for callers that keyed frames on them)."""
+        if len(texts) == 1:
+            return [self._solve_text(texts[0], Action(proposed[0]))]
         names: set[str] = set()
         for text in texts:
             names.update(_FACT_NAME.findall(text))
@@ -145,6 +139,14 @@ class Reasoner:
             self._solve_hook()
         batch = BatchAnswers(ctl, self._tagger.static, SolvedFrame.READS)
         return [SolvedFrame(FrameAnswers(batch, k), Action(action)) for k, action in enumerate(proposed)]
+
+    def _solve_text(self, text: str, proposed: Action) -> SolvedFrame:
+        ctl = self._controls.take(self._param_names.union(_FACT_NAME.findall(text)))
+        ctl.add("base", [], text)
+        ctl.ground([("base", [])])
+        if self._solve_hook is not None:
+            self._solve_hook()
+        return SolvedFrame(AnswerSet(ctl, SolvedFrame.READS), proposed, owns=ctl)
 
     def frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
         """The frame's own facts: the scene, the proposal, and what the providers read from the history.
@@ -163,7 +165,11 @@ class Reasoner:
             solved = self.solve_many([(r.scene, Action(r.proposed), r.history) for r in requests])
         else:
             solved = self.solve_facts(facts, [Action(r.proposed) for r in requests])
-        return [self._verdict(r, s, start) for r, s in zip(requests, solved)]
+        verdicts = [self._verdict(r, s, start) for r, s in zip(requests, solved)]
+        for s in solved:
+            if s.owns is not None:
+                self._controls.retire(s.owns)
+        return verdicts
 
     def decide(
         self,
@@ -174,9 +180,11 @@ class Reasoner:
         shadow: bool = False,
         vehicle: str = "ego",
     ) -> Verdict:
-        start = time.perf_counter()
-        request = Request(scene, Action(proposed), history, explain, shadow, vehicle)
-        return self._verdict(request, self.solve(scene, request.proposed, history), start)
+        return self.decide_many([Request(scene, Action(proposed), history, explain, shadow, vehicle)])[0]
+
+    def prepare(self) -> int:
+        """Use idle time: ready the Controls the next frames will likely need (controls.py); returns how many."""
+        return self._controls.prepare()
 
     def _verdict(self, request: Request, solved: SolvedFrame, start: float) -> Verdict:
         scene, proposed, explain, shadow = request.scene, solved.proposed, request.explain, request.shadow

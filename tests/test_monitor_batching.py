@@ -163,13 +163,13 @@ def test_an_idle_worker_runs_a_full_collection_at_most_every_few_seconds(monkeyp
 
     clock = [1000.0]
     monkeypatch.setattr(decision_pool.time, "monotonic", lambda: clock[0])
-    idle = decision_pool.IdleCollector()
+    idle = decision_pool.IdleWork(Reasoner())
     gc.callbacks.append(count)
     try:
-        idle.collect()  # just started: too soon
+        idle.run()  # just started: too soon
         clock[0] += decision_pool.FULL_COLLECTION_S
-        idle.collect()
-        idle.collect()  # just collected: too soon again
+        idle.run()
+        idle.run()  # just collected: too soon again
     finally:
         gc.callbacks.remove(count)
     assert len(full) == 1

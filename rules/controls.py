@@ -1,0 +1,67 @@
+"""Clingo Controls made ready in idle time, so that a frame only pays for its own facts.
+
+A frame's Control needs the catalog slice for the predicates its facts use.
+Making one (a new Control, about 200 statements added), clingo's rewriting of
+those statements, and freeing the Control after the verdict are about 40 % of
+a small frame's decision, and none of it depends on the facts themselves. A
+sidecar worker spends most of its time waiting for the next proposal; `prepare`
+spends that time making Controls for the slices recent frames used and freeing
+the spent ones. A frame whose slice has no ready Control gets a fresh one: the
+answer is the same either way.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from typing import Callable, Iterable
+
+import clingo
+from clingo import ast
+
+REWRITE = "rewrite"  # an empty program part: grounding it rewrites the statements added so far, facts unseen
+RECENT_SLICES = 16  # slices kept ready: a vehicle's frames mostly reuse one; KITTI's 24 frames use 9
+SPENT_HELD = 8  # used Controls held for `prepare` to free; past this, freed at once
+
+
+class PreparedControls:
+    def __init__(self, program_for: Callable[[frozenset[str]], Iterable[ast.AST]], constant: str = ""):
+        """`program_for`: the statements a slice needs; `constant`: text every frame's program has as well."""
+        self._program_for = program_for
+        self._constant = constant
+        self._recent: OrderedDict[frozenset[str], None] = OrderedDict()
+        self._ready: dict[frozenset[str], clingo.Control] = {}
+        self._spent: list[clingo.Control] = []
+
+    def take(self, names: frozenset[str]) -> clingo.Control:
+        """A Control holding the slice for these predicate names: the ready one if there is one."""
+        self._recent[names] = None
+        self._recent.move_to_end(names)
+        while len(self._recent) > RECENT_SLICES:
+            self._ready.pop(self._recent.popitem(last=False)[0], None)
+        ready = self._ready.pop(names, None)
+        return ready if ready is not None else self._build(names)
+
+    def retire(self, control: clingo.Control) -> None:
+        """Hand back a used Control: freed by the next `prepare`, or now when too many wait."""
+        if len(self._spent) < SPENT_HELD:
+            self._spent.append(control)
+
+    def prepare(self) -> int:
+        """Free the spent Controls and make one for each recent slice that has none; returns how many were made."""
+        self._spent.clear()
+        missing = [names for names in self._recent if names not in self._ready]
+        for names in missing:
+            control = self._build(names)
+            # The frame's facts go to "base" afterwards and are grounded with the rules there, as in a fresh
+            # Control; this only does the rewriting ahead (measured: 0.3 ms less per KITTI frame, the same atoms).
+            control.ground([(REWRITE, [])])
+            self._ready[names] = control
+        return len(missing)
+
+    def _build(self, names: frozenset[str]) -> clingo.Control:
+        control = clingo.Control(["--warn=none"])
+        with ast.ProgramBuilder(control) as builder:
+            for statement in self._program_for(names):
+                builder.add(statement)
+        control.add("base", [], self._constant)
+        return control

@@ -1,0 +1,58 @@
+import weakref
+
+from discern.adapters.avcsr import read_dir
+from discern.rules import controls
+from discern.rules.controls import PreparedControls
+from discern.rules.engine import Reasoner
+from tests.test_batch import _comparable, _frames
+
+
+def test_verdicts_on_controls_readied_in_idle_time_equal_verdicts_on_fresh_ones(avcsr_dir):
+    frames = [(f.scene, f.expected, ()) for f in read_dir(avcsr_dir)] + _frames(7, 24)
+    fresh, warm = Reasoner(), Reasoner()
+    for scene, action, history in frames:
+        warm.decide(scene, action, history)
+    warm.prepare()
+    for i, (scene, action, history) in enumerate(frames):
+        explain = i % 2 == 0
+        verdict = warm.decide(scene, action, history, explain=explain)
+        assert warm.prepare() == 1  # the frame took its slice's ready Control, so idle time makes it anew
+        assert _comparable(verdict) == _comparable(fresh.decide(scene, action, history, explain=explain))
+
+
+def test_idle_time_readies_each_recent_slice_once(avcsr_dir):
+    frame = read_dir(avcsr_dir)[0]
+    reasoner = Reasoner()
+    reasoner.decide(frame.scene, frame.expected)
+    assert reasoner.prepare() == 1
+    assert reasoner.prepare() == 0
+
+
+def test_a_frame_takes_the_control_readied_for_its_slice_instead_of_making_one():
+    made = []
+    prepared = PreparedControls(lambda names: made.append(names) or [])
+    prepared.take(frozenset({"p"}))
+    prepared.prepare()
+    assert len(made) == 2
+    prepared.take(frozenset({"p"}))
+    assert len(made) == 2
+
+
+def test_only_the_most_recent_slices_are_kept_ready():
+    prepared = PreparedControls(lambda names: [])
+    for i in range(controls.RECENT_SLICES + 5):
+        prepared.take(frozenset({f"p{i}"}))
+    assert prepared.prepare() == controls.RECENT_SLICES
+
+
+def test_a_retired_control_is_freed_by_the_next_prepare_or_at_once_past_the_limit():
+    prepared = PreparedControls(lambda names: [])
+    freed = []
+    for _ in range(controls.SPENT_HELD + 1):
+        control = prepared.take(frozenset({"p"}))
+        freed.append(weakref.ref(control))
+        prepared.retire(control)
+        del control
+    assert [ref() is None for ref in freed] == [False] * controls.SPENT_HELD + [True]
+    prepared.prepare()
+    assert all(ref() is None for ref in freed)
