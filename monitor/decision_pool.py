@@ -13,7 +13,8 @@ on its pipe and grounds as many as can still meet their deadlines in one clingo
 Control (`Reasoner.decide_many`). Most of a frame's cost is paid per rule, not
 per fact, so a batch pays it once (8 small frames: about 3 frames' time); under
 load the backlog is decided instead of timing out. When idle a batch is one
-proposal, so batching adds no latency.
+proposal, so batching adds no latency; and while it waits, a worker readies
+the clingo Controls its next proposals will need (rules/controls.py).
 """
 
 from __future__ import annotations
@@ -237,7 +238,7 @@ def _take_waiting(conn, backlog: deque, idle: "IdleWork") -> bool:
     """Move every job waiting on the pipe to the backlog, waiting for one if there is none; True once told to stop."""
     while not backlog or conn.poll(0):
         if not backlog and not conn.poll(0):
-            idle.run()
+            idle.run(busy=lambda: conn.poll(0))
         job = conn.recv()
         if job is _STOP:
             return True
@@ -261,19 +262,21 @@ def defer_full_collections() -> None:
 
 
 class IdleWork:
-    """What a worker does while it waits: ready the next frames' Controls, and a full collection at most every FULL_COLLECTION_S.
+    """What a worker does while it waits: work a decision would otherwise pay for on its way to the verdict.
 
-    Both are work a decision would otherwise pay for on its way to the verdict.
+    That is readying the next frames' clingo Controls, one at a time until a proposal comes, and a full
+    garbage collection at most every FULL_COLLECTION_S.
     """
 
     def __init__(self, reasoner: Reasoner):
         self.reasoner = reasoner
         self.last = time.monotonic()
 
-    def run(self) -> None:
-        self.reasoner.prepare()
+    def run(self, busy: Callable[[], bool] = lambda: False) -> None:
+        while not busy() and self.reasoner.prepare(limit=1):
+            pass
         now = time.monotonic()
-        if now - self.last >= FULL_COLLECTION_S:
+        if now - self.last >= FULL_COLLECTION_S and not busy():
             gc.collect()
             self.last = time.monotonic()
 

@@ -13,7 +13,7 @@ answer is the same either way.
 from __future__ import annotations
 
 from collections import OrderedDict
-from typing import Callable, Iterable
+from typing import Callable, Iterable, Optional
 
 import clingo
 from clingo import ast
@@ -46,10 +46,13 @@ class PreparedControls:
         if len(self._spent) < SPENT_HELD:
             self._spent.append(control)
 
-    def prepare(self) -> int:
-        """Free the spent Controls and make one for each recent slice that has none; returns how many were made."""
+    def prepare(self, limit: Optional[int] = None) -> int:
+        """Free the spent Controls and make up to `limit` missing ones, the most recent slice first; returns how many.
+
+        A caller that must stay responsive makes one at a time and checks for work in between.
+        """
         self._spent.clear()
-        missing = [names for names in self._recent if names not in self._ready]
+        missing = [names for names in reversed(self._recent) if names not in self._ready][:limit]
         for names in missing:
             control = self._build(names)
             # The frame's facts go to "base" afterwards and are grounded with the rules there, as in a fresh

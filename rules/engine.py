@@ -182,9 +182,9 @@ class Reasoner:
     ) -> Verdict:
         return self.decide_many([Request(scene, Action(proposed), history, explain, shadow, vehicle)])[0]
 
-    def prepare(self) -> int:
-        """Use idle time: ready the Controls the next frames will likely need (controls.py); returns how many."""
-        return self._controls.prepare()
+    def prepare(self, limit: Optional[int] = None) -> int:
+        """Use idle time: ready up to `limit` Controls the next frames will likely need (controls.py); returns how many."""
+        return self._controls.prepare(limit)
 
     def _verdict(self, request: Request, solved: SolvedFrame, start: float) -> Verdict:
         scene, proposed, explain, shadow = request.scene, solved.proposed, request.explain, request.shadow

@@ -154,6 +154,22 @@ def test_the_batch_time_estimate_learns_a_fixed_part_and_a_part_per_proposal():
     assert estimate.predict(32) < 0.3 * 32 * estimate.predict(1)  # a batch costs far less than its frames alone
 
 
+def test_an_idle_worker_readies_controls_for_recent_frames_until_a_proposal_comes():
+    reasoner = Reasoner()
+    for seed, objects in ((1, 0), (2, 8)):  # two slices: with and without objects
+        reasoner.decide(highway_scene(seed, objects, seed=seed), "cruise")
+    made = []
+    prepare = reasoner.prepare
+    reasoner.prepare = lambda limit=None: made.append(prepare(limit)) or made[-1]
+    idle = decision_pool.IdleWork(reasoner)
+    idle.run(busy=lambda: True)
+    assert sum(made) == 0
+    idle.run(busy=iter([False, True]).__next__)  # one Control made, then a proposal is waiting
+    assert sum(made) == 1
+    idle.run()
+    assert sum(made) == 2
+
+
 def test_an_idle_worker_runs_a_full_collection_at_most_every_few_seconds(monkeypatch):
     full = []
 

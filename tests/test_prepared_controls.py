@@ -38,6 +38,18 @@ def test_a_frame_takes_the_control_readied_for_its_slice_instead_of_making_one()
     assert len(made) == 2
 
 
+def test_idle_time_readies_the_most_recent_slice_first():
+    made = []
+    prepared = PreparedControls(lambda names: made.append(names) or [])
+    older, newer = frozenset({"older"}), frozenset({"newer"})
+    prepared.take(older)
+    prepared.take(newer)
+    assert prepared.prepare(limit=1) == 1
+    assert made[-1] == newer
+    assert prepared.prepare() == 1
+    assert made[-1] == older
+
+
 def test_only_the_most_recent_slices_are_kept_ready():
     prepared = PreparedControls(lambda names: [])
     for i in range(controls.RECENT_SLICES + 5):
