@@ -104,11 +104,10 @@ class Reasoner:
         self.params = params
         self._param_facts = params.facts()
         self._param_names = frozenset(_FACT_NAME.findall(self._param_facts))
-        self._show_reads = show_statements(SolvedFrame.READS, 1)
         self.providers = list(providers) if providers is not None else _default_providers()
         self._solve_hook = solve_hook
         self._tagger = FrameTagger(self.catalog, shared={"param"})
-        self._controls = PreparedControls(self.catalog.program_for, self._param_facts + self._show_reads)
+        self._controls = PreparedControls(self.catalog.program_for, self._param_facts)
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
         proposed = Action(proposed)
@@ -146,7 +145,10 @@ class Reasoner:
         ctl.ground([("base", [])])
         if self._solve_hook is not None:
             self._solve_hook()
-        return SolvedFrame(AnswerSet(ctl, SolvedFrame.READS), proposed, owns=ctl)
+        # A single frame's few permitted and recommended atoms are read one by one: a solve call to read them
+        # shown would first prepare the whole ground program (measured: 0.27 against 0.17 ms on KITTI frames,
+        # 0.67 against 0.13 ms at 200 objects). A batch reads them shown, all frames in one solve.
+        return SolvedFrame(AnswerSet(ctl), proposed, owns=ctl)
 
     def frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
         """The frame's own facts: the scene, the proposal, and what the providers read from the history.

@@ -10,6 +10,7 @@ the body literal that fails ("there is no evidence that ...").
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 from typing import Iterable, Iterator, Optional
@@ -111,6 +112,11 @@ class AnswerSet:
             return self._shown_constants[name]
         return {sym.arguments[0].name for sym in self.of(name, 1)}
 
+    def texts(self, name: str, arity: int) -> list[str]:
+        """The text of each atom of a predicate, in the order of `of`."""
+        self.of(name, arity)
+        return self._texts[(name, arity)]
+
     def with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
         """Atoms of a predicate whose first argument is given: the prover's common lookup."""
         index = self._by_first.get((name, arity))
@@ -140,6 +146,12 @@ class AnswerSet:
 # --- English ---------------------------------------------------------------
 
 
+@functools.lru_cache(maxsize=None)
+def _template_parts(template: str) -> tuple[str, ...]:
+    """A template cut at its placeholders, once: text, then (parameter, format, text) per placeholder."""
+    return tuple(_PLACEHOLDER.split(template))
+
+
 def _words(sym: Symbol) -> str:
     if sym.type == SymbolType.Number:
         return str(sym.number)
@@ -166,7 +178,7 @@ class Phrasebook:
     def __init__(self, catalog: Catalog, answer: AnswerSet):
         self.catalog = catalog
         self._answer = answer
-        self._class_cache: Optional[dict[Symbol, str]] = None
+        self._class_cache: Optional[dict[str, str]] = None  # object id (text) -> its class
         self._formats: dict[int, dict[str, str]] = {}
 
     def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str) -> str:
@@ -187,8 +199,12 @@ class Phrasebook:
             return _ordinal(n)
         if fmt == "obj":
             if self._class_cache is None:
-                self._class_cache = {a[0]: a[1].name for a in map(self._answer.arguments, self._answer.of("object", 2))}
-            cls = self._class_cache.get(sym)
+                # cut from the atoms' texts (`object(44,truck)`): reading each atom's structure costs several C calls
+                self._class_cache = {}
+                for text in self._answer.texts("object", 2):
+                    first = first_argument(text)
+                    self._class_cache[first] = text[len("object(") + len(first) + 1:-1]
+            cls = self._class_cache.get(str(n))
             return f"{cls.replace('_', ' ')} {n}" if cls else f"object {n}"
         return str(n)
 
@@ -202,7 +218,12 @@ class Phrasebook:
             inner = ", ".join("_" if a is None else str(a) for a in args)
             return f"{name}({inner})" if args else name
         values = dict(zip(template.params, args))
-        return _PLACEHOLDER.sub(lambda m: self.value(values.get(m.group(1)), m.group(2), m.group(1)), template.template)
+        parts = _template_parts(template.template)
+        words = [parts[0]]
+        for i in range(1, len(parts), 3):  # (placeholder's parameter, its format, the text after it)
+            words.append(self.value(values.get(parts[i]), parts[i + 1], parts[i]))
+            words.append(parts[i + 2])
+        return "".join(words)
 
     def atom(self, sym: Symbol) -> str:
         _, name, args = self._answer.shape(sym)
