@@ -497,14 +497,12 @@ def _next_ready(body: list[Literal], env: Env) -> int:
 def rule_ids(node: JustificationNode, skip_prefixes: tuple[str, ...] = ("def.", "ent.")) -> list[str]:
     """Decision-level rules used in a proof, first use first; rules that did not fire are not counted."""
     seen: list[str] = []
-
-    def walk(n: JustificationNode) -> None:
+    pending = [node]  # depth first, children in order; no recursive closure, which would be a reference cycle
+    while pending:
+        n = pending.pop()
         if n.kind in ("negation", "blocked", "absent"):
-            return
+            continue
         if n.rule and not n.rule.startswith(skip_prefixes) and n.rule not in seen:
             seen.append(n.rule)
-        for child in n.children:
-            walk(child)
-
-    walk(node)
+        pending.extend(reversed(n.children))
     return seen

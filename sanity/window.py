@@ -14,7 +14,7 @@ in the rules, where they are justified.
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
+import weakref
 from dataclasses import dataclass
 from typing import Iterable, Optional, Sequence
 
@@ -60,9 +60,6 @@ class WindowConfig:
             raise ValueError(f"window horizon_s must be > 0, got {self.horizon_s}")
 
 
-SUMMARIES_KEPT = 4096  # frames whose summary is kept: every frame is read again by the next windows
-
-
 @dataclass(frozen=True)
 class _Summary:
     """What the window facts read of one frame, worked out once: a frame sits in many later windows."""
@@ -100,7 +97,8 @@ class WindowProvider:
 
     def __init__(self, config: WindowConfig = WindowConfig()):
         self.config = config
-        self._summaries: OrderedDict[int, tuple[Scene, _Summary]] = OrderedDict()
+        # by id() of a live scene: a frame is read again by every later window it sits in
+        self._summaries: dict[int, _Summary] = {}
 
     def facts(self, scene: Scene, history: Sequence[Scene]) -> str:
         out: list[str] = []
@@ -123,13 +121,16 @@ class WindowProvider:
         return "".join(out)
 
     def _summary(self, scene: Scene) -> _Summary:
-        hit = self._summaries.get(id(scene))
-        if hit is not None and hit[0] is scene:  # the scene is kept with it, so its id() is not reused
-            return hit[1]
-        summary = _Summary.of(scene)
-        self._summaries[id(scene)] = (scene, summary)
-        if len(self._summaries) > SUMMARIES_KEPT:
-            self._summaries.popitem(last=False)
+        """The scene's summary, kept exactly as long as the scene lives.
+
+        Holding the scenes themselves (a fixed number of recent ones) kept thousands of frames alive past
+        every window: memory, and full garbage collections of hundreds of milliseconds in a busy worker.
+        The entry goes when the scene does, before its id() can be reused.
+        """
+        summary = self._summaries.get(id(scene))
+        if summary is None:
+            summary = self._summaries[id(scene)] = _Summary.of(scene)
+            weakref.finalize(scene, self._summaries.pop, id(scene), None)
         return summary
 
     def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:

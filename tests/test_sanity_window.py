@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import weakref
+
 import pytest
 
 from discern.sanity import WindowConfig, WindowProvider, default_providers
@@ -41,6 +43,17 @@ def test_window_caps_the_number_of_frames():
     provider = WindowProvider(WindowConfig(max_frames=3))
     frames = [at(0.0) for _ in range(10)]
     assert len(provider.window(frames[-1], frames[:-1])) == 3
+
+
+def test_the_provider_keeps_no_frame_alive_once_its_callers_let_it_go():
+    provider = WindowProvider()
+    frames = [at(t, objects=[obj(1, "car", 0, 20)]) for t in (0.0, 0.1, 0.2)]
+    before = facts(frames, provider)
+    gone = [weakref.ref(frame) for frame in frames]
+    del frames
+    assert before and all(ref() is None for ref in gone)
+    again = [at(t, objects=[obj(1, "car", 0, 20)]) for t in (0.0, 0.1, 0.2)]
+    assert facts(again, provider) == before  # a new frame at a freed frame's address gets its own summary
 
 
 def test_window_config_rejects_nonsense():
