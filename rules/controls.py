@@ -2,8 +2,8 @@
 
 A frame's Control needs the catalog slice for the predicates its facts use.
 Making one (a new Control, about 200 statements added), clingo's rewriting of
-those statements, and freeing the Control after the verdict are about 40 % of
-a small frame's decision, and none of it depends on the facts themselves. A
+those statements, and freeing the Control after the verdict are a third or more
+of a small frame's decision, and none of it depends on the facts themselves. A
 sidecar worker spends most of its time waiting for the next proposal; `prepare`
 spends that time making Controls for the slices recent frames used and freeing
 the spent ones. A frame whose slice has no ready Control gets a fresh one: the
