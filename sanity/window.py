@@ -130,7 +130,7 @@ class WindowProvider:
         summary = self._summaries.get(id(scene))
         if summary is None:
             summary = self._summaries[id(scene)] = _Summary.of(scene)
-            weakref.finalize(scene, self._summaries.pop, id(scene), None)
+            weakref.finalize(scene, self._summaries.pop, id(scene), None).atexit = False  # nothing to do at exit
         return summary
 
     def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:
