@@ -274,10 +274,15 @@ class IdleWork:
     def __init__(self, reasoner: Reasoner):
         self.reasoner = reasoner
         self.last = time.monotonic()
+        self.preparing = True  # until readying a Control fails: decisions then make their own, as they can
 
     def run(self, busy: Callable[[], bool] = lambda: False) -> None:
-        while not busy() and self.reasoner.prepare(limit=1):
-            pass
+        try:
+            while self.preparing and not busy() and self.reasoner.prepare(limit=1):
+                pass
+        except Exception:
+            log.exception("readying clingo Controls in idle time failed: decisions make their own from now on")
+            self.preparing = False
         now = time.monotonic()
         if now - self.last >= FULL_COLLECTION_S and not busy():
             gc.collect()

@@ -189,6 +189,24 @@ def test_an_idle_worker_readies_controls_for_recent_frames_until_a_proposal_come
     assert sum(made) == 2
 
 
+def test_a_worker_whose_idle_work_fails_stops_it_and_still_decides(caplog):
+    reasoner = Reasoner()
+    scene = highway_scene(1, 8, seed=3)
+    reasoner.decide(scene, "cruise")
+    calls = []
+
+    def broken(limit=None):
+        calls.append(limit)
+        raise RuntimeError("no memory for a Control")
+
+    reasoner.prepare = broken
+    idle = decision_pool.IdleWork(reasoner)
+    idle.run()
+    idle.run()
+    assert len(calls) == 1 and "idle time failed" in caplog.text
+    assert reasoner.decide(scene, "cruise").decision.value == "approve"
+
+
 def test_an_idle_worker_runs_a_full_collection_at_most_once_an_interval(monkeypatch):
     full = []
 
