@@ -31,6 +31,7 @@ class PreparedControls:
         self._recent: OrderedDict[frozenset[str], None] = OrderedDict()
         self._ready: dict[frozenset[str], clingo.Control] = {}
         self._spent: list[clingo.Control] = []
+        self._idle_aware = False  # whether anyone calls `prepare`: until then a used Control is freed at once
 
     def take(self, names: frozenset[str]) -> clingo.Control:
         """A Control holding the slice for these predicate names: the ready one if there is one."""
@@ -42,8 +43,8 @@ class PreparedControls:
         return ready if ready is not None else self._build(names)
 
     def retire(self, control: clingo.Control) -> None:
-        """Hand back a used Control: freed by the next `prepare`, or now when too many wait."""
-        if len(self._spent) < SPENT_HELD:
+        """Hand back a used Control: freed by the next `prepare`, or now when too many wait or none will come."""
+        if self._idle_aware and len(self._spent) < SPENT_HELD:
             self._spent.append(control)
 
     def prepare(self, limit: Optional[int] = None) -> int:
@@ -51,6 +52,7 @@ class PreparedControls:
 
         A caller that must stay responsive makes one at a time and checks for work in between.
         """
+        self._idle_aware = True
         self._spent.clear()
         missing = [names for names in reversed(self._recent) if names not in self._ready][:limit]
         for names in missing:

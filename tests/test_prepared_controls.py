@@ -57,8 +57,18 @@ def test_only_the_most_recent_slices_are_kept_ready():
     assert prepared.prepare() == controls.RECENT_SLICES
 
 
+def test_a_retired_control_is_freed_at_once_where_nothing_prepares_controls():
+    prepared = PreparedControls(lambda names: [])
+    control = prepared.take(frozenset({"p"}))
+    freed = weakref.ref(control)
+    prepared.retire(control)
+    del control
+    assert freed() is None
+
+
 def test_a_retired_control_is_freed_by_the_next_prepare_or_at_once_past_the_limit():
     prepared = PreparedControls(lambda names: [])
+    prepared.prepare()  # a caller with idle time
     freed = []
     for _ in range(controls.SPENT_HELD + 1):
         control = prepared.take(frozenset({"p"}))
