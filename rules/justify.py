@@ -74,19 +74,16 @@ class AnswerSet:
 
     The catalog is stratified (checked when it loads), so grounding alone
     derives every true atom as a fact: no solving, and no copying thousands of
-    atoms into Python unless a justification asks for them. The constants of
-    the predicates `shown` (given `#show` statements) are read from one solve.
+    atoms into Python unless a justification asks for them.
     """
 
-    def __init__(self, control: Control, shown: Iterable[str] = ()):
+    def __init__(self, control: Control):
         self._control = control  # owns the atoms: they must not outlive it
         self._atoms = control.symbolic_atoms
         self._by_sig: dict[tuple[str, int], list[Symbol]] = {}
         self._texts: dict[tuple[str, int], list[str]] = {}  # of each atom of _by_sig, in the same order
         self._by_first: dict[tuple[str, int], dict[str, list[Symbol]]] = {}
         self._shapes: dict[Symbol, Shape] = {}
-        self._shown = frozenset(shown)
-        self._shown_constants: Optional[dict[str, set[str]]] = None
 
     def holds(self, sym: Symbol) -> bool:
         atom = self._atoms[sym]
@@ -104,12 +101,6 @@ class AnswerSet:
 
     def constants(self, name: str) -> set[str]:
         """The constants c with name(c) true: the verdict's permitted and recommended actions."""
-        if name in self._shown:
-            if self._shown_constants is None:
-                self._shown_constants = {shown: set() for shown in self._shown}
-                for found, argument in shown_atoms(self._control, self._shown):
-                    self._shown_constants[found].add(argument)
-            return self._shown_constants[name]
         return {sym.arguments[0].name for sym in self.of(name, 1)}
 
     def texts(self, name: str, arity: int) -> list[str]:
