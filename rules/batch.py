@@ -7,7 +7,9 @@ its first argument (`ego_speed(3,500)`), rules carry a frame variable through
 their bodies, and what depends on no frame (the class hierarchy, ranks,
 parameters) is grounded once and shared. Frames cannot see each other's
 atoms, so each frame's answer set is exactly its own solo answer set; the
-prover reads it through `FrameAnswers` with the frame argument stripped.
+prover reads it through `FrameAnswers` with the frame argument stripped. The
+frames' facts reach clingo as one term per predicate (`BatchFacts`), not as
+program text to parse.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from __future__ import annotations
 import re
 from typing import Iterable
 
-from clingo import Control, Function, Number, Symbol, ast
+from clingo import Control, Function, Number, Symbol, ast, parse_term
 
 from .catalog import Catalog
 from .justify import AnswerSet, shown_atoms
@@ -28,9 +30,11 @@ _LOC = ast.Location(ast.Position("<batch>", 1, 1), ast.Position("<batch>", 1, 1)
 # A fact's name starts the text or follows the '.' that ends the previous fact;
 # quoted strings are matched whole first, so nothing inside them is touched.
 _FACT_START = re.compile(r'"(?:[^"\\]|\\.)*"|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)([(.])')
-# Text where every '.' ends a fact and every fact starts with its name: none of quotes, comments,
-# whitespace, intervals, classical negation. Such text (all the generated facts) is split on '.'.
-_NOT_PLAIN = re.compile(r'["%\s]|\.\.|(?:^|\.)-')
+FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")  # the predicate names of fact text
+# Plain fact text: a run of `name.` or `name(a,b,...).` whose arguments are numbers and constants, which
+# all the generated facts are. It is split on '.' and each fact's arguments counted by its commas; anything
+# else (strings, comments, whitespace, nested terms, intervals, pools, classical negation, rules) is parsed.
+_PLAIN = re.compile(r"(?:[a-z_][A-Za-z0-9_]*(?:\([A-Za-z0-9_-]+(?:,[A-Za-z0-9_-]+)*\))?\.)+")
 
 
 def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset[str]:
@@ -63,31 +67,49 @@ class FrameTagger:
         """The catalog statements given (a slice of the catalog), tagged."""
         return [self._tagged[id(stm)] for stm in statements]
 
-    def facts(self, text: str, frame: int) -> str:
-        """A frame's facts with its number first in every atom, and its discern_frame fact."""
-        if text.endswith(".") and _NOT_PLAIN.search(text) is None:
-            return f"{FRAME_PREDICATE}({frame})." + self._split_facts(text, frame)
+    def batch(self, texts: Iterable[str]) -> "BatchFacts":
+        """The frames' facts, frame k's with k first in every atom, and the discern_frame fact of each."""
+        facts = BatchFacts()
+        frames = facts.groups[(FRAME_PREDICATE, 1)] = []
+        for frame, text in enumerate(texts):
+            frames.append(str(frame))
+            if _PLAIN.fullmatch(text) is not None:
+                self._group_facts(text, frame, facts)
+            else:
+                facts.text.append(self.tag_text(text, frame))
+                facts.names.update(FACT_NAME.findall(text))
+        for name, _ in facts.groups:
+            self._check(name)
+        facts.names.update(name for name, _ in facts.groups)
+        facts.names.discard(FRAME_PREDICATE)
+        return facts
+
+    def tag_text(self, text: str, frame: int) -> str:
+        """Any fact text with the frame's number first in every atom, for clingo to parse."""
 
         def tag(match: re.Match) -> str:
             name = match.group(1)
             if name is None:
                 return match.group(0)
-            if name in self.static:
-                raise ValueError(f"frame fact {name} is defined by the catalog and cannot be given per frame")
+            self._check(name)
             return f"{name}({frame}," if match.group(2) == "(" else f"{name}({frame})."
 
-        return f"{FRAME_PREDICATE}({frame})." + _FACT_START.sub(tag, text)
+        return _FACT_START.sub(tag, text)
 
-    def _split_facts(self, text: str, frame: int) -> str:
-        """Plain fact text tagged by splitting on '.': a quarter of the regular expression's time."""
-        nullary, first = f"({frame}).", f"({frame},"
-        out = []
+    def _group_facts(self, text: str, frame: int, facts: "BatchFacts") -> None:
+        """Plain fact text split on '.' into the batch's groups: a fraction of the regular expression's time."""
+        first, number, groups = f"({frame},", str(frame), facts.groups
         for fact in text[:-1].split("."):
             name, paren, rest = fact.partition("(")
-            if name in self.static:
-                raise ValueError(f"frame fact {name} is defined by the catalog and cannot be given per frame")
-            out.append(f"{name}{first}{rest}." if paren else name + nullary)
-        return "".join(out)
+            signature = (name, rest.count(",") + 2) if paren else (name, 1)
+            items = groups.get(signature)
+            if items is None:
+                items = groups[signature] = []
+            items.append(first + rest if paren else number)
+
+    def _check(self, name: str) -> None:
+        if name in self.static:
+            raise ValueError(f"frame fact {name} is defined by the catalog and cannot be given per frame")
 
     def _rule(self, stm: ast.AST) -> ast.AST:
         if _predicate(stm.head.atom) in self.static:
@@ -113,6 +135,44 @@ class FrameTagger:
         if term.ast_type == ast.ASTType.Function:
             return term.update(arguments=[self._var, *term.arguments])
         return ast.Function(term.location, term.symbol.name, [self._var], 0)
+
+
+class BatchFacts:
+    """A batch's frame facts as clingo gets them: plain facts as one term per predicate, other text as text.
+
+    clingo parses a fact statement in about 3.5 us. Given as the elements of
+    one term per predicate (`clingo.parse_term`), each predicate's facts are
+    instantiated by one rule, `obj_pos(F,O,X,Y) :- (F,O,X,Y) = @discern_facts(3).`:
+    the same atoms, all facts, for a third of that (measured on highway frames
+    of 52 facts, a frame's facts and grounding: 0.38 ms as text, 0.29 as terms).
+    This object is the grounding's context, which clingo asks for the terms.
+    """
+
+    def __init__(self) -> None:
+        self.names: set[str] = set()  # the predicates the frames' facts use, for the catalog slice
+        self.groups: dict[tuple[str, int], list[str]] = {}  # (name, arity): each fact's arguments as "(a,b,...)"
+        self.text: list[str] = []  # facts that are not plain, tagged
+        self._terms: list[list[Symbol]] = []
+
+    def program(self) -> str:
+        """The input rule of each group, and the text; a group that is not a valid term goes as text for clingo
+        to report."""
+        rules, text = [], list(self.text)
+        for (name, arity), items in self.groups.items():
+            try:
+                terms = parse_term(f"({','.join(items)},)").arguments
+            except RuntimeError:
+                text.extend(f"{name}{item}." if arity > 1 else f"{name}({item})." for item in items)
+                continue
+            variables = ",".join(f"V{i}" for i in range(arity))
+            pattern = f"({variables})" if arity > 1 else variables
+            rules.append(f"{name}({variables}):-{pattern}=@discern_facts({len(self._terms)}).")
+            self._terms.append(terms)
+        return "".join(rules + text)
+
+    def discern_facts(self, index: Symbol) -> list[Symbol]:
+        """What `@discern_facts(i)` in the input rules stands for: the elements of group i's term."""
+        return self._terms[index.number]
 
 
 def _predicate(atom: ast.AST) -> str:

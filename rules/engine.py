@@ -9,7 +9,6 @@ per-frame cost.
 
 from __future__ import annotations
 
-import re
 import time
 from dataclasses import dataclass
 from importlib import resources
@@ -20,7 +19,7 @@ import clingo
 from clingo import Function
 from clingo import ast
 
-from .batch import BatchAnswers, FrameAnswers, FrameTagger
+from .batch import FACT_NAME, BatchAnswers, FrameAnswers, FrameTagger
 from .catalog import Catalog, load_catalog
 from .controls import PreparedControls
 from .facts import Params, scene_facts
@@ -28,8 +27,6 @@ from .justify import AnswerSet, Prover, rule_ids, show_statements
 from .render import render_text
 from .scene import Action, Scene
 from .verdict import Decision, Justification, JustificationNode, Verdict
-
-_FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")
 
 VETO_DEPTH = 4  # levels of a veto's proof when no explanation was asked for
 
@@ -103,7 +100,7 @@ class Reasoner:
         self.catalog = catalog if catalog is not None else load_catalog(extra_files=[jurisdiction_pack(jurisdiction)])
         self.params = params
         self._param_facts = params.facts()
-        self._param_names = frozenset(_FACT_NAME.findall(self._param_facts))
+        self._param_names = frozenset(FACT_NAME.findall(self._param_facts))
         self.providers = list(providers) if providers is not None else _default_providers()
         self._solve_hook = solve_hook
         self._tagger = FrameTagger(self.catalog, shared={"param"})
@@ -124,23 +121,20 @@ class Reasoner:
         """Solve frames given by their `frame_facts` in one grounding (for callers that keyed frames on them)."""
         if len(texts) == 1:
             return [self._solve_text(texts[0], Action(proposed[0]))]
-        names: set[str] = set()
-        for text in texts:
-            names.update(_FACT_NAME.findall(text))
+        facts = self._tagger.batch(texts)
         ctl = clingo.Control(["--warn=none"])
         with ast.ProgramBuilder(ctl) as builder:
-            for statement in self._tagger.program(self.catalog.program_for(self._param_names.union(names))):
+            for statement in self._tagger.program(self.catalog.program_for(self._param_names.union(facts.names))):
                 builder.add(statement)
-        facts = "".join(self._tagger.facts(t, k) for k, t in enumerate(texts))
-        ctl.add("base", [], self._param_facts + facts + show_statements(SolvedFrame.READS, 2))
-        ctl.ground([("base", [])])
+        ctl.add("base", [], self._param_facts + facts.program() + show_statements(SolvedFrame.READS, 2))
+        ctl.ground([("base", [])], context=facts)
         if self._solve_hook is not None:
             self._solve_hook()
         batch = BatchAnswers(ctl, self._tagger.static, SolvedFrame.READS)
         return [SolvedFrame(FrameAnswers(batch, k), Action(action)) for k, action in enumerate(proposed)]
 
     def _solve_text(self, text: str, proposed: Action) -> SolvedFrame:
-        ctl = self._controls.take(self._param_names.union(_FACT_NAME.findall(text)))
+        ctl = self._controls.take(self._param_names.union(FACT_NAME.findall(text)))
         ctl.add("base", [], text)
         ctl.ground([("base", [])])
         if self._solve_hook is not None:

@@ -66,21 +66,36 @@ def test_class_hierarchy_and_parameters_are_shared_but_scene_derived_predicates_
 def test_frame_tagging_leaves_quoted_strings_alone(reasoner):
     tagger = FrameTagger(reasoner.catalog)
     text = 'ego_path("a.b(c"). stop_line.obj_path(3,"x\\"y.z(").'.replace(" ", "")
-    assert tagger.facts(text, 7) == (
-        'discern_frame(7).ego_path(7,"a.b(c").stop_line(7).obj_path(7,3,"x\\"y.z(").'
-    )
+    assert tagger.tag_text(text, 7) == 'ego_path(7,"a.b(c").stop_line(7).obj_path(7,3,"x\\"y.z(").'
 
 
-def test_generated_facts_are_tagged_as_the_general_rule_tags_them(reasoner, avcsr_dir):
-    """Generated fact text is split on '.'; any other text goes through the regular expression: same tags."""
-    tagger = FrameTagger(reasoner.catalog, shared={"param"})
+def _models(reasoner, texts):
+    return [set(one.answer.all()) for one in reasoner.solve_facts(texts, [Action.cruise] * len(texts))]
+
+
+def test_plain_facts_given_as_terms_ground_to_the_same_atoms_as_the_same_facts_parsed(reasoner, avcsr_dir):
+    """Generated facts reach clingo as terms; any other text (here: a trailing space) is parsed as text."""
     texts = [reasoner.frame_facts(sc, Action(action), history) for sc, action, history in _frames(7, 20)]
     texts += [reasoner.frame_facts(f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
-    for k, text in enumerate(texts):
-        assert tagger.facts(text, k) + " " == tagger.facts(text + " ", k)  # the trailing space: not plain text
+    batch = FrameTagger(reasoner.catalog, shared={"param"}).batch(texts)
+    assert not batch.text and batch.groups  # all generated text is plain
+    assert _models(reasoner, texts) == _models(reasoner, [t + " " for t in texts])
+
+
+def test_text_that_is_not_plain_facts_is_left_to_clingo(reasoner):
+    tagger = FrameTagger(reasoner.catalog)
+    for text in ("a(b(1)).", "a(1;2).", "a(1..2).", "-a(1).", "a:-b.", "a().", "a(1,).", "a(1)b.", "A(1).", 'a("x").',
+                 "a(1) .", "a(1)", "a(1.b."):
+        batch = tagger.batch([text])
+        assert batch.text and not [g for g in batch.groups if g[0] != "discern_frame"], text
+
+
+def test_plain_looking_facts_that_are_no_terms_get_clingos_own_parse_error(reasoner):
+    with pytest.raises(RuntimeError):
+        reasoner.solve_facts(["ego_speed(12-).", "ego_speed(3)."], [Action.cruise] * 2)
 
 
 def test_a_frame_fact_that_the_catalog_defines_is_refused(reasoner):
     for text in ("is_a(car,vehicle).", "is_a(car, vehicle)."):  # plain text, and text with a space
         with pytest.raises(ValueError, match="is_a"):
-            FrameTagger(reasoner.catalog).facts(text, 0)
+            FrameTagger(reasoner.catalog).batch([text])

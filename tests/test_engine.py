@@ -3,7 +3,7 @@ import random
 import clingo
 from clingo import ast
 
-from discern.rules.engine import _FACT_NAME
+from discern.rules.batch import FACT_NAME
 from discern.rules.scene import Action
 from discern.rules.facts import scene_facts
 from tests.scenes import obj, scene
@@ -48,7 +48,7 @@ def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program(reasone
 
 
 def test_fact_names_found_for_slicing_include_zero_arity_facts():
-    assert set(_FACT_NAME.findall("a(1).stop_line.b(x,2).")) == {"a", "stop_line", "b"}
+    assert set(FACT_NAME.findall("a(1).stop_line.b(x,2).")) == {"a", "stop_line", "b"}
 
 
 def test_recommended_action_is_always_permitted(reasoner):
