@@ -247,7 +247,8 @@ def main() -> None:
             "",
             f"Target ≥ 2,000 frames/s on 2 cores, every scene distinct: {verdict} by the median run "
             f"({best['fps']:.0f} frames/s with {best['workers']} worker(s)); {spread}. Frames are grounded 96 at a time "
-            "in one clingo Control (rules/batch.py), so the per-rule cost of grounding is paid once per batch; what is "
+            "in one clingo Control (rules/batch.py), their facts handed over as terms rather than text to parse, so "
+            "the per-rule cost of grounding is paid once per batch; what is "
             "left per frame is clingo's own work on the frame's facts and rule instances and the Python around it "
             f"({distinct[0]['solve_ms']:.2f} ms of solver time and {distinct[0]['cpu_ms']:.2f} ms of worker CPU per "
             "frame in the one-worker run). Frames that repeat (a vehicle standing at a light, once its 2 s history "
