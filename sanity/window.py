@@ -205,6 +205,8 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int) -> list[str]
 
 
 def _light_facts(now: _Summary, past: list[_Summary]) -> list[str]:
+    if not now.lights and not any(p.lights for p in past):  # most frames: nothing lit in the whole window
+        return []
     frames = past + [now]
     out = []
     for colour in (LightColour.red, LightColour.yellow):
@@ -251,6 +253,8 @@ def _world_facts(scene: Scene) -> list[str]:
         return out
     outlines = [(o.id, o.position.x, o.position.y, *_footprint(o))
                 for o in scene.objects if CONFIRMING.intersection(o.sources)]
+    if not outlines:
+        return out
     for obj in camera_only:
         x, y = obj.position.x, obj.position.y
         out.extend(f"overlaps({obj.id},{oid})." for oid, ox, oy, length, width in outlines
