@@ -20,6 +20,7 @@ from typing import Iterable
 from clingo import Control, Function, Number, Symbol, ast, parse_term
 
 from .catalog import Catalog
+from .fact_text import FACT_NAME, is_plain
 from .justify import AnswerSet, shown_atoms
 from .terms import Shape
 
@@ -30,11 +31,6 @@ _LOC = ast.Location(ast.Position("<batch>", 1, 1), ast.Position("<batch>", 1, 1)
 # A fact's name starts the text or follows the '.' that ends the previous fact;
 # quoted strings are matched whole first, so nothing inside them is touched.
 _FACT_START = re.compile(r'"(?:[^"\\]|\\.)*"|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)([(.])')
-FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")  # the predicate names of fact text
-# Plain fact text: a run of `name.` or `name(a,b,...).` whose arguments are numbers and constants, which
-# all the generated facts are. It is split on '.' and each fact's arguments counted by its commas; anything
-# else (strings, comments, whitespace, nested terms, intervals, pools, classical negation, rules) is parsed.
-_PLAIN = re.compile(r"(?:[a-z_][A-Za-z0-9_]*(?:\([A-Za-z0-9_-]+(?:,[A-Za-z0-9_-]+)*\))?\.)+")
 
 
 def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset[str]:
@@ -73,7 +69,7 @@ class FrameTagger:
         frames = facts.groups[(FRAME_PREDICATE, 1)] = []
         for frame, text in enumerate(texts):
             frames.append(str(frame))
-            if _PLAIN.fullmatch(text) is not None:
+            if is_plain(text):
                 self._group_facts(text, frame, facts)
             else:
                 facts.text.append(self.tag_text(text, frame))

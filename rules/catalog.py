@@ -80,7 +80,7 @@ class Catalog:
     fact_rule: dict[Symbol, str] = field(default_factory=dict, repr=False)
     fact_predicates: set[str] = field(default_factory=set, repr=False)
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
-    _slices: dict[frozenset[str], list[ast.AST]] = field(default_factory=dict, repr=False)
+    _slices: dict[frozenset[str], tuple[list[ast.AST], frozenset[str]]] = field(default_factory=dict, repr=False)
 
     @cached_property
     def by_id(self) -> dict[str, RuleInfo]:
@@ -100,8 +100,18 @@ class Catalog:
         no rule can derive never fires; leaving it out changes no model and
         saves its grounding cost (about 10 us a rule).
         """
-        program = self._slices.get(given)
-        if program is None:
+        return self._slice(given)[0]
+
+    def defined_in(self, given: frozenset[str]) -> frozenset[str]:
+        """The predicates that the catalog's facts or the slice's rules for these predicates define.
+
+        A frame fact's predicate that is not among them has exactly the frame's facts as its atoms.
+        """
+        return self._slice(given)[1]
+
+    def _slice(self, given: frozenset[str]) -> tuple[list[ast.AST], frozenset[str]]:
+        found = self._slices.get(given)
+        if found is None:
             derivable = set(given | self.fact_predicates)
             live: list[CompiledRule] = []
             pending = list(self.compiled)
@@ -118,9 +128,9 @@ class Catalog:
                         still.append(rule)
                 pending = still
             live.sort(key=lambda r: r.index)
-            program = self.facts + [r.statement for r in live]
-            self._slices[given] = program
-        return program
+            defined = frozenset(self.fact_predicates).union(r.signature[0] for r in live)
+            found = self._slices[given] = (self.facts + [r.statement for r in live], defined)
+        return found
 
     def driving_rules(self) -> list[RuleInfo]:
         """Rules that decide something, as opposed to definitions (def.*) and data (ent.*)."""

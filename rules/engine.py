@@ -19,9 +19,10 @@ import clingo
 from clingo import Function
 from clingo import ast
 
-from .batch import FACT_NAME, BatchAnswers, FrameAnswers, FrameTagger
+from .batch import BatchAnswers, FrameAnswers, FrameTagger
 from .catalog import Catalog, load_catalog
 from .controls import PreparedControls
+from .fact_text import FACT_NAME
 from .facts import Params, scene_facts
 from .justify import AnswerSet, Prover, rule_ids, show_statements
 from .render import render_text
@@ -134,7 +135,8 @@ class Reasoner:
         return [SolvedFrame(FrameAnswers(batch, k), Action(action)) for k, action in enumerate(proposed)]
 
     def _solve_text(self, text: str, proposed: Action) -> SolvedFrame:
-        ctl = self._controls.take(self._param_names.union(FACT_NAME.findall(text)))
+        names = self._param_names.union(FACT_NAME.findall(text))
+        ctl = self._controls.take(names)
         ctl.add("base", [], text)
         ctl.ground([("base", [])])
         if self._solve_hook is not None:
@@ -142,7 +144,7 @@ class Reasoner:
         # A single frame's few permitted and recommended atoms are read one by one: a solve call to read them
         # shown would first prepare the whole ground program (measured: 0.27 against 0.17 ms on KITTI frames,
         # 0.67 against 0.13 ms at 200 objects). A batch reads them shown, all frames in one solve.
-        return SolvedFrame(AnswerSet(ctl), proposed, owns=ctl)
+        return SolvedFrame(AnswerSet(ctl, text, self.catalog.defined_in(names)), proposed, owns=ctl)
 
     def frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
         """The frame's own facts: the scene, the proposal, and what the providers read from the history.

@@ -15,9 +15,10 @@ import re
 from dataclasses import dataclass
 from typing import Iterable, Iterator, Optional
 
-from clingo import Control, Symbol, SymbolType
+from clingo import Control, Symbol, SymbolType, parse_term
 
 from .catalog import Catalog, CompiledRule
+from .fact_text import facts_by_signature, is_plain
 from .terms import (CMP_TEXT, Env, Literal, Shape, Term, Unbound, check_comparison, evaluate, is_assignment, match,
                     shape_of, term_vars)
 from .verdict import JustificationNode
@@ -75,15 +76,27 @@ class AnswerSet:
     The catalog is stratified (checked when it loads), so grounding alone
     derives every true atom as a fact: no solving, and no copying thousands of
     atoms into Python unless a justification asks for them.
+
+    Reading an atom from clingo costs about 4 us (iterating, the symbol, its
+    text), and more the first time a predicate is read. A predicate whose atoms
+    are exactly the frame's own facts (the scene's objects, positions, lanes:
+    half of what a veto's proof reads on a dense frame) is served from `facts`,
+    the frame's fact text, unless it is in `defined`, the predicates the
+    grounded program's rules or catalog facts define; only the atoms a proof
+    uses become symbols.
     """
 
-    def __init__(self, control: Control):
+    def __init__(self, control: Control, facts: str = "", defined: frozenset[str] = frozenset()):
         self._control = control  # owns the atoms: they must not outlive it
         self._atoms = control.symbolic_atoms
         self._by_sig: dict[tuple[str, int], list[Symbol]] = {}
         self._texts: dict[tuple[str, int], list[str]] = {}  # of each atom of _by_sig, in the same order
-        self._by_first: dict[tuple[str, int], dict[str, list[Symbol]]] = {}
+        self._by_first: dict[tuple[str, int], dict[str, list]] = {}  # symbols, or texts not yet made symbols
         self._shapes: dict[Symbol, Shape] = {}
+        self._facts = facts if is_plain(facts) else ""
+        self._defined = defined
+        self._given: Optional[dict[tuple[str, int], set[str]]] = None
+        self._exactly_given: dict[tuple[str, int], Optional[list[str]]] = {}
 
     def holds(self, sym: Symbol) -> bool:
         atom = self._atoms[sym]
@@ -105,21 +118,54 @@ class AnswerSet:
 
     def texts(self, name: str, arity: int) -> list[str]:
         """The text of each atom of a predicate, in the order of `of`."""
-        self.of(name, arity)
-        return self._texts[(name, arity)]
+        found = self._texts.get((name, arity))
+        if found is None:
+            found = self._given_exactly(name, arity)
+            if found is None:
+                self.of(name, arity)
+                found = self._texts[(name, arity)]
+        return found
 
     def with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
         """Atoms of a predicate whose first argument is given: the prover's common lookup."""
         index = self._by_first.get((name, arity))
         if index is None:
-            # keyed by the first argument's text, cut from the text the atoms were sorted by: an atom's
-            # structure is a few C calls more (about 2 us), and on a 200-object frame most of a veto's
-            # proof went to the structure of atoms it never matched
-            index = self._by_first[(name, arity)] = {}
-            syms = self.of(name, arity)
-            for text, sym in zip(self._texts[(name, arity)], syms):
-                index.setdefault(first_argument(text), []).append(sym)
-        return index.get(str(first), [])
+            index = self._by_first[(name, arity)] = self._first_index(name, arity)
+        key = str(first)
+        found = index.get(key)
+        if not found:
+            return []
+        if isinstance(found[0], str):
+            found = index[key] = [parse_term(text) for text in found]
+        return found
+
+    def _first_index(self, name: str, arity: int) -> dict[str, list]:
+        # keyed by the first argument's text, cut from the atom's text: an atom's structure is a few C
+        # calls more (about 2 us), and on a 200-object frame most of a veto's proof went to the structure
+        # of atoms it never matched
+        index: dict[str, list] = {}
+        given = None if (name, arity) in self._by_sig else self._given_exactly(name, arity)
+        if given is not None:
+            for text in given:
+                index.setdefault(first_argument(text), []).append(text)
+            return index
+        for text, sym in zip(self.texts(name, arity), self.of(name, arity)):
+            index.setdefault(first_argument(text), []).append(sym)
+        return index
+
+    def _given_exactly(self, name: str, arity: int) -> Optional[list[str]]:
+        """The texts of a predicate's atoms, sorted, when they are exactly the frame's facts of it; else None."""
+        signature = (name, arity)
+        if signature in self._exactly_given:
+            return self._exactly_given[signature]
+        found = None
+        if self._facts and name not in self._defined:
+            if self._given is None:
+                self._given = facts_by_signature(self._facts)
+            texts = self._given.get(signature)
+            found = sorted(texts) if texts else None
+        self._exactly_given[signature] = found
+        return found
 
     def shape(self, sym: Symbol) -> Shape:
         found = self._shapes.get(sym)

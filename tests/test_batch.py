@@ -85,7 +85,8 @@ def test_plain_facts_given_as_terms_ground_to_the_same_atoms_as_the_same_facts_p
 def test_text_that_is_not_plain_facts_is_left_to_clingo(reasoner):
     tagger = FrameTagger(reasoner.catalog)
     for text in ("a(b(1)).", "a(1;2).", "a(1..2).", "-a(1).", "a:-b.", "a().", "a(1,).", "a(1)b.", "A(1).", 'a("x").',
-                 "a(1) .", "a(1)", "a(1.b."):
+                 "a(1) .", "a(1)", "a(1.b.",
+                 "a(-0).", "a(007).", "a(1-2).", "a(_X).", "a(_)."):
         batch = tagger.batch([text])
         assert batch.text and not [g for g in batch.groups if g[0] != "discern_frame"], text
 

@@ -3,7 +3,7 @@ import random
 import clingo
 from clingo import ast
 
-from discern.rules.batch import FACT_NAME
+from discern.rules.fact_text import FACT_NAME
 from discern.rules.scene import Action
 from discern.rules.facts import scene_facts
 from tests.scenes import obj, scene

@@ -1,10 +1,14 @@
 import json
 
+import clingo
 from clingo import Function, Number, String
 
-from discern.rules.justify import first_argument
+from discern.rules.engine import Request
+from discern.rules.justify import AnswerSet, first_argument
+from discern.rules.scene import Action
 from discern.rules.render import render_html, render_json, render_text
 from discern.rules.verdict import Verdict
+from discern.sanity.examples import obj as sanity_obj, scene as sanity_scene, sensor
 from tests.scenes import obj, scene
 
 
@@ -63,3 +67,40 @@ def test_an_atoms_first_argument_is_cut_from_its_text_as_clingo_prints_it():
         atom = Function("p", [first, Number(3)])
         assert first_argument(str(atom)) == str(first)
         assert first_argument(str(Function("q", [first]))) == str(first)
+
+
+def _grounded(program):
+    control = clingo.Control(["--warn=none"])
+    control.add("base", [], program)
+    control.ground([("base", [])])
+    return control
+
+
+def test_a_predicate_that_is_only_the_frames_facts_reads_the_same_from_the_fact_text():
+    facts = "object(2,car).object(1,truck).obj_pos(1,-300,400).obj_pos(2,5,6).stop_line."
+    control = _grounded(facts + "near(O) :- obj_pos(O,_,Y), Y < 500.")
+    from_text, from_clingo = AnswerSet(control, facts), AnswerSet(control)
+    assert from_text.texts("object", 2) == from_clingo.texts("object", 2) == ["object(1,truck)", "object(2,car)"]
+    for first in (1, 2, 3):
+        assert from_text.with_first("obj_pos", 3, Number(first)) == from_clingo.with_first("obj_pos", 3, Number(first))
+    assert from_text.with_first("obj_pos", 3, Number(1)) == [Function("obj_pos", [Number(1), Number(-300), Number(400)])]
+
+
+def test_a_fact_predicate_that_a_rule_also_defines_is_read_from_clingo():
+    facts = "obj_pos(1,2,3).lost(9)."
+    answer = AnswerSet(_grounded(facts + "obj_pos(O,0,0) :- lost(O)."), facts, defined=frozenset({"obj_pos"}))
+    assert answer.with_first("obj_pos", 3, Number(9)) == [Function("obj_pos", [Number(9), Number(0), Number(0)])]
+    assert answer.texts("obj_pos", 3) == ["obj_pos(1,2,3)", "obj_pos(9,0,0)"]
+
+
+def test_a_lost_object_kept_in_the_scene_is_proved_alike_alone_and_in_a_batch(reasoner):
+    """Its position is derived by the sanity rules, not given: the single frame reads it from clingo too."""
+    history = tuple(sanity_scene(frame=i + 1, speed=12.0, lane=2, lanes=2, limit=15.0,
+                                 objects=[sanity_obj(7, "car", -3.5, -12.8 + 0.8 * i, 1, vy=20.0)]) for i in range(3))
+    now = sanity_scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)],
+                       objects=[sanity_obj(8, "car", 0.0, 40.0, 2, vy=12.0)])  # a given position beside the derived one
+    alone = reasoner.decide(now, "change_lane_left", history, explain=True)
+    batched = reasoner.decide_many([Request(now, Action.change_lane_left, history, explain=True),
+                                    Request(now, Action.cruise, history)])[0]
+    assert alone.decision.value == "override" and "car 7 is 10.4 m behind" in alone.justification.text
+    assert alone.model_dump(exclude={"latency_ms"}) == batched.model_dump(exclude={"latency_ms"})
