@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from importlib import resources
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Iterable, Optional, Sequence
 
 from clingo import Control, Symbol, ast
 
@@ -71,6 +71,15 @@ class CompiledRule:
     assignments: frozenset[int]  # body positions of `X = expr` that only compute a value
 
 
+def _may_have_first(head: Term, first: Symbol) -> bool:
+    """Whether a rule head can have this first argument: not when it is another constant."""
+    if head[0] == "s":
+        arguments = head[1].arguments
+        return not arguments or arguments[0] == first
+    arguments = head[2]
+    return not arguments or arguments[0][0] != "s" or arguments[0][1] == first
+
+
 @dataclass
 class Catalog:
     rules: list[RuleInfo]
@@ -81,6 +90,7 @@ class Catalog:
     fact_predicates: set[str] = field(default_factory=set, repr=False)
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
     _slices: dict[frozenset[str], tuple[list[ast.AST], frozenset[str]]] = field(default_factory=dict, repr=False)
+    _deriving: dict[tuple[str, int, Optional[Symbol]], list[CompiledRule]] = field(default_factory=dict, repr=False)
 
     @cached_property
     def by_id(self) -> dict[str, RuleInfo]:
@@ -92,6 +102,20 @@ class Catalog:
         for rule in self.compiled:
             index.setdefault(rule.signature, []).append(rule)
         return index
+
+    def rules_deriving(self, name: str, arity: int, first: Optional[Symbol]) -> list[CompiledRule]:
+        """The rules whose head can derive name/arity atoms with this first argument, in catalog order.
+
+        A head with a constant first argument (`applicable(brake)`) is left out for any other constant: the
+        prover looks for derivations of the same few atoms in every verdict, and most rules for them are
+        about another action.
+        """
+        key = (name, arity, first)
+        found = self._deriving.get(key)
+        if found is None:
+            found = self._deriving[key] = [rule for rule in self.by_head.get((name, arity), [])
+                                           if first is None or _may_have_first(rule.head, first)]
+        return found
 
     def program_for(self, given: frozenset[str]) -> list[ast.AST]:
         """The statements that can matter when the frame's facts use these predicates.

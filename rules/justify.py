@@ -93,7 +93,7 @@ class AnswerSet:
         self._texts: dict[tuple[str, int], list[str]] = {}  # of each atom of _by_sig, in the same order
         self._by_first: dict[tuple[str, int], dict[str, list]] = {}  # symbols, or texts not yet made symbols
         self._shapes: dict[Symbol, Shape] = {}
-        self._facts = facts if is_plain(facts) else ""
+        self._facts = facts
         self._defined = defined
         self._given: Optional[dict[tuple[str, int], set[str]]] = None
         self._exactly_given: dict[tuple[str, int], Optional[list[str]]] = {}
@@ -160,8 +160,8 @@ class AnswerSet:
             return self._exactly_given[signature]
         found = None
         if self._facts and name not in self._defined:
-            if self._given is None:
-                self._given = facts_by_signature(self._facts)
+            if self._given is None:  # on first use: an approval's proof may read no fact at all
+                self._given = facts_by_signature(self._facts) if is_plain(self._facts) else {}
             texts = self._given.get(signature)
             found = sorted(texts) if texts else None
         self._exactly_given[signature] = found
@@ -331,7 +331,7 @@ class Prover:
     def derivations(self, sym: Symbol) -> Iterator[tuple[CompiledRule, Env]]:
         """Every catalog rule instance (one per rule) whose body holds and derives `sym`."""
         _, name, args = self.answer.shape(sym)
-        for rule in self.catalog.by_head.get((name, len(args)), []):
+        for rule in self.catalog.rules_deriving(name, len(args), args[0] if args else None):
             env = match(rule.head, sym, {}, self.answer.shape)
             if env is None:
                 continue

@@ -1,4 +1,5 @@
 import pytest
+from clingo import Function
 
 from discern.rules.catalog import CatalogError, load_catalog
 
@@ -46,3 +47,14 @@ def test_a_rule_through_its_own_negation_is_rejected_as_unstratified(tmp_path):
 def test_a_syntax_error_names_the_file_and_line(tmp_path):
     with pytest.raises(CatalogError, match=r"r\.lp: cannot parse: .*r\.lp:4"):
         load_catalog(write_rules(tmp_path, "%! rule x.a\n%! says A.\n%! source s\na :- b,.\n"))
+
+
+def test_rules_deriving_an_atom_skip_heads_about_another_constant_and_keep_catalog_order(reasoner):
+    catalog = reasoner.catalog
+    every = catalog.by_head[("applicable", 1)]
+    brake = catalog.rules_deriving("applicable", 1, Function("brake"))
+    heads = {str(rule.head[2][0][1]) for rule in every if rule.head[2][0][0] == "s"}
+    assert {"brake", "accelerate"} <= heads
+    assert brake == [r for r in every if r.head[2][0][0] != "s" or r.head[2][0][1] == Function("brake")]
+    assert brake and len(brake) < len(every)
+    assert catalog.rules_deriving("applicable", 1, None) == every
