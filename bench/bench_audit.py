@@ -29,6 +29,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.report import machine, write_section  # noqa: E402
+from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.monitor.audit.aggregate import audit_logs  # noqa: E402
 from discern.monitor.config import LogSettings, MonitorConfig  # noqa: E402
 from discern.monitor.example_planner import planner_action  # noqa: E402
@@ -263,4 +264,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    relaunch()  # on jemalloc where the machine has it, as the `discern` command runs (monitor/allocator.py)
     main()

@@ -16,6 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.scenes import random_scene  # noqa: E402
 from bench.report import machine, pct, timed, write_section  # noqa: E402
+from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
 from discern.monitor.decision_pool import defer_full_collections  # noqa: E402
 from discern.rules.engine import Reasoner, Request  # noqa: E402
@@ -125,4 +126,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    relaunch()  # on jemalloc where the machine has it, as the `discern` command runs (monitor/allocator.py)
     main()

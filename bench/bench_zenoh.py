@@ -27,6 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import zenoh  # noqa: E402
 
 from bench.report import machine, pct, write_section  # noqa: E402
+from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.monitor import keys  # noqa: E402
 from discern.monitor.config import ZenohSettings  # noqa: E402
 from discern.monitor.example_planner import highway_scene, planner_action  # noqa: E402
@@ -281,4 +282,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    relaunch()  # on jemalloc where the machine has it, as the `discern` command runs (monitor/allocator.py)
     main()

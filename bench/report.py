@@ -8,6 +8,8 @@ import subprocess
 import time
 from pathlib import Path
 
+from discern.monitor.allocator import in_use
+
 DOC = Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md"
 HEADER = "# Benchmarks\n\nEvery figure below was measured by the command shown with it; none is estimated.\n"
 
@@ -59,7 +61,7 @@ def machine() -> str:
         pass
     cores = subprocess.run(["nproc"], capture_output=True, text=True).stdout.strip() or "?"
     return (f"{cpu}, {cores} cores, Python {platform.python_version()}, {platform.system()} {platform.machine()}, "
-            f"reference loop {reference_loop_s():.2f} s (bench/report.py)")
+            f"{in_use()}, reference loop {reference_loop_s():.2f} s (bench/report.py)")
 
 
 def write_section(key: str, body: str) -> None:

@@ -112,3 +112,12 @@ def test_console_script_runs_as_a_process(tmp_path):
     result = subprocess.run([sys.executable, "-m", "discern.monitor.cli", "check", write(tmp_path, good_dict()),
                              "--proposed", "cruise"], capture_output=True, text=True, timeout=60)
     assert result.returncode == 0 and result.stdout.startswith("approve cruise")
+
+
+def test_a_reader_that_leaves_early_gets_no_traceback():
+    """`discern catalog | head`: the pipe closes before the catalog is written."""
+    process = subprocess.Popen([sys.executable, "-m", "discern.monitor.cli", "catalog"], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    process.stdout.close()
+    err = process.communicate(timeout=60)[1]
+    assert process.returncode == 141 and "Traceback" not in err and "BrokenPipe" not in err
