@@ -55,6 +55,8 @@ def relaunch(environ: Mapping[str, str] = os.environ) -> None:
     The test is on LD_PRELOAD, not on what the loader managed to load, so a
     library the loader refuses (it says why on stderr) cannot cause a loop.
     """
+    if not sys.platform.startswith("linux"):  # LD_PRELOAD is the Linux loader's
+        return
     library = chosen(environ)
     preload = [entry for entry in _SEPARATORS.split(environ.get("LD_PRELOAD", "")) if entry]
     if library is None or library in preload:
