@@ -50,7 +50,7 @@ def chosen(environ: Mapping[str, str] = os.environ) -> Optional[str]:
 
 
 def relaunch(environ: Mapping[str, str] = os.environ) -> None:
-    """Re-execute this process with the chosen malloc preloaded; returns when it already is, or none is chosen.
+    """Re-execute this process with the chosen malloc preloaded; returns if it is, none is chosen, or exec failed.
 
     The test is on LD_PRELOAD, not on what the loader managed to load, so a
     library the loader refuses (it says why on stderr) cannot cause a loop.
@@ -64,7 +64,11 @@ def relaunch(environ: Mapping[str, str] = os.environ) -> None:
     env = dict(environ, LD_PRELOAD=" ".join([library, *preload]))
     sys.stdout.flush()
     sys.stderr.flush()
-    os.execve(sys.executable, [sys.executable, *sys.orig_argv[1:]], env)
+    try:
+        os.execve(sys.executable, [sys.executable, *sys.orig_argv[1:]], env)
+    except OSError as exc:  # only slower on glibc's malloc: not a reason to stop
+        print(f"discern: warning: could not restart with {library} preloaded ({exc}); "
+              "running on glibc's malloc", file=sys.stderr)
 
 
 def in_use() -> str:

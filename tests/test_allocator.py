@@ -71,6 +71,14 @@ def test_relaunch_keeps_what_ld_preload_already_had():
     assert result.stdout.splitlines() == ["started", "started", f"LD_PRELOAD={library} {other}"]
 
 
+def test_a_relaunch_that_cannot_start_warns_and_goes_on():
+    code = "import sys; sys.executable = '/nonexistent/python'\n" + SHOW
+    result = run(code, DISCERN_MALLOC=mapped("libc"))
+    assert result.returncode == 0
+    assert result.stdout.splitlines() == ["started", "LD_PRELOAD="]
+    assert "discern: warning: could not restart with" in result.stderr and "glibc's malloc" in result.stderr
+
+
 def test_system_does_not_relaunch():
     result = run(SHOW, DISCERN_MALLOC="system")
     assert result.stdout.splitlines() == ["started", "LD_PRELOAD="]
