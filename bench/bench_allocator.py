@@ -4,7 +4,7 @@ The development VM's speed drifts by up to 2x within minutes, more than the
 difference measured here, so the two allocators run at the same time: two
 processes, one on each core, each deciding the same frames in blocks of 24;
 blocks that started within half a second of each other are paired, and the
-cores are swapped halfway. The ratio is the median of the paired blocks'
+two swap cores every round. The ratio is the median of the paired blocks'
 median ratios.
 
 Run: python bench/bench_allocator.py [--seconds 30] [--rounds 2]   (needs 2 cores; writes docs/benchmarks.md)
