@@ -7,6 +7,10 @@ BIN := $(VENV)/bin
 
 .PHONY: demo test browser malloc bench clean
 
+# Debian's package $(1), installed quietly; fails without root or Debian's packages (the caller says so).
+apt_install = apt-get install -y -q $(1) >/dev/null 2>&1 \
+	  || (apt-get update -q >/dev/null 2>&1 && apt-get install -y -q $(1) >/dev/null 2>&1)
+
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
@@ -21,15 +25,13 @@ test: $(BIN)/.installed browser
 
 # The audit's HTML report is checked in a real headless browser.
 browser:
-	@command -v chromium >/dev/null 2>&1 || apt-get install -y -q chromium >/dev/null 2>&1 \
-	  || (apt-get update -q >/dev/null 2>&1 && apt-get install -y -q chromium >/dev/null 2>&1) \
+	@command -v chromium >/dev/null 2>&1 || $(call apt_install,chromium) \
 	  || echo "warning: could not install chromium (needs root and Debian's packages); the browser tests will skip"
 
 # jemalloc makes the rules about a fifth faster on small frames (monitor/allocator.py); without it, glibc's malloc.
 malloc: $(BIN)/.installed
 	@$(BIN)/python -c "from discern.monitor.allocator import chosen; raise SystemExit(chosen() is None)" \
-	  || apt-get install -y -q libjemalloc2 >/dev/null 2>&1 \
-	  || (apt-get update -q >/dev/null 2>&1 && apt-get install -y -q libjemalloc2 >/dev/null 2>&1) \
+	  || $(call apt_install,libjemalloc2) \
 	  || echo "note: could not install jemalloc (needs root and Debian's packages); Discern runs on glibc's malloc"
 
 # Each benchmark writes its own section of docs/benchmarks.md; run them on an otherwise idle machine.
