@@ -80,6 +80,18 @@ def _may_have_first(head: Term, first: Symbol) -> bool:
     return not arguments or arguments[0][0] != "s" or arguments[0][1] == first
 
 
+def _binds_first(head: Term) -> bool:
+    if head[0] == "s" or not head[2]:
+        return True
+    return not _has_arithmetic(head[2][0])
+
+
+def _has_arithmetic(term: Term) -> bool:
+    if term[0] in ("b", "u"):
+        return True
+    return term[0] == "f" and any(_has_arithmetic(t) for t in term[2])
+
+
 @dataclass
 class Catalog:
     rules: list[RuleInfo]
@@ -102,6 +114,30 @@ class Catalog:
         for rule in self.compiled:
             index.setdefault(rule.signature, []).append(rule)
         return index
+
+    @cached_property
+    def replayable(self) -> frozenset[tuple[str, int]]:
+        """Predicates whose atoms with a given first argument the prover can find by replaying their rules.
+
+        That is those defined by rules alone (no catalog facts), not recursively, each rule's head binding its
+        first argument by unification (no arithmetic in it): the rules' solutions are then exactly the
+        predicate's atoms in the unique answer set.
+        """
+        uses = {head: {lit.predicate for r in rules for lit in r.body if lit.is_atom}
+                for (head, _), rules in self.by_head.items()}
+        found = set()
+        for (name, arity), rules in self.by_head.items():
+            if name in self.fact_predicates or not all(_binds_first(r.head) for r in rules):
+                continue
+            seen, pending = set(), list(uses.get(name, ()))
+            while pending and name not in seen:
+                predicate = pending.pop()
+                if predicate not in seen:
+                    seen.add(predicate)
+                    pending.extend(uses.get(predicate, ()))
+            if name not in seen:
+                found.add((name, arity))
+        return frozenset(found)
 
     def rules_deriving(self, name: str, arity: int, first: Optional[Symbol]) -> list[CompiledRule]:
         """The rules whose head can derive name/arity atoms with this first argument, in catalog order.

@@ -10,6 +10,7 @@ left to clingo's parser.
 
 from __future__ import annotations
 
+import functools
 import re
 
 FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")  # the predicate names of fact text
@@ -23,14 +24,35 @@ def is_plain(text: str) -> bool:
     return _PLAIN.fullmatch(text) is not None
 
 
-def facts_by_signature(text: str) -> dict[tuple[str, int], set[str]]:
-    """Plain fact text's atoms as clingo prints them, by (name, arity)."""
-    found: dict[tuple[str, int], set[str]] = {}
-    for fact in text[:-1].split("."):
-        name, paren, rest = fact.partition("(")
-        signature = (name, rest.count(",") + 1) if paren else (name, 0)
-        atoms = found.get(signature)
-        if atoms is None:
-            atoms = found[signature] = set()
-        atoms.add(fact)
+def facts_of(text: str, name: str, arity: int) -> list[str]:
+    """Plain fact text's atoms of name/arity as clingo prints them, in one scan of the text."""
+    return [fact for fact in _facts_named(name).findall(text) if _arity(fact) == arity]
+
+
+def facts_with_first(text: str, name: str, arity: int, first: str) -> list[str]:
+    """Plain fact text's atoms of name/arity whose first argument is written `first`.
+
+    A proof asks for a few objects' facts in a frame of hundreds: a substring
+    search for each beats splitting every fact of the frame.
+    """
+    if arity == 0:
+        return []
+    needle = f"{name}({first}," if arity > 1 else f"{name}({first})."
+    found = []
+    start = text.find(needle)
+    while start != -1:
+        if start == 0 or text[start - 1] == ".":  # a fact's start, not the tail of a longer name
+            fact = text[start:text.index(".", start)]
+            if _arity(fact) == arity:
+                found.append(fact)
+        start = text.find(needle, start + 1)
     return found
+
+
+@functools.lru_cache(maxsize=None)
+def _facts_named(name: str) -> re.Pattern:
+    return re.compile(rf"(?:^|(?<=\.)){re.escape(name)}(?:\([^.]*\))?(?=\.)")
+
+
+def _arity(fact: str) -> int:
+    return fact.count(",") + 1 if fact.endswith(")") else 0

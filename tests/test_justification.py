@@ -1,15 +1,22 @@
 import json
+import random
+from pathlib import Path
 
 import clingo
 from clingo import Function, Number, String
 
-from discern.rules.engine import Request
-from discern.rules.justify import AnswerSet, first_argument
+from bench.scenes import random_scene
+from discern.adapters.avcsr import read_dir
+from discern.rules.engine import Reasoner, Request
+from discern.rules.fact_text import facts_of, facts_with_first
+from discern.rules.justify import AnswerSet, Prover, first_argument
+from discern.scenarios.runner import load, scenario_files
 from discern.rules.scene import Action
 from discern.rules.render import render_html, render_json, render_text
 from discern.rules.verdict import Verdict
 from discern.sanity.examples import obj as sanity_obj, scene as sanity_scene, sensor
 from tests.scenes import obj, scene
+from tests.test_engine import random_scene as varied_scene
 
 
 def test_veto_names_the_vetoing_rules_and_the_numbers(reasoner):
@@ -104,3 +111,51 @@ def test_a_lost_object_kept_in_the_scene_is_proved_alike_alone_and_in_a_batch(re
                                     Request(now, Action.cruise, history)])[0]
     assert alone.decision.value == "override" and "car 7 is 10.4 m behind" in alone.justification.text
     assert alone.model_dump(exclude={"latency_ms"}) == batched.model_dump(exclude={"latency_ms"})
+
+
+def test_fact_text_lookups_match_whole_facts_of_the_asked_arity():
+    text = "xobj_pos(1,0,0).obj_pos(1,-300,400).obj_pos(12,5,6).obj_pos(1,7).obj_pos.stop_line."
+    assert facts_with_first(text, "obj_pos", 3, "1") == ["obj_pos(1,-300,400)"]
+    assert facts_with_first(text, "obj_pos", 2, "1") == ["obj_pos(1,7)"]
+    assert facts_with_first(text, "obj_pos", 3, "2") == []
+    assert facts_of(text, "obj_pos", 3) == ["obj_pos(1,-300,400)", "obj_pos(12,5,6)"]
+    assert facts_of(text, "obj_pos", 0) == ["obj_pos"] and facts_of(text, "stop_line", 0) == ["stop_line"]
+
+
+def test_only_non_recursive_rule_defined_predicates_are_replayed(reasoner):
+    replayable = reasoner.catalog.replayable
+    assert ("closing_speed", 2) in replayable and ("gap_needed", 2) in replayable
+    assert ("is_a", 2) not in replayable  # catalog facts, and defined through itself
+    assert ("left_lane", 1) not in replayable  # left_lane(L-1): its first argument is computed
+
+
+def _frames():
+    """Every scenario file's frames with their history, and varied and dense random scenes."""
+    for path in scenario_files(Path(__file__).resolve().parents[1] / "scenarios"):
+        scenario, history = load(path), []
+        for frame in scenario.frames:
+            yield scenario.jurisdiction, frame.scene, frame.proposed, tuple(history)
+            history.append(frame.scene)
+    rng = random.Random(11)
+    for i in range(20):
+        yield "us", varied_scene(rng), rng.choice(list(Action)), ()
+    for i in range(8):  # dense, with the sensor sources the sanity rules read
+        yield "us", random_scene(rng, rng.choice([20, 60]), i, perception=i % 2 == 0), "cruise", ()
+
+
+def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_clingo(reasoner, avcsr_dir):
+    """The single-frame proof reads the frame's facts from its text and derives atoms top-down; both must agree
+    with clingo's model atom for atom, or a justification would depend on how it was read."""
+    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
+    proofs = 0
+    for jurisdiction, sc, proposed, history in frames:
+        engine = reasoners[jurisdiction]
+        solved = engine.solve(sc, proposed, history)
+        from_clingo = AnswerSet(solved.owns)
+        replaying, reading = Prover(engine.catalog, solved.answer), Prover(engine.catalog, from_clingo)
+        for name in ("forbidden", "permitted", "recommended", "noted"):
+            for atom in from_clingo.of(name, 1):
+                assert replaying.why(atom) == reading.why(atom), (sc.frame_id, str(atom))
+                proofs += 1
+    assert proofs > 500
