@@ -25,7 +25,7 @@ from typing import Iterable, Optional, Sequence
 
 from clingo import Control, Symbol, ast
 
-from .terms import Literal, Term, compile_literal, compile_term
+from .terms import Literal, Term, compile_literal, compile_term, term_vars
 
 _ANNOTATION = re.compile(r"^%!\s*(rule|says|source|pred|hide)\s+(.*?)\s*$")
 _PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
@@ -80,10 +80,22 @@ def _may_have_first(head: Term, first: Symbol) -> bool:
     return not arguments or arguments[0][0] != "s" or arguments[0][1] == first
 
 
-def _binds_first(head: Term) -> bool:
+def _replays_from_first(rule: CompiledRule) -> bool:
+    """Whether the rule, its head's first argument given, starts from a lookup by first argument.
+
+    The head's first argument must bind by unification (no arithmetic), and bind the first argument of the
+    first positive body atom, which the prover matches first: otherwise replaying the rule would scan a
+    whole predicate.
+    """
+    head = rule.head
     if head[0] == "s" or not head[2]:
         return True
-    return not _has_arithmetic(head[2][0])
+    if _has_arithmetic(head[2][0]):
+        return False
+    start = next((lit.atom for lit in rule.body if lit.is_atom and not lit.negated), None)
+    if start is None or start[0] == "s" or not start[2]:
+        return True
+    return term_vars(start[2][0]) <= term_vars(head[2][0])
 
 
 def _has_arithmetic(term: Term) -> bool:
@@ -119,15 +131,15 @@ class Catalog:
     def replayable(self) -> frozenset[tuple[str, int]]:
         """Predicates whose atoms with a given first argument the prover can find by replaying their rules.
 
-        That is those defined by rules alone (no catalog facts), not recursively, each rule's head binding its
-        first argument by unification (no arithmetic in it): the rules' solutions are then exactly the
-        predicate's atoms in the unique answer set.
+        That is those defined by rules alone (no catalog facts), not recursively: the rules' solutions are then
+        exactly the predicate's atoms in the unique answer set; and each rule starting from a lookup by first
+        argument (`_replays_from_first`), so that finding one object's atoms costs a few lookups.
         """
         uses = {head: {lit.predicate for r in rules for lit in r.body if lit.is_atom}
                 for (head, _), rules in self.by_head.items()}
         found = set()
         for (name, arity), rules in self.by_head.items():
-            if name in self.fact_predicates or not all(_binds_first(r.head) for r in rules):
+            if name in self.fact_predicates or not all(_replays_from_first(r) for r in rules):
                 continue
             seen, pending = set(), list(uses.get(name, ()))
             while pending and name not in seen:

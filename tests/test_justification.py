@@ -9,6 +9,7 @@ from bench.scenes import random_scene
 from discern.adapters.avcsr import read_dir
 from discern.rules.engine import Reasoner, Request
 from discern.rules.fact_text import facts_of, facts_with_first
+from discern.rules import justify
 from discern.rules.justify import AnswerSet, Prover, first_argument
 from discern.scenarios.runner import load, scenario_files
 from discern.rules.scene import Action
@@ -143,9 +144,10 @@ def _frames():
         yield "us", random_scene(rng, rng.choice([20, 60]), i, perception=i % 2 == 0), "cruise", ()
 
 
-def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_clingo(reasoner, avcsr_dir):
+def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_clingo(reasoner, avcsr_dir, monkeypatch):
     """The single-frame proof reads the frame's facts from its text and derives atoms top-down; both must agree
     with clingo's model atom for atom, or a justification would depend on how it was read."""
+    monkeypatch.setattr(justify, "REPLAY_ABOVE_ATOMS", 0)  # replay in every frame, not only in dense ones
     reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
     frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
     proofs = 0
