@@ -25,8 +25,8 @@ from .verdict import JustificationNode
 
 _PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?\)")
 # Replaying a rule for one object costs about 0.1-0.2 ms; reading a per-object predicate whole, about 4 us an
-# object. Measured on veto proofs: replaying was 12 % slower on frames of 0-6 objects (150-240 atoms), about
-# even at 10 objects (~290 atoms), 30 % faster at 50 and 35 % at 200.
+# object. Measured on proofs: replaying was about 10 % slower on frames of 0-6 objects (150-240 atoms), about
+# even at 10 objects (~290 atoms), 8 % faster at 50 and 30 % at 200 (docs/reasoning.md).
 REPLAY_ABOVE_ATOMS = 250
 
 
