@@ -135,21 +135,15 @@ class Catalog:
         exactly the predicate's atoms in the unique answer set; and each rule starting from a lookup by first
         argument (`_replays_from_first`), so that finding one object's atoms costs a few lookups.
         """
-        uses = {head: {lit.predicate for r in rules for lit in r.body if lit.is_atom}
-                for (head, _), rules in self.by_head.items()}
-        found = set()
-        for (name, arity), rules in self.by_head.items():
-            if name in self.fact_predicates or not all(_replays_from_first(r) for r in rules):
-                continue
-            seen, pending = set(), list(uses.get(name, ()))
-            while pending and name not in seen:
-                predicate = pending.pop()
-                if predicate not in seen:
-                    seen.add(predicate)
-                    pending.extend(uses.get(predicate, ()))
-            if name not in seen:
-                found.add((name, arity))
-        return frozenset(found)
+        edges = _dependencies(self.compiled)
+        component = _components(edges)
+        recursive = {head for head, body in edges.items() for predicate, _ in body
+                     if component.get(predicate) == component[head]}
+        return frozenset(
+            (name, arity) for (name, arity), rules in self.by_head.items()
+            if name not in self.fact_predicates and name not in recursive
+            and all(_replays_from_first(r) for r in rules)
+        )
 
     def rules_deriving(self, name: str, arity: int, first: Optional[Symbol]) -> list[CompiledRule]:
         """The rules whose head can derive name/arity atoms with this first argument, in catalog order.
@@ -337,11 +331,26 @@ def _check_stratified(catalog: Catalog) -> None:
     Then the program has exactly one answer set, the grounder computes it as
     facts, and every atom's justification is well-founded.
     """
+    edges = _dependencies(catalog.compiled)
+    component = _components(edges)
+    for head, body in edges.items():
+        for predicate, negated in body:
+            if negated and component.get(predicate) == component.get(head):
+                raise CatalogError(f"{head} depends on itself through 'not {predicate}': the catalog must be stratified")
+
+
+def _dependencies(rules: Iterable[CompiledRule]) -> dict[str, set[tuple[str, bool]]]:
+    """head -> (body predicate, negated) for every atom in its rules' bodies."""
     edges: dict[str, set[tuple[str, bool]]] = {}
-    for rule in catalog.compiled:
+    for rule in rules:
         for lit in rule.body:
             if lit.is_atom:
                 edges.setdefault(rule.signature[0], set()).add((lit.predicate, lit.negated))
+    return edges
+
+
+def _components(edges: dict[str, set[tuple[str, bool]]]) -> dict[str, int]:
+    """Strongly connected components of the dependency graph (Tarjan's, without recursion)."""
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     component: dict[str, int] = {}
@@ -379,10 +388,7 @@ def _check_stratified(catalog: Catalog) -> None:
     for predicate in list(edges):
         if predicate not in index:
             visit(predicate)
-    for head, body in edges.items():
-        for predicate, negated in body:
-            if negated and component.get(predicate) == component.get(head):
-                raise CatalogError(f"{head} depends on itself through 'not {predicate}': the catalog must be stratified")
+    return component
 
 
 def catalog_dirs() -> list[Path]:

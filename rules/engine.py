@@ -135,7 +135,8 @@ class Reasoner:
         return [SolvedFrame(FrameAnswers(batch, k), Action(action)) for k, action in enumerate(proposed)]
 
     def _solve_text(self, text: str, proposed: Action) -> SolvedFrame:
-        names = self._param_names.union(FACT_NAME.findall(text))
+        given = frozenset(FACT_NAME.findall(text))
+        names = self._param_names | given
         ctl = self._controls.take(names)
         ctl.add("base", [], text)
         ctl.ground([("base", [])])
@@ -144,7 +145,7 @@ class Reasoner:
         # A single frame's few permitted and recommended atoms are read one by one: a solve call to read them
         # shown would first prepare the whole ground program (measured: 0.27 against 0.17 ms on KITTI frames,
         # 0.67 against 0.13 ms at 200 objects). A batch reads them shown, all frames in one solve.
-        return SolvedFrame(AnswerSet(ctl, text, self.catalog.defined_in(names)), proposed, owns=ctl)
+        return SolvedFrame(AnswerSet(ctl, text, self.catalog.defined_in(names), given), proposed, owns=ctl)
 
     def frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
         """The frame's own facts: the scene, the proposal, and what the providers read from the history.

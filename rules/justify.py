@@ -91,7 +91,9 @@ class AnswerSet:
     symbols.
     """
 
-    def __init__(self, control: Control, facts: str = "", defined: frozenset[str] = frozenset()):
+    def __init__(self, control: Control, facts: str = "", defined: frozenset[str] = frozenset(),
+                 fact_names: Optional[frozenset[str]] = None):
+        """`fact_names`: the predicate names in `facts`, when the caller has them already."""
         self._control = control  # owns the atoms: they must not outlive it
         self._atoms = control.symbolic_atoms
         self._by_sig: dict[tuple[str, int], list[Symbol]] = {}
@@ -100,6 +102,7 @@ class AnswerSet:
         self._shapes: dict[Symbol, Shape] = {}
         self._facts = facts
         self._defined = defined
+        self._fact_names_given = fact_names
         self._names: Optional[frozenset[str]] = None  # the predicates `facts` gives, when it is plain
         self._scanned = False
         self._exactly_given: dict[tuple[str, int], Optional[list[str]]] = {}
@@ -174,7 +177,8 @@ class AnswerSet:
         if self._names is None and not self._scanned:  # on first use: an approval's proof may read no fact at all
             self._scanned = True
             if self._facts and is_plain(self._facts):
-                self._names = frozenset(FACT_NAME.findall(self._facts))
+                given = self._fact_names_given
+                self._names = given if given is not None else frozenset(FACT_NAME.findall(self._facts))
         return self._names
 
     def _given_exactly(self, name: str, arity: int) -> Optional[list[str]]:
