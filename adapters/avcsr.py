@@ -131,7 +131,10 @@ def _timestamp_index(fact: Compound) -> int | None:
 
 def read_file(path: Union[str, Path]) -> list[AvcsrFrame]:
     path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise AvcsrError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     first = text.lstrip().splitlines()[0] if text.strip() else ""
     env_word = first.lstrip("% ").split(" ")[0].split("-")[0].strip().lower()
     environment = env_word.capitalize() if env_word else "Unknown"

@@ -49,6 +49,7 @@ from discern.rules.scene import (  # noqa: E402
     Scene,
     TrafficLight,
     Vec2,
+    Velocity,
 )
 
 PERIOD_S = 0.1  # 10 Hz planner
@@ -65,7 +66,7 @@ def traffic_scene(frame_id: int, vehicle: int) -> Scene:
             cls=ObjectClass.car,
             position=Vec2(x=rng.uniform(-0.2, 0.2), y=45.0 + 15.0 * math.sin(t / 5.0 + vehicle)),
             lane=LaneRef(kind=LaneKind.current, id=2),
-            velocity=Vec2(x=0.0, y=speed + rng.uniform(-1, 1)),
+            velocity=Velocity(x=0.0, y=speed + rng.uniform(-1, 1)),
         )
     ]
     for i in range(2, 2 + rng.randint(1, 5)):
@@ -76,7 +77,7 @@ def traffic_scene(frame_id: int, vehicle: int) -> Scene:
                 cls=rng.choice((ObjectClass.car, ObjectClass.car, ObjectClass.truck)),
                 position=Vec2(x=(lane - 2) * 3.5 + rng.uniform(-0.3, 0.3), y=rng.uniform(-40, 80)),
                 lane=LaneRef(kind=LaneKind.current, id=lane),
-                velocity=Vec2(x=0.0, y=rng.uniform(20, 32)),
+                velocity=Velocity(x=0.0, y=rng.uniform(20, 32)),
             )
         )
     return Scene(
@@ -97,7 +98,7 @@ def red_light_scene(frame_id: int, vehicle: int) -> Scene:
             cls=ObjectClass.car,
             position=Vec2(x=0.0, y=7.0 + 6.5 * i),
             lane=LaneRef(kind=LaneKind.current, id=1),
-            velocity=Vec2(x=0.0, y=0.0),
+            velocity=Velocity(x=0.0, y=0.0),
         )
         for i in range(1 + vehicle % 3)
     ]

@@ -14,7 +14,7 @@ import sys
 import time
 from typing import Optional, Sequence
 
-from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, ObjectClass, Scene, Vec2
+from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, ObjectClass, Scene, Vec2, Velocity
 
 from .client import Monitor
 from .config import DEFAULT_ENDPOINT
@@ -41,7 +41,7 @@ def highway_scene(frame_id: int, n_objects: int = 8, *, lanes: int = 3, seed: in
                 cls=ObjectClass.truck if i % 7 == 3 else ObjectClass.car,
                 position=Vec2(x=(lane - ego_lane) * LANE_WIDTH + rng.uniform(-0.2, 0.2), y=ahead),
                 lane=LaneRef(kind=LaneKind.current, id=lane),
-                velocity=Vec2(x=0.0, y=22.0 + rng.uniform(-3, 3)),
+                velocity=Velocity(x=0.0, y=22.0 + rng.uniform(-3, 3)),
             )
         )
     return Scene(

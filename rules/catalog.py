@@ -410,7 +410,11 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
         files.extend(sorted(directory.glob("*.lp")))
     files.extend(Path(f) for f in extra_files)
     for path in files:
-        _compile_file(str(path), path.read_text(encoding="utf-8"), catalog)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise CatalogError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+        _compile_file(str(path), text, catalog)
     _check_stratified(catalog)
     seen: dict[str, RuleInfo] = {}
     for info in catalog.rules:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+from clingo import String
+
 from .scene import Action, Scene
 
 
@@ -115,7 +117,7 @@ def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
 
 
 def _const(name: str) -> str:
-    """Path ids become quoted strings unless they are already valid constants."""
-    if name and name[0].islower() and name.replace("_", "").isalnum():
+    """Path ids become clingo strings, escaped by clingo, unless they are plain ASCII constants already."""
+    if name.isascii() and name[:1].islower() and name.replace("_", "").isalnum():
         return name
-    return '"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return str(String(name))

@@ -137,9 +137,21 @@ class SensorSide(str, Enum):
     rear_right = "rear_right"
 
 
-Metres = Annotated[float, Field(allow_inf_nan=False)]
-NonNegMetres = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-Speed = Annotated[float, Field(ge=0, allow_inf_nan=False, description="m/s")]
+# The rules reason over 32-bit integers in centimetres and cm/s and square closing speeds, so every
+# quantity is bounded where clingo's arithmetic stays exact: a value past these bounds is refused by name,
+# never wrapped into a wrong (and possibly permissive) verdict.
+MAX_RANGE_M = 10_000.0  # farther than any sensor sees
+MAX_SPEED_MS = 150.0  # faster than any road vehicle; a closing speed of 300 m/s squared in cm/s fits 32 bits
+MAX_ID = 2**31 - 1  # clingo's largest integer
+MAX_LANE_ID = 1_000  # lanes are counted from the left, and the rules look one lane beyond
+
+Metres = Annotated[float, Field(ge=-MAX_RANGE_M, le=MAX_RANGE_M, allow_inf_nan=False)]
+NonNegMetres = Annotated[float, Field(ge=0, le=MAX_RANGE_M, allow_inf_nan=False)]
+Speed = Annotated[float, Field(ge=0, le=MAX_SPEED_MS, allow_inf_nan=False, description="m/s")]
+MetresPerSecond = Annotated[float, Field(ge=-MAX_SPEED_MS, le=MAX_SPEED_MS, allow_inf_nan=False)]
+MetresPerSecondSquared = Annotated[float, Field(allow_inf_nan=False)]
+# Any printable text: the solver's strings end at a NUL, so control characters could make two ids one.
+PathId = Annotated[str, Field(pattern=r"^[^\x00-\x1f\x7f]*$")]
 
 
 class Strict(BaseModel):
@@ -151,25 +163,30 @@ class Vec2(Strict):
     y: Metres = 0.0
 
 
+class Velocity(Strict):
+    x: MetresPerSecond = 0.0
+    y: MetresPerSecond = 0.0
+
+
 class Ego(Strict):
     speed: Speed = Field(description="ego speed, m/s")
-    lane: int = Field(ge=1, description="id of the ego's lane among the current lanes (1 = leftmost)")
+    lane: int = Field(ge=1, le=MAX_LANE_ID, description="id of the ego's lane among the current lanes (1 = leftmost)")
     intent: Intent = Intent.continue_in_lane
     zone: Zone = Zone.city
-    acceleration: Optional[Metres] = Field(None, description="m/s^2, if known")
-    predicted_path: Optional[str] = Field(None, description="id of the ego's predicted path")
+    acceleration: Optional[MetresPerSecondSquared] = Field(None, description="m/s^2, if known")
+    predicted_path: Optional[PathId] = Field(None, description="id of the ego's predicted path")
 
 
 class Lane(Strict):
     kind: LaneKind
-    id: int = Field(ge=1, description="1 = leftmost lane of its kind")
+    id: int = Field(ge=1, le=MAX_LANE_ID, description="1 = leftmost lane of its kind")
     ends_in: Optional[NonNegMetres] = Field(None, description="metres ahead where this lane ends")
     speed_limit: Optional[Speed] = Field(None, description="map speed limit of this lane, m/s")
 
 
 class LaneRef(Strict):
     kind: LaneKind
-    id: int = Field(ge=1)
+    id: int = Field(ge=1, le=MAX_LANE_ID)
 
 
 class Size(Strict):
@@ -179,20 +196,20 @@ class Size(Strict):
 
 
 class DetectedObject(Strict):
-    id: int = Field(ge=1, description="object id; 0 is the ego")
+    id: int = Field(ge=1, le=MAX_ID, description="object id; 0 is the ego")
     cls: ObjectClass = Field(alias="class")
     position: Vec2 = Field(description="metres relative to the ego: x right, y ahead")
     lane: Optional[LaneRef] = None
-    velocity: Optional[Vec2] = Field(
+    velocity: Optional[Velocity] = Field(
         None, description="ground velocity in the ego's axes, m/s (y: along the ego's heading)"
     )
     indicator: Indicator = Indicator.none
     emergency_lights: bool = Field(False, description="flashing red/blue lights seen in this frame")
-    predicted_path: Optional[str] = None
+    predicted_path: Optional[PathId] = None
     sources: list[Source] = Field(default_factory=lambda: [Source.camera])
     elevation: Optional[Metres] = Field(None, description="height of the object's base above the road, m")
     size: Optional[Size] = None
-    track_age: Optional[int] = Field(None, ge=0, description="frames this track has existed")
+    track_age: Optional[int] = Field(None, ge=0, le=MAX_ID, description="frames this track has existed")
 
 
 class TrafficLight(Strict):
@@ -213,7 +230,7 @@ class Intersection(Strict):
     type: IntersectionType
     stage: IntersectionStage = IntersectionStage.arriving
     road: Optional[Literal["major", "minor"]] = Field(None, description="road class of the ego's approach")
-    arrival_rank: Optional[int] = Field(None, ge=1, description="ego's arrival order at an all-way stop")
+    arrival_rank: Optional[int] = Field(None, ge=1, le=MAX_ID, description="ego's arrival order at an all-way stop")
     distance: Optional[NonNegMetres] = Field(None, description="metres to the stop line")
     stop_line: bool = False
     stop_controlled: bool = Field(False, description="map data: the ego's approach is stop-controlled")
@@ -226,8 +243,8 @@ class RangeReading(Strict):
 
 
 class PathCrossing(Strict):
-    ego_path: str
-    object_path: str
+    ego_path: PathId
+    object_path: PathId
 
 
 class Scene(Strict):

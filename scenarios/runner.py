@@ -56,6 +56,8 @@ def load(path: Path) -> Scenario:
         raise ScenarioError(f"{path}:\n{describe_errors(exc)}") from None
     except OSError as exc:
         raise ScenarioError(f"{path}: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
 
 def run(scenario: Scenario, reasoner: Reasoner) -> list[FrameOutcome]:

@@ -74,6 +74,7 @@ def mutate(path, value):
         (mutate(["ego", "lane"], 7), "ego.lane 7 does not exist: current lanes are [1, 2, 3]"),
         (mutate(["sensors"], [{"side": "left", "distance": -1}]), "sensors.0.distance: Input should be greater than or equal to 0"),
         (mutate(["objects", 0, "position", "y"], "far"), "objects.0.position.y"),
+        (mutate(["ego", "speed"], 500), "ego.speed: Input should be less than or equal to 150"),
         ("{not json", "invalid JSON at line 1 column 2"),
         ("[1, 2]", "expected a JSON object"),
     ],
@@ -89,6 +90,22 @@ def test_missing_file_and_missing_action_are_user_errors(tmp_path, capsys):
     assert "cannot read" in capsys.readouterr().err
     assert main(["check", write(tmp_path, good_dict())]) == 2
     assert "needs --proposed" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command, name", [
+    (["check", "{file}", "--proposed", "brake"], "scene.json"),
+    (["scenarios", "run", "{dir}"], "frame.pl"),
+    (["scenarios", "run", "{dir}"], "scenario.json"),
+    (["check", "{good}", "--proposed", "brake", "--rules", "{dir}"], "rules.lp"),
+])
+def test_a_file_that_is_not_utf8_is_named_without_a_traceback(tmp_path, capsys, command, name):
+    files = tmp_path / "files"
+    files.mkdir()
+    (files / name).write_bytes(b'{"frame_id": 1, \xff}')
+    good = write(tmp_path, good_dict())
+    argv = [a.format(file=files / name, dir=files, good=good) for a in command]
+    assert main(argv) == 2
+    assert f"{files / name}: not UTF-8 text (invalid start byte at byte 16)" in capsys.readouterr().err
 
 
 def test_catalog_lists_rules_with_english_and_source(capsys):

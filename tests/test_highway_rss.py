@@ -5,7 +5,7 @@ import pytest
 pytest.importorskip("ad_rss")
 
 from discern.adapters.highway.rss import RssChecker, RssParameters, rss_formula, safe_distance
-from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, Scene, Size, Vec2, Zone
+from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, Scene, Size, Vec2, Velocity, Zone
 from discern.rules.verdict import Decision
 
 
@@ -26,7 +26,7 @@ def _scene(gap_ahead: float, lead_speed: float, lane: int = 2) -> Scene:
                 cls="car",
                 position=Vec2(x=(lane - 2) * 4.0, y=gap_ahead + 5.0),
                 lane=LaneRef(kind=LaneKind.current, id=lane),
-                velocity=Vec2(y=lead_speed),
+                velocity=Velocity(y=lead_speed),
                 size=Size(length=5.0, width=2.0),
             )
         ],

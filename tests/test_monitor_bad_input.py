@@ -67,6 +67,11 @@ BAD = {
         "scene.ego.speed: Input should be a finite number",
         "schema",
     ),
+    "out_of_range": (
+        lambda v: with_scene(v, ("objects", 0, "velocity", "y"), 1e8),
+        "scene.objects.0.velocity.y: Input should be less than or equal to 150",
+        "schema",
+    ),
     "infinity": (
         lambda v: with_scene(v, ("objects", 1, "position", "y"), 1).replace(b'"y": 1}', b'"y": 1e999}'),
         "scene.objects.1.position.y: Input should be a finite number",

@@ -22,6 +22,7 @@ from discern.rules.scene import (
     Size,
     Source,
     Vec2,
+    Velocity,
     Zone,
 )
 
@@ -52,7 +53,7 @@ def build_scene(perceived: Perceived, previous_speed: float | None = None, perio
                 cls=ObjectClass.roadblock if t.static else ObjectClass.car,
                 position=Vec2(x=_r(t.right), y=_r(_ahead(t, ego.length))),
                 lane=LaneRef(kind=LaneKind.current, id=t.lane) if t.lane is not None else None,
-                velocity=Vec2(x=_r(t.v_right), y=_r(t.v_ahead)),
+                velocity=Velocity(x=_r(t.v_right), y=_r(t.v_ahead)),
                 sources=list(d.sources),
                 size=Size(length=t.length, width=t.width),
             )
