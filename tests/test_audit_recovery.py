@@ -88,6 +88,16 @@ def test_a_file_that_is_not_mcap_is_named_with_the_reason(capsys, tmp_path):
     wrong = tmp_path / "notes.mcap"
     wrong.write_text('{"this is": "json"}')
     code, out, err = audit(capsys, str(wrong), "--workers", "1")
-    assert code == 0
+    assert code == 2, "nothing at all could be read: not a clean audit"
     assert f"{wrong}: unreadable, 0 records" in out
     assert f"warning: nothing could be read from {wrong}: InvalidMagic" in err and "Traceback" not in err
+    assert audit(capsys, "--replay", str(wrong), "--workers", "1")[0] == 2
+
+
+def test_an_unreadable_file_beside_good_logs_is_named_and_the_rest_audited(capsys, tmp_path, fleet):
+    wrong = tmp_path / "notes.mcap"
+    wrong.write_text('{"this is": "json"}')
+    code, out, err = audit(capsys, str(fleet), str(wrong), "--workers", "1", "--quiet")
+    assert code == 0
+    assert f"warning: nothing could be read from {wrong}" in err
+    assert "frames: 0 " not in out

@@ -107,13 +107,13 @@ def _run(args: argparse.Namespace) -> int:
     from . import report
 
     tally = audit_logs(paths, filters, args.workers)
-    _warn_unreadable(tally.recovery)
+    nothing_read = _warn_unreadable(tally.recovery)
     agg = Aggregates.of(tally)
     sys.stdout.write(report.render_text(tally, agg, filters, listing=not args.quiet))
     _write(args.csv, lambda: report.render_csv(tally))
     _write(args.json, lambda: report.render_json(tally, agg, filters))
     _write(args.html, lambda: report.render_html(tally, agg, filters, _rule_text()))
-    return EXIT_OK
+    return EXIT_USAGE if nothing_read else EXIT_OK
 
 
 def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int:
@@ -135,7 +135,7 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     except CatalogError as exc:  # names the file and line it could not read
         raise UsageError(f"rules catalog: {exc}") from None
     result = replay_logs(paths, catalog, filters, args.workers, args.window, args.compare_rules)
-    _warn_unreadable(result.tally.recovery)
+    nothing_read = _warn_unreadable(result.tally.recovery)
     text = replay_report.render_text(result)
     if args.quiet:
         text = "\n".join(replay_report.headline(result)) + "\n"
@@ -143,15 +143,20 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     _write(args.csv, lambda: replay_report.render_csv(result))
     _write(args.json, lambda: replay_report.render_json(result))
     _write(args.html, lambda: replay_report.render_html(result))
+    if nothing_read:
+        return EXIT_USAGE
     return EXIT_CHANGED if result.tally.changes else EXIT_OK
 
 
-def _warn_unreadable(files) -> None:
+def _warn_unreadable(files) -> bool:
+    """Name each file nothing could be read from; True when that is every file given (no log at all)."""
     from .report import file_state
 
-    for f in files:
-        if file_state(f) == "unreadable":
+    states = [file_state(f) for f in files]
+    for f, state in zip(files, states):
+        if state == "unreadable":
             print(f"discern audit: warning: nothing could be read from {f.path}: {f.stopped_by}", file=sys.stderr)
+    return bool(states) and all(state == "unreadable" for state in states)
 
 
 def _log_paths(logs: Sequence[str]) -> list[str]:
