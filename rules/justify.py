@@ -424,7 +424,7 @@ class Prover:
         if negative_left > 0 and depth < self.max_depth and not closed:
             for rule in rules:
                 blocked = self._blocked(rule, args, depth + 1, negative_left - 1)
-                if blocked is not None:
+                if blocked is not None and blocked not in children:  # one id's two bodies may miss the same fact
                     children.append(blocked)
         return JustificationNode(literal=literal, holds=True, text=text, kind="negation", children=children)
 
@@ -455,7 +455,11 @@ class Prover:
             return None
         deepest = max(f.depth for f in failures)
         worst = [f for f in failures if f.depth == deepest][: self.alternatives]
-        reasons = [self._failure_node(rule, f, depth, negative_left) for f in worst]
+        reasons: list[JustificationNode] = []
+        for failure in worst:  # bindings that fail alike read alike: each reason once
+            reason = self._failure_node(rule, failure, depth, negative_left)
+            if reason not in reasons:
+                reasons.append(reason)
         if len(reasons) == 1:
             only = reasons[0]
             only.text = f"rule {rule.info.id} needs {only.text}"

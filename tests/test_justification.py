@@ -161,3 +161,18 @@ def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_cli
                 assert replaying.why(atom) == reading.why(atom), (sc.frame_id, str(atom))
                 proofs += 1
     assert proofs > 500
+
+
+def test_no_proof_step_gives_the_same_reason_twice(reasoner):
+    """Two bodies of one rule id, or two bindings, that fail alike read alike: the reader sees the reason once."""
+    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    crossing = scene(path="p1", objects=[obj("pedestrian", 30, 60, predicted_path="q1")], crossings=[("p1", "q1")])
+    reasons = 0
+    for jurisdiction, sc, proposed, history in [*_frames(), ("us", crossing, "cruise", ())]:
+        nodes = list(reasoners[jurisdiction].decide(sc, proposed, history, explain=True).justification.tree)
+        while nodes:
+            node = nodes.pop()
+            assert all(a != b for i, a in enumerate(node.children) for b in node.children[i + 1:]), node.text
+            reasons += len(node.children)
+            nodes.extend(node.children)
+    assert reasons > 1000
