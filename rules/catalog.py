@@ -29,6 +29,13 @@ from .terms import Literal, Term, compile_literal, compile_term, term_vars
 
 _ANNOTATION = re.compile(r"^%!\s*(rule|says|source|pred|hide)\s+(.*?)\s*$")
 _PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
+# A template's placeholder: @(Var), @(Var:format), and either with |words to say when Var is unknown.
+PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
+TEMPLATE_FORMATS = frozenset({
+    "m", "mps", "ahead", "right",  # centimetres and cm/s as metres; signed positions as "5.0 m behind"
+    "obj", "ordinal", "ms",  # "car 3"; "2nd"; milliseconds as seconds
+    "lane", "detail", "paren",  # "lane 2", ": reason", " (kind)": words that go when the value is unknown
+})
 
 
 class CatalogError(ValueError):
@@ -236,6 +243,13 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[PredTe
                 raise CatalogError(f"{path}:{number}: bad pred annotation {value!r}")
             name, params, template = pred.groups()
             args = tuple(p.strip() for p in params.split(",")) if params else ()
+            for placeholder in PLACEHOLDER.finditer(template):
+                param, fmt = placeholder.group(1), placeholder.group(2)
+                if param not in args:
+                    raise CatalogError(f"{path}:{number}: {placeholder.group(0)} names no parameter of {name}{args}")
+                if fmt is not None and fmt not in TEMPLATE_FORMATS:
+                    raise CatalogError(f"{path}:{number}: unknown format {fmt!r} in {placeholder.group(0)}"
+                                       f" (known: {', '.join(sorted(TEMPLATE_FORMATS))})")
             templates.append(PredTemplate(name, args, template))
         elif key == "rule":
             current, start = {"rule": value}, number

@@ -17,13 +17,12 @@ from typing import Iterable, Iterator, Optional
 
 from clingo import Control, Symbol, SymbolType, parse_term
 
-from .catalog import Catalog, CompiledRule
+from .catalog import PLACEHOLDER as _PLACEHOLDER, Catalog, CompiledRule
 from .fact_text import FACT_NAME, facts_of, facts_with_first, is_plain
 from .terms import (CMP_TEXT, Env, Literal, Shape, Term, Unbound, check_comparison, evaluate, is_assignment, match,
                     shape_of, term_vars)
 from .verdict import JustificationNode
 
-_PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?\)")
 # Replaying a rule for one object costs about 0.1-0.2 ms; reading a per-object predicate whole, about 4 us an
 # object. Measured on proofs: replaying was about 10 % slower on frames of 0-6 objects (150-240 atoms), about
 # even at 10 objects (~290 atoms), 8 % faster at 50 and 30 % at 200 (docs/reasoning.md).
@@ -208,7 +207,7 @@ class AnswerSet:
 
 @functools.lru_cache(maxsize=None)
 def _template_parts(template: str) -> tuple[str, ...]:
-    """A template cut at its placeholders, once: text, then (parameter, format, text) per placeholder."""
+    """A template cut at its placeholders, once: text, then (parameter, format, unknown words, text) per placeholder."""
     return tuple(_PLACEHOLDER.split(template))
 
 
@@ -228,8 +227,11 @@ def _ordinal(n: int) -> str:
     return f"{n}{suffix}"
 
 
+_SPACES = re.compile(r" {2,}")  # left where an unknown value reads as no words
 _PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "decel": ("m/s²", 100)}
-_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ahead": "somewhere", "right": "somewhere"}
+_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ahead": "somewhere", "right": "somewhere",
+            "lane": "a lane", "detail": "", "paren": ""}
+_WRAPPED = {"lane": "lane {}", "detail": ": {}", "paren": " ({})"}  # a value with the words around it, unknown: none
 
 
 class Phrasebook:
@@ -244,6 +246,8 @@ class Phrasebook:
     def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str) -> str:
         if sym is None:
             return _UNKNOWN.get(fmt or "", f"some {param}")
+        if fmt in _WRAPPED:
+            return _WRAPPED[fmt].format(self.value(sym, None, param))
         if sym.type != SymbolType.Number:
             return _words(sym)
         n = sym.number
@@ -255,6 +259,8 @@ class Phrasebook:
             return f"{n / 100:.1f} m ahead" if n >= 0 else f"{-n / 100:.1f} m behind"
         if fmt == "right":
             return f"{n / 100:.1f} m to the right" if n >= 0 else f"{-n / 100:.1f} m to the left"
+        if fmt == "ms":
+            return f"{n / 1000:g} s"
         if fmt == "ordinal":
             return _ordinal(n)
         if fmt == "obj":
@@ -277,10 +283,11 @@ class Phrasebook:
         values = dict(zip(template.params, args))
         parts = _template_parts(template.template)
         words = [parts[0]]
-        for i in range(1, len(parts), 3):  # (placeholder's parameter, its format, the text after it)
-            words.append(self.value(values.get(parts[i]), parts[i + 1], parts[i]))
-            words.append(parts[i + 2])
-        return "".join(words)
+        for i in range(1, len(parts), 4):  # (placeholder's parameter, its format, its unknown words, the text after)
+            value, unknown = values.get(parts[i]), parts[i + 2]
+            words.append(unknown if value is None and unknown is not None else self.value(value, parts[i + 1], parts[i]))
+            words.append(parts[i + 3])
+        return _SPACES.sub(" ", "".join(words))
 
     def atom(self, sym: Symbol) -> str:
         _, name, args = self._answer.shape(sym)

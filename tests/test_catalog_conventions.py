@@ -49,6 +49,15 @@ def test_a_syntax_error_names_the_file_and_line(tmp_path):
         load_catalog(write_rules(tmp_path, "%! rule x.a\n%! says A.\n%! source s\na :- b,.\n"))
 
 
+@pytest.mark.parametrize("template, problem", [
+    ('"@(D:metres) ahead"', r"r\.lp:1: unknown format 'metres' in @\(D:metres\)"),
+    ('"@(X) ahead"', r"r\.lp:1: @\(X\) names no parameter of gap"),
+])
+def test_a_template_placeholder_must_name_a_parameter_and_a_known_format(tmp_path, template, problem):
+    with pytest.raises(CatalogError, match=problem):
+        load_catalog(write_rules(tmp_path, f"%! pred gap(D) :: {template}\n"))
+
+
 def test_rules_deriving_an_atom_skip_heads_about_another_constant_and_keep_catalog_order(reasoner):
     catalog = reasoner.catalog
     every = catalog.by_head[("applicable", 1)]

@@ -1,8 +1,10 @@
 import json
 import random
+import re
 from pathlib import Path
 
 import clingo
+import pytest
 from clingo import Function, Number, String
 
 from bench.scenes import random_scene
@@ -163,16 +165,32 @@ def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_cli
     assert proofs > 500
 
 
-def test_no_proof_step_gives_the_same_reason_twice(reasoner):
-    """Two bodies of one rule id, or two bindings, that fail alike read alike: the reader sees the reason once."""
+@pytest.fixture(scope="module")
+def explained(reasoner):
+    """Every scenario frame and varied scene, decided with its full proof, plus a path crossing."""
     reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
     crossing = scene(path="p1", objects=[obj("pedestrian", 30, 60, predicted_path="q1")], crossings=[("p1", "q1")])
+    return [reasoners[jurisdiction].decide(sc, proposed, history, explain=True)
+            for jurisdiction, sc, proposed, history in [*_frames(), ("us", crossing, "cruise", ())]]
+
+
+def test_no_proof_step_gives_the_same_reason_twice(explained):
+    """Two bodies of one rule id, or two bindings, that fail alike read alike: the reader sees the reason once."""
     reasons = 0
-    for jurisdiction, sc, proposed, history in [*_frames(), ("us", crossing, "cruise", ())]:
-        nodes = list(reasoners[jurisdiction].decide(sc, proposed, history, explain=True).justification.tree)
+    for verdict in explained:
+        nodes = list(verdict.justification.tree)
         while nodes:
             node = nodes.pop()
             assert all(a != b for i, a in enumerate(node.children) for b in node.children[i + 1:]), node.text
             reasons += len(node.children)
             nodes.extend(node.children)
     assert reasons > 1000
+
+
+def test_a_value_no_fact_gives_reads_as_words_not_as_a_variable(explained):
+    texts = [verdict.justification.text for verdict in explained]
+    assert not [line for text in texts for line in text.splitlines() if re.search(r"\bsome [A-Z]", line)]
+    said = "\n".join(texts)
+    assert "rule def.lane_exists needs that a lane is next to the ego on the right, and there is no evidence of it" in said
+    assert "rule brake.front_sensor_close needs that the range sensor reads some distance" in said
+    assert "needs that there is a hazard, and there is no evidence of it" in said
