@@ -227,7 +227,7 @@ def _ordinal(n: int) -> str:
     return f"{n}{suffix}"
 
 
-_SPACES = re.compile(r" {2,}")  # left where an unknown value reads as no words
+_LOOSE_SPACE = re.compile(r" +(?=[,.;:)]|$)| (?= )")  # left where an unknown value reads as no words
 _PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "decel": ("m/s²", 100)}
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ahead": "somewhere", "right": "somewhere",
             "lane": "a lane", "detail": "", "paren": ""}
@@ -287,7 +287,7 @@ class Phrasebook:
             value, unknown = values.get(parts[i]), parts[i + 2]
             words.append(unknown if value is None and unknown is not None else self.value(value, parts[i + 1], parts[i]))
             words.append(parts[i + 3])
-        return _SPACES.sub(" ", "".join(words))
+        return _LOOSE_SPACE.sub("", "".join(words))
 
     def atom(self, sym: Symbol) -> str:
         _, name, args = self._answer.shape(sym)
