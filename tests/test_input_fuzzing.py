@@ -19,6 +19,7 @@ from discern.adapters.avcsr import AvcsrError, read_file
 from discern.monitor.protocol import InputError, decode_proposal
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import Action, Scene, describe_errors
+from tests.test_avcsr_adapter import FRAME
 
 SCHEMAS = Path(__file__).resolve().parents[1] / "rules" / "schema"
 SCENE_SCHEMA = json.loads((SCHEMAS / "scene.schema.json").read_text())
@@ -62,19 +63,6 @@ def test_any_bytes_on_a_proposal_key_decode_or_name_their_problem(payload):
         assert exc.kind in {"json", "schema", "vehicle"} and str(exc)
         return
     assert proposal.vehicle == "car_1"
-
-
-FRAME = """% City - fuzzed
-%%% FRAME 1 %%%
-self_speed(14.8, 1).
-self_lane(1, 1).
-speed_limit(20, 1).
-obj_meta(1, 7, truck, pos(6, 5), lane(current, 2), none).
-lanes(current, [1,2], 1).
-traffic_light(red, 1).
-left_sensor(0.4, 1).
-expected_action(brake, 1).
-"""
 
 
 @FUZZ
