@@ -17,7 +17,7 @@ from typing import Iterable, Iterator, Optional
 
 from clingo import Control, Symbol, SymbolType, parse_term
 
-from .catalog import PLACEHOLDER as _PLACEHOLDER, Catalog, CompiledRule
+from .catalog import PLACEHOLDER, Catalog, CompiledRule
 from .fact_text import FACT_NAME, facts_of, facts_with_first, is_plain
 from .terms import (CMP_TEXT, Env, Literal, Shape, Term, Unbound, check_comparison, evaluate, is_assignment, match,
                     shape_of, term_vars)
@@ -208,7 +208,7 @@ class AnswerSet:
 @functools.lru_cache(maxsize=None)
 def _template_parts(template: str) -> tuple[str, ...]:
     """A template cut at its placeholders, once: text, then (parameter, format, unknown words, text) per placeholder."""
-    return tuple(_PLACEHOLDER.split(template))
+    return tuple(PLACEHOLDER.split(template))
 
 
 def _words(sym: Symbol) -> str:
@@ -305,7 +305,7 @@ class Phrasebook:
             template = self.catalog.templates.get((term[1], len(term[2])))
             if template is None:
                 continue
-            by_param = {m.group(1): m.group(2) for m in _PLACEHOLDER.finditer(template.template)}
+            by_param = {m.group(1): m.group(2) for m in PLACEHOLDER.finditer(template.template)}
             for param, arg in zip(template.params, term[2]):
                 fmt = by_param.get(param)
                 if arg[0] == "v" and fmt in ("m", "mps", "ahead", "right"):
