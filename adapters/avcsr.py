@@ -184,62 +184,10 @@ def _scene(facts: list[Compound], t: int, environment: str, path: str) -> tuple[
     notes: list[str] = []
     seen_lanes: set[tuple[str, int]] = set()
     for f in facts:
-        a = f.args
-        if f.name == "self_speed":
-            ego["speed"] = a[0]
-        elif f.name == "self_lane":
-            ego["lane"] = a[0]
-        elif f.name == "speed_limit":
-            data["speed_limit"] = a[0]
-        elif f.name == "intent":
-            ego["intent"] = a[0]
-        elif f.name == "obj_meta":
-            _, oid, cls, pos, lane, indicator = a
-            data["objects"].append(
-                {
-                    "id": oid,
-                    "class": cls,
-                    "position": {"x": pos.args[0], "y": pos.args[1]},
-                    "lane": {"kind": lane.args[0], "id": lane.args[1]},
-                    "indicator": indicator,
-                    "sources": ["annotation"],
-                }
-            )
-        elif f.name == "lanes":
-            kind, ids = a[0], a[1]
-            for lane_id in ids:
-                if (kind, lane_id) not in seen_lanes:
-                    seen_lanes.add((kind, lane_id))
-                    data["lanes"].append({"kind": kind, "id": lane_id})
-        elif f.name == "traffic_light":
-            data["traffic_lights"].append({"colour": a[0], "source": "annotation"})
-        elif f.name == "traffic_sign":
-            data["signs"].append({"kind": a[0], "source": "annotation"})
-        elif f.name == "intersection":
-            kind, meta, stage = a[0], a[1], a[2] if len(a) == 4 else "arriving"
-            inter = {"type": kind, "stage": stage}
-            if meta in ("major", "minor"):
-                inter["road"] = meta
-            elif isinstance(meta, int):
-                inter["arrival_rank"] = meta
-            data["intersection"] = inter
-        elif f.name == "self_pred_path":
-            ego_paths.add(a[0])
-            ego["predicted_path"] = a[0]
-        elif f.name == "obj_pred_path":
-            obj_paths[a[0]] = a[1]
-        elif f.name == "path_intersects":
-            crossings.append((a[0], a[1]))
-        elif f.name == "sensor":
-            data["sensors"].append({"side": a[0], "distance": a[1], "kind": "ultrasonic"})
-        elif f.name == "left_sensor":
-            data["sensors"].append({"side": "left", "distance": a[0], "kind": "ultrasonic"})
-        elif f.name == "expected_action":
-            expected = Action(a[0])
-        elif f.name in ("at_intersection", "in_intersection"):
-            notes.append(f"{f.name} is not used by the AV-CSR rules; ignored")
-        else:
-            notes.append(f"unknown fact {f.name}/{len(a)}; ignored")
+        try:
+            expected = _read_fact(f, data, ego, ego_paths, obj_paths, crossings, notes, seen_lanes) or expected
+        except (ValueError, TypeError, AttributeError, IndexError) as exc:
+            raise AvcsrError(f"{path}: frame {t}: {f.name}/{len(f.args)} cannot be read: {exc}") from None
     for obj in data["objects"]:
         if obj["id"] in obj_paths:
             obj["predicted_path"] = obj_paths[obj["id"]]
@@ -251,6 +199,78 @@ def _scene(facts: list[Compound], t: int, environment: str, path: str) -> tuple[
         return Scene.model_validate(data), expected, notes
     except ValidationError as exc:
         raise AvcsrError(f"{path}: frame {t}:\n{describe_errors(exc)}") from None
+
+
+def _read_fact(f: Compound, data: dict, ego: dict, ego_paths: set, obj_paths: dict, crossings: list,
+               notes: list, seen_lanes: set) -> Action | None:
+    """One fact into the scene's data, or the expected action; a fact of the wrong shape raises, and _scene names it."""
+    a = f.args
+    if f.name == "self_speed":
+        ego["speed"] = a[0]
+    elif f.name == "self_lane":
+        ego["lane"] = a[0]
+    elif f.name == "speed_limit":
+        data["speed_limit"] = a[0]
+    elif f.name == "intent":
+        ego["intent"] = a[0]
+    elif f.name == "obj_meta":
+        _, oid, cls, pos, lane, indicator = a
+        x, y = _pair(pos, "pos")
+        kind, lane_id = _pair(lane, "lane")
+        data["objects"].append(
+            {
+                "id": oid,
+                "class": cls,
+                "position": {"x": x, "y": y},
+                "lane": {"kind": kind, "id": lane_id},
+                "indicator": indicator,
+                "sources": ["annotation"],
+            }
+        )
+    elif f.name == "lanes":
+        kind, ids = a[0], a[1]
+        for lane_id in ids:
+            if (kind, lane_id) not in seen_lanes:
+                seen_lanes.add((kind, lane_id))
+                data["lanes"].append({"kind": kind, "id": lane_id})
+    elif f.name == "traffic_light":
+        data["traffic_lights"].append({"colour": a[0], "source": "annotation"})
+    elif f.name == "traffic_sign":
+        data["signs"].append({"kind": a[0], "source": "annotation"})
+    elif f.name == "intersection":
+        kind, meta, stage = a[0], a[1], a[2] if len(a) == 4 else "arriving"
+        inter = {"type": kind, "stage": stage}
+        if meta in ("major", "minor"):
+            inter["road"] = meta
+        elif isinstance(meta, int):
+            inter["arrival_rank"] = meta
+        data["intersection"] = inter
+    elif f.name == "self_pred_path":
+        ego_paths.add(a[0])
+        ego["predicted_path"] = a[0]
+    elif f.name == "obj_pred_path":
+        obj_paths[a[0]] = a[1]
+    elif f.name == "path_intersects":
+        crossings.append((a[0], a[1]))
+    elif f.name == "sensor":
+        data["sensors"].append({"side": a[0], "distance": a[1], "kind": "ultrasonic"})
+    elif f.name == "left_sensor":
+        data["sensors"].append({"side": "left", "distance": a[0], "kind": "ultrasonic"})
+    elif f.name == "expected_action":
+        if not isinstance(a[0], str) or a[0] not in Action.__members__:
+            raise ValueError(f"{a[0]!r} is not one of {', '.join(action.value for action in Action)}")
+        return Action(a[0])
+    elif f.name in ("at_intersection", "in_intersection"):
+        notes.append(f"{f.name} is not used by the AV-CSR rules; ignored")
+    else:
+        notes.append(f"unknown fact {f.name}/{len(a)}; ignored")
+    return None
+
+
+def _pair(term, name: str) -> tuple:
+    if not isinstance(term, Compound) or term.name != name or len(term.args) != 2:
+        raise ValueError(f"expected {name}(_, _), found {term!r}")
+    return term.args
 
 
 def read_dir(directory: Union[str, Path]) -> list[AvcsrFrame]:

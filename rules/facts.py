@@ -32,6 +32,9 @@ class Params:
     evade_dist: float = 0.5  # m, AV-CSR's contact distance for range sensors
     tailgate_dist: float = 8.0  # m, a follower closer than this makes braking for nothing unsafe
     crossing_dist: float = 15.0  # m, vulnerable road users crossing nearer than this block a turn
+    turn_gap_s: float = 5.0  # time a turn across traffic takes to clear: traffic due sooner blocks it
+    stopped_speed: float = 0.5  # m/s, slower than this the ego has come to a stop
+    range_match: float = 3.0  # m, a range reading this close to an object's distance is that object
 
     def facts(self) -> str:
         values = asdict(self)
@@ -39,6 +42,7 @@ class Params:
             [
                 f"param(reaction_ms,{int(round(values.pop('reaction_s') * 1000))}).",
                 f"param(headway_ms,{int(round(values.pop('headway_s') * 1000))}).",
+                f"param(turn_gap_ms,{int(round(values.pop('turn_gap_s') * 1000))}).",
                 f"param(decel,{cm(values.pop('decel'))}).",
             ]
             + [f"param({name},{cm(value)})." for name, value in values.items()]

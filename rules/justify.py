@@ -228,7 +228,7 @@ def _ordinal(n: int) -> str:
 
 
 _LOOSE_SPACE = re.compile(r" +(?=[,.;:)]|$)| (?= )")  # left where an unknown value reads as no words
-_PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "decel": ("m/s²", 100)}
+_PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000), "decel": ("m/s²", 100)}
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ahead": "somewhere", "right": "somewhere",
             "lane": "a lane", "detail": "", "paren": ""}
 _WRAPPED = {"lane": "lane {}", "detail": ": {}", "paren": " ({})"}  # a value with the words around it, unknown: none

@@ -53,6 +53,9 @@ def test_fact_without_timestamp_holds_in_every_frame(tmp_path):
         ("self_speed(5, one).", "timestamp 'one'"),
         ("obj_meta(1, 1, unicorn, pos(0, 5), lane(current, 1), none).", "unknown value 'unicorn'"),
         ("self_speed(5, 1) $", "unexpected character '$'"),
+        ("expected_action(c0hange_lane_right, 1).", "expected_action/2 cannot be read: 'c0hange_lane_right' is not one of"),
+        ("obj_meta(1, 1, car, 3, lane(current, 1), none).", "obj_meta/6 cannot be read: expected pos(_, _), found 3"),
+        ("obj_meta(1, 1, car, pos(0, 5), none).", "obj_meta/5 cannot be read"),
     ],
 )
 def test_bad_files_name_the_problem(tmp_path, bad, message):

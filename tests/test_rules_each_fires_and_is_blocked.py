@@ -33,7 +33,11 @@ CASES = {
     ),
     "brake.stop_sign": (
         scene(sign="stop", intersection={"type": "four_way", "stage": "arriving"}),
-        scene(sign="stop", intersection={"type": "four_way", "stage": "at"}),
+        scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}),
+    ),
+    "brake.stop_sign_full_stop": (
+        scene(speed=3, sign="stop", intersection={"type": "four_way", "stage": "at"}),
+        scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}),
     ),
     "brake.yellow_light_can_stop": (
         scene(speed=10, light="yellow", intersection={"type": "signaled", "stage": "arriving", "distance": 40}),
@@ -47,6 +51,10 @@ CASES = {
               crossings=[("sp1", "op1")], other_lanes=("cross_right",)),
     ),
     "brake.front_sensor_close": (scene(sensors={"front": 0.3}), scene(sensors={"front": 2.0})),
+    "brake.front_range_obstacle": (
+        scene(speed=10, sensors={"front": 12.0}),
+        scene(speed=10, sensors={"front": 12.0}, objects=[obj("car", 0, 12.5, lane=1, vy=10)]),
+    ),
     "brake.wait_to_turn": (
         scene(intent="enter_left_lane", intersection={"type": "t_intersect", "stage": "at"}),
         scene(intent="enter_left_lane", intersection={"type": "t_intersect", "stage": "enter"}),
@@ -74,7 +82,7 @@ CASES = {
     "acc.lane_not_clear": (scene(speed=15, objects=[obj("car", 0, 13, lane=1)]), scene(objects=[obj("car", 0, 40, lane=1)])),
     "acc.red_light": (scene(light="red"), scene(light="green")),
     "acc.at_limit": (scene(speed=15, limit=15), scene(speed=14, limit=15)),
-    "acc.hazard": (scene(sensors={"front": 0.2}), scene(sensors={"front": 3.0})),
+    "acc.hazard": (scene(sensors={"front": 0.2}), scene(sensors={"front": 60.0})),
     "cruise.default": (scene(), None),
     "cruise.hazard": (scene(objects=[ped_ahead]), scene(objects=[obj("pedestrian", 0, 30, lane=1)])),
     "brake.no_phantom_braking": (
@@ -119,6 +127,24 @@ CASES = {
     ),
     "tl.not_leftmost": (scene(lane=2, lanes=2, intersection=at_stop), scene(lane=1, lanes=2, intersection=at_stop)),
     "tr.not_rightmost": (scene(lane=1, lanes=2, intersection=at_stop), scene(lane=2, lanes=2, intersection=at_stop)),
+    "tl.hazard": (
+        scene(intent="enter_left_lane", sign="stop", intersection={"type": "four_way", "stage": "arriving"}),
+        scene(intent="enter_left_lane", light="red", intersection={"type": "signaled", "stage": "arriving"}),
+    ),
+    "tr.hazard": (
+        scene(intent="enter_right_lane", intersection={"type": "unsignaled", "stage": "at", "arrival_rank": 2}),
+        scene(intent="enter_right_lane", light="red", intersection={"type": "signaled", "stage": "arriving"}),
+    ),
+    "tl.yield_cross_traffic": (
+        scene(intersection=at_stop, other_lanes=("cross_left",),
+              objects=[obj("car", -30, 5, lane=1, kind="cross_left", velocity={"x": 10.0, "y": 0.0})]),
+        scene(intersection=at_stop, other_lanes=("cross_left",),
+              objects=[obj("car", -30, 5, lane=1, kind="cross_left", velocity={"x": -10.0, "y": 0.0})]),
+    ),
+    "tr.yield_cross_traffic": (
+        scene(intersection=at_stop, other_lanes=("cross_left",), objects=[obj("car", -10, 5, lane=1, kind="cross_left")]),
+        scene(intersection=at_stop, other_lanes=("cross_left",), objects=[obj("car", -40, 5, lane=1, kind="cross_left")]),
+    ),
     "tl.red_light": (scene(light="red", intersection=at_stop), scene(light="green", intersection=at_stop)),
     "tr.red_light": (scene(light="red", intersection=at_stop), scene(light="green", intersection=at_stop)),
     "tr.crossing_user": (
@@ -141,6 +167,12 @@ CASES = {
     "jur.right_hand_traffic": (scene(), None),
     "po.intent": (scene(intent="pull_over"), scene()),
     "po.not_edge_lane": (scene(lane=1, lanes=2), scene(lane=2, lanes=2)),
+    "po.kerb_taken": (
+        scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",),
+              objects=[obj("truck", 3.5, 4, lane=1, kind="shoulder", vy=0)]),
+        scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",),
+              objects=[obj("truck", 3.5, 80, lane=1, kind="shoulder", vy=0)]),
+    ),
 }
 
 
@@ -164,6 +196,64 @@ def test_every_driving_rule_has_a_case_or_a_jurisdiction_case():
     uk_only = {"clr.overtake", "tr.yield_oncoming"}
     ids = {r.id for r in REASONER.catalog.driving_rules() if r.file.startswith(str(catalog_dirs()[0]))}
     assert ids - set(CASES) - uk_only == set()
+
+
+def decide(sc, proposed: str):
+    return REASONER.decide(sc, proposed)
+
+
+def test_a_stop_or_yield_hazard_keeps_the_ego_from_turning_instead_of_braking():
+    stop_ahead = scene(intent="enter_right_lane", sign="stop", intersection={"type": "four_way", "stage": "arriving"},
+                       other_lanes=("cross_right",))
+    verdict = decide(stop_ahead, "cruise")
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+    assert "tr.hazard" in decide(stop_ahead, "turn_right").rules
+
+
+def test_a_rolling_stop_at_a_stop_sign_is_not_a_stop():
+    rolling = scene(speed=9, sign="stop", intersection={"type": "four_way", "stage": "at"})
+    assert decide(rolling, "accelerate").action.value == "brake"
+    assert decide(scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}), "accelerate").decision.value == "approve"
+
+
+def test_right_on_red_yields_to_approaching_cross_traffic():
+    red = {"speed": 0, "intent": "enter_right_lane", "light": "red", "intersection": at_stop, "other_lanes": ("cross_left",)}
+    clear = scene(**red)
+    coming = scene(**red, objects=[obj("car", -12, 6, lane=1, kind="cross_left", velocity={"x": 14.0, "y": 0.0})])
+    assert decide(clear, "turn_right").decision.value == "approve"
+    verdict = decide(coming, "turn_right")
+    assert verdict.decision.value == "override" and "tr.yield_cross_traffic" in verdict.rules
+
+
+def test_a_front_radar_reading_inside_the_stopping_gap_brakes_when_the_camera_sees_nothing():
+    verdict = decide(scene(speed=20, limit=31, zone="highway", sensors={"front": 6.0}), "accelerate")
+    assert verdict.action.value == "brake" and "brake.front_range_obstacle" in verdict.rules
+    assert decide(scene(speed=20, limit=31, zone="highway", sensors={"front": 80.0}), "accelerate").decision.value == "approve"
+
+
+def test_a_tailgater_does_not_turn_a_reasoned_slow_down_into_speeding_up():
+    tailgated = {"speed": 12, "objects": [obj("car", 0, -6, lane=1, vy=12)]}
+    assert decide(scene(**tailgated, light="yellow"), "brake").decision.value == "approve"
+    assert decide(scene(**tailgated), "brake").decision.value == "override"
+
+
+def test_merging_right_into_a_taken_lane_calls_for_braking_like_merging_left():
+    right = scene(lane=1, lanes=2, intent="merge_into_right_lane", objects=[obj("car", 3.5, 2, lane=2)])
+    left = scene(lane=2, lanes=2, intent="merge_into_left_lane", objects=[obj("car", -3.5, 2, lane=1)])
+    assert decide(right, "accelerate").recommended.value == decide(left, "accelerate").recommended.value == "brake"
+
+
+def test_a_cyclist_of_unknown_speed_is_not_assumed_to_keep_up_with_traffic():
+    verdict = decide(scene(speed=20, limit=25, objects=[obj("bicycle", 0, 12, lane=1)]), "cruise")
+    assert verdict.action.value == "brake" and "brake.obstacle_ahead" in verdict.rules
+
+
+def test_a_fast_oncoming_car_due_within_the_turn_gap_blocks_a_left_turn():
+    at_green = {"speed": 0, "intent": "enter_left_lane", "light": "green", "intersection": at_stop, "other_lanes": ("oncoming",)}
+    fast = scene(**at_green, objects=[obj("car", -3, 40, lane=1, kind="oncoming", vy=-15)])
+    far = scene(**at_green, objects=[obj("car", -3, 90, lane=1, kind="oncoming", vy=-15)])
+    assert "tl.yield_oncoming" in decide(fast, "turn_left").rules
+    assert decide(far, "turn_left").decision.value == "approve"
 
 
 def test_fallback_brake_is_recommended_when_no_rule_calls_for_anything(tmp_path: Path):
