@@ -35,6 +35,7 @@ class Params:
     turn_gap_s: float = 5.0  # time a turn across traffic takes to clear: traffic due sooner blocks it
     stopped_speed: float = 0.5  # m/s, slower than this the ego has come to a stop
     range_match: float = 3.0  # m, a range reading this close to an object's distance is that object
+    lane_width: float = 3.5  # m, places objects reported without a lane; a side reading within it is in the next lane
 
     def facts(self) -> str:
         values = asdict(self)
@@ -75,6 +76,8 @@ def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
         out.append(f"obj_pos({oid},{cm(obj.position.x)},{cm(obj.position.y)}).")
         if obj.lane is not None:
             out.append(f"obj_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")
+        else:
+            out.append(f"lane_unreported({oid}).")
         if obj.velocity is not None:
             out.append(f"obj_velocity({oid},{cm(obj.velocity.x)},{cm(obj.velocity.y)}).has_velocity({oid}).")
         if obj.indicator.value != "none":

@@ -256,6 +256,15 @@ def test_a_fast_oncoming_car_due_within_the_turn_gap_blocks_a_left_turn():
     assert decide(far, "turn_left").decision.value == "approve"
 
 
+def test_an_object_reported_without_a_lane_is_placed_in_the_lane_its_offset_falls_in():
+    ahead = decide(scene(objects=[obj("pedestrian", 0.4, 6)]), "accelerate")
+    assert ahead.action.value == "brake" and "brake.obstacle_ahead" in ahead.rules
+    beside = decide(scene(lane=2, lanes=2, objects=[obj("truck", -3.5, 1, vy=10)]), "change_lane_left")
+    assert "cll.lane_taken" in beside.rules
+    off_the_road = scene(lane=2, lanes=2, objects=[obj("truck", -9, 1, vy=10)])
+    assert decide(off_the_road, "change_lane_left").decision.value == "approve"
+
+
 def test_fallback_brake_is_recommended_when_no_rule_calls_for_anything(tmp_path: Path):
     rules = tmp_path / "rules"
     shutil.copytree(catalog_dirs()[0], rules)
