@@ -159,8 +159,9 @@ def _examples() -> list[Example]:
     real_ahead = obj(9, "car", 0.0, 16.0, 2, vy=5.0)
     hw = {"zone": "highway", "limit": 29.0, "lanes": 2, "lane": 2, "speed": 15.0}
     truck = obj(2, "truck", 0.0, 30.0, 1, vy=12.0, size={"length": 12.0, "width": 2.5})
-    flashing_red = [scene(frame=i + 1, speed=8.0 - i, limit=11.0, lights=[{"colour": "red"}] if i % 2 == 0 else [],
-                          intersection=arriving) for i in range(4)]
+    # a flash is about 1 Hz: frames half a second apart see the light lit, dark, lit, dark (a 0.1 s gap is a lost frame)
+    flashing_red = [scene(frame=i + 1, timestamp=0.5 * (i + 1), speed=8.0 - i, limit=11.0,
+                          lights=[{"colour": "red"}] if i % 2 == 0 else [], intersection=arriving) for i in range(4)]
     red_then_dark = tuple(flashing_red[:2])
     steady_red = (scene(frame=1, speed=8.0, limit=11.0, lights=[{"colour": "red"}], intersection=arriving),
                   scene(frame=2, speed=7.0, limit=11.0, lights=[{"colour": "red"}], intersection=arriving))
@@ -263,10 +264,11 @@ def _examples() -> list[Example]:
                 (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 24.5, 1, sources=("camera",))]),),
                 Action.accelerate,
                 (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 24.5, 1)]),)),
-        Example("san.world.size", "A toy-sized car, 0.7 m long, 8 m ahead.",
-                (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, size={"length": 0.7, "width": 0.3})]),),
+        Example("san.world.size", "A toy-sized car, 0.7 m long, 8 m ahead, that only the camera reports.",
+                (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, sources=("camera",),
+                                                            size={"length": 0.7, "width": 0.3})]),),
                 Action.cruise,
-                (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, size={"length": 4.2, "width": 1.8})]),)),
+                (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, size={"length": 0.7, "width": 0.3})]),)),
         Example("san.world.no_echo_off_lane", "A car only the camera sees, on no lane, while the radar is running (a roadside advert).",
                 (scene(speed=12.0, limit=15.0, objects=[obj(2, "car", 0.0, 40.0, 1, vy=12.0),
                                                         obj(8, "car", 6.0, 9.0, sources=("camera",), predicted_path="op1")],
@@ -277,7 +279,7 @@ def _examples() -> list[Example]:
                        path_crossings=[{"ego_path": "sp1", "object_path": "op1"}],
                        ego={"speed": 12.0, "lane": 1, "predicted_path": "sp1"}),)),
         # --- the frame window
-        Example("san.lights.flashing", "A red light seen on, off, on, off over four frames.",
+        Example("san.lights.flashing", "A red light seen on, off, on, off over four frames half a second apart.",
                 tuple(flashing_red), Action.cruise, steady_red),
         Example("san.lights.flashing_not_steady", "The flashing red light is no steady red.",
                 tuple(flashing_red), Action.cruise, steady_red),

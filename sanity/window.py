@@ -37,6 +37,8 @@ FOOTPRINT = {
     ObjectClass.animal: (1.5, 0.6),
 }
 DEFAULT_FOOTPRINT = (1.0, 1.0)
+FLASH_MIN_PHASE_S = 0.25  # s: the shortest on or off phase of a flashing signal (about 0.3 s at 60 a minute)
+FLASH_MAX_PHASE_S = 1.0  # s: the longest (0.8 s lit at 50 a minute), with a frame of slack
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,11 @@ class WindowConfig:
     track_frames: int = 3  # frames a lost object must have been tracked to be kept
     horizon_s: float = 3.0  # how far ahead tracked courses are followed
     sensor_margin: float = 2.0  # m a range reading may exceed a lost object's distance and still be it
+    # A flashing signal runs at about 1 Hz (MUTCD 4D.19: 50-60 flashes a minute, lit for 1/2 to 2/3 of each):
+    # each phase lasts some 0.3-0.8 s. A dark gap shorter than this is a dropped frame or LED flicker, not a
+    # flash; a phase longer than the most is a steady light.
+    flash_min_phase_s: float = FLASH_MIN_PHASE_S
+    flash_max_phase_s: float = FLASH_MAX_PHASE_S
 
     def __post_init__(self) -> None:
         if not self.seconds > 0 or self.max_frames < 1 or self.confirm_frames < 1 or self.track_frames < 1:
@@ -58,6 +65,11 @@ class WindowConfig:
             )
         if not self.horizon_s > 0:
             raise ValueError(f"window horizon_s must be > 0, got {self.horizon_s}")
+        if not 0 < self.flash_min_phase_s <= self.flash_max_phase_s:
+            raise ValueError(
+                "window needs 0 < flash_min_phase_s <= flash_max_phase_s, "
+                f"got {self.flash_min_phase_s} and {self.flash_max_phase_s}"
+            )
 
 
 @dataclass(frozen=True)
@@ -113,7 +125,8 @@ class WindowProvider:
             )
             now, past = self._summary(scene), [self._summary(s) for s in window]
             out.extend(_limit_facts(now, past, c.confirm_frames))
-            out.extend(_light_facts(now, past))
+            times = [s.timestamp for s in window] + [scene.timestamp]
+            out.extend(_light_facts(now, past, times, c))
             out.extend(_sign_facts(now, past))
             out.extend(_memory_facts(scene, now, window, past, c))
             if any(p.stopped for p in past):
@@ -204,20 +217,40 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int) -> list[str]
 # --- lights and signs ---------------------------------------------------------
 
 
-def _light_facts(now: _Summary, past: list[_Summary]) -> list[str]:
+def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config: WindowConfig) -> list[str]:
     if not now.lights and not any(p.lights for p in past):  # most frames: nothing lit in the whole window
         return []
     frames = past + [now]
     out = []
     for colour in (LightColour.red, LightColour.yellow):
-        on = [colour in f.lights for f in frames]
-        changes = sum(a != b for a, b in zip(on, on[1:]))
-        flagged = any(colour in p.flashing for p in past)
-        if (changes >= 2 and any(on)) or flagged:
+        if any(colour in p.flashing for p in past):  # reported flashing in a recent frame
+            out.append(f"light_flashing_before({colour.value}).")
+        if _flashes([colour in f.lights for f in frames], times, config):
             out.append(f"light_flashes({colour.value}).")
     if not now.lights and any(LightColour.red in p.lights for p in past):
         out.append("light_seen_recently(red).")
     return out
+
+
+def _flashes(on: list[bool], times: list[float], config: WindowConfig) -> bool:
+    """Whether a light seen on (True) and off over frames at `times` goes through a whole flash cycle.
+
+    It must go on, off and on again (one whole dark phase seen between two lit ones), and every
+    phase must last as long as a flash does: a steady light that drops out of one frame or
+    flickers goes off for a tenth of a second, and one lit for seconds is steady. A phase lasts
+    from its first frame to the first frame of the next; the phases at the window's edges are
+    cut, so only their length so far is held against the most a phase may last.
+    Without timestamps nothing lasts, and nothing is seen flashing.
+    """
+    starts = [i for i in range(len(on)) if i == 0 or on[i] != on[i - 1]]
+    if len(starts) < 3 or not any(on[i] for i in starts[:-2]):  # no on, off, on
+        return False
+    ms = [round(t * 1000) for t in times]  # whole milliseconds: 0.5 - 0.25 is 0.25 exactly
+    shortest, longest = round(config.flash_min_phase_s * 1000), round(config.flash_max_phase_s * 1000)
+    ends = [ms[i] for i in starts[1:]] + [ms[-1]]
+    lengths = [end - ms[i] for i, end in zip(starts, ends)]
+    whole = lengths[1:-1]  # seen from start to end
+    return all(shortest <= n <= longest for n in whole) and lengths[0] <= longest and lengths[-1] <= longest
 
 
 def _sign_facts(now: _Summary, past: list[_Summary]) -> list[str]:

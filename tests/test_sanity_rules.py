@@ -1,4 +1,6 @@
-"""Every sanity and jurisdiction rule: its worked example fires it, its near miss does not."""
+"""Every sanity and jurisdiction rule: its worked example fires it, its near miss does not; and behaviours found in review
+(a dropped frame is no flash, range-confirmed objects are real whatever their size, close or vulnerable camera-only
+objects are no phantoms)."""
 
 from __future__ import annotations
 
@@ -6,8 +8,10 @@ from pathlib import Path
 
 import pytest
 
+from discern.rules.scene import Action
+from discern.rules.verdict import Decision
 from discern.sanity import examples
-from discern.sanity.examples import EXAMPLES, fired
+from discern.sanity.examples import EXAMPLES, fired, obj, scene
 from discern.sanity.jurisdiction import reasoner_for
 
 BY_RULE = {e.rule: e for e in EXAMPLES}
@@ -47,3 +51,122 @@ def test_docs_show_the_engines_own_output_for_every_example():
     block = text[text.index(examples.BEGIN) + len(examples.BEGIN): text.index(examples.END)]
     assert block.strip() == examples.markdown(EXAMPLES).strip(), (
         "docs/sanity.md is out of date: run `python -m discern.sanity.examples docs/sanity.md`")
+
+
+# --- flashing lights: a dropped frame is no flash, and an inferred flash does not release the ego at the line
+
+AT_LINE = {"type": "signaled", "stage": "at", "distance": 0.0}
+RED = [{"colour": "red"}]
+
+
+def _timed(frames: list[tuple[float, list]], **kw):
+    """Frames at the given times with the given lights, the ego stopped at the line unless told otherwise."""
+    kw = {"speed": 0.0, "limit": 13.4, "intersection": AT_LINE, **kw}
+    return tuple(scene(frame=i + 1, timestamp=t, lights=lights, **kw) for i, (t, lights) in enumerate(frames))
+
+
+def _decide(frames, proposed: Action):
+    return reasoner_for("us").decide(frames[-1], proposed, history=frames[:-1], explain=True)
+
+
+def test_a_steady_red_with_one_dropped_frame_keeps_the_ego_at_the_stop_line():
+    frames = _timed([(0.0, RED), (0.1, RED), (0.2, []), (0.3, RED)])
+    verdict = _decide(frames, Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert {"brake.red_light", "acc.red_light"} <= set(verdict.rules)
+
+
+def test_an_inferred_flash_does_not_release_the_ego_at_the_stop_line():
+    flashing = _timed([(0.0, RED), (0.5, []), (1.0, RED), (1.5, []), (2.0, RED)])
+    assert "san.lights.flashing" in fired(reasoner_for("us"), flashing, Action.accelerate)
+    verdict = _decide(flashing, Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert "brake.red_light" in verdict.rules
+    dark = _timed([(0.0, RED), (0.5, []), (1.0, RED), (1.5, []), (2.0, RED), (2.5, [])])
+    verdict = _decide(dark, Action.accelerate)  # nor does the dark phase that follows
+    assert verdict.decision is Decision.override and "san.memory.red_light" in verdict.rules
+
+
+def test_a_flash_perception_reports_releases_the_ego_after_its_stop():
+    reported = _timed([(0.0, RED), (0.5, [{"colour": "red", "flashing": True}])])
+    assert _decide(reported, Action.accelerate).decision is Decision.approve
+
+
+def test_an_inferred_flashing_red_still_stops_the_arriving_ego():
+    arriving = {"type": "signaled", "stage": "arriving", "distance": 25.0}
+    frames = _timed([(0.0, RED), (0.5, []), (1.0, RED)], speed=8.0, intersection=arriving)
+    verdict = _decide(frames, Action.cruise)
+    assert verdict.action is Action.brake and "san.lights.flashing_red_stop" in verdict.rules
+
+
+def test_an_inferred_flash_with_no_intersection_known_does_not_release_a_stopped_ego():
+    frames = _timed([(0.0, RED), (0.5, []), (1.0, RED)], intersection=None)
+    assert _decide(frames, Action.accelerate).action is Action.brake
+
+
+# --- sizes: what a range sensor confirms is real, whatever its size
+
+
+def test_a_childs_bicycle_confirmed_by_radar_and_lidar_is_braked_for():
+    bike = obj(2, "bicycle", 0.0, 9.0, 1, vy=0.0, sources=("camera", "radar", "lidar"), size={"length": 1.1, "width": 0.5})
+    verdict = _decide((scene(speed=10.0, zone="residential", limit=11.0, objects=[bike]),), Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert "san.world.size" not in verdict.rules
+
+
+def test_a_police_motorcycle_with_its_lights_on_is_an_emergency_vehicle_on_duty():
+    moto = obj(4, "emergency_vehicle", 0.0, -6.0, 1, vy=16.0, sources=("camera", "radar"), emergency_lights=True,
+               size={"length": 2.3, "width": 0.9})
+    verdict = _decide((scene(speed=12.0, limit=15.6, objects=[moto]),), Action.accelerate)
+    assert verdict.decision is Decision.override and "san.emergency.give_way" in verdict.rules
+
+
+def test_a_camera_only_childs_bicycle_fits_its_class_but_a_camera_only_toy_car_does_not():
+    bike = obj(2, "bicycle", 0.0, 9.0, 1, vy=0.0, sources=("camera",), size={"length": 0.9, "width": 0.4})
+    toy = obj(3, "car", 0.0, 9.0, 1, sources=("camera",), size={"length": 0.7, "width": 0.3})
+    us = reasoner_for("us")
+    assert "san.world.size" not in fired(us, (scene(speed=10.0, limit=11.0, objects=[bike]),))
+    assert "san.world.size" in fired(us, (scene(speed=10.0, limit=11.0, objects=[toy]),))
+
+
+# --- possible phantoms: close ones are real, far ones cost speed, people are never doubted
+
+RADAR_CAR = obj(2, "car", -3.5, 60.0, 1, vy=15.0)  # keeps the radar running
+HW = {"zone": "highway", "limit": 29.0, "lanes": 2, "lane": 2, "speed": 15.0}
+
+
+def test_a_camera_only_pedestrian_inside_the_stopping_distance_is_braked_for():
+    walker = obj(3, "pedestrian", 0.0, 16.0, 2, sources=("camera",))
+    verdict = _decide((scene(**HW, objects=[RADAR_CAR, walker]),), Action.cruise)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert "brake.obstacle_ahead" in verdict.rules and "san.radar.phantom" not in verdict.rules
+
+
+@pytest.mark.parametrize("cls", ["pedestrian", "bicycle", "animal"])
+def test_a_vulnerable_road_user_is_never_doubted_for_lack_of_a_radar_echo(cls):
+    far = obj(3, cls, 0.0, 60.0, 2, vy=0.0, sources=("camera",))
+    assert "san.radar.phantom" not in fired(reasoner_for("us"), (scene(**HW, objects=[RADAR_CAR, far]),))
+
+
+def test_a_standing_camera_only_car_closer_than_braking_takes_is_treated_as_real():
+    # closing at 15 m/s, braking at once takes 18.75 m: at 17 m there is no waiting for the radar
+    stopped = obj(9, "car", 0.0, 17.0, 2, vy=0.0, sources=("camera",))
+    verdict = _decide((scene(**HW, objects=[RADAR_CAR, stopped]),), Action.cruise)
+    assert "brake.obstacle_ahead" in verdict.rules and "san.radar.phantom" not in verdict.rules
+
+
+def test_a_far_possible_phantom_forbids_holding_speed_as_well_as_accelerating():
+    phantom = obj(9, "car", 0.0, 16.0, 2, vy=5.0, sources=("camera",))
+    frames = (scene(**HW, objects=[RADAR_CAR, phantom]),)
+    cruise, accelerate = _decide(frames, Action.cruise), _decide(frames, Action.accelerate)
+    assert (cruise.decision, cruise.action) == (Decision.override, Action.brake)
+    assert "san.radar.phantom_caution" in cruise.rules and "brake.obstacle_ahead" not in cruise.rules
+    assert accelerate.decision is Decision.override
+    assert _decide(frames, Action.brake).decision is Decision.approve  # slowing down, not an emergency stop
+
+
+def test_a_camera_only_pedestrian_in_front_of_a_bus_is_no_picture_on_it():
+    bus = obj(2, "bus", 0.0, 30.0, 1, vy=0.0, size={"length": 12.0, "width": 2.5})
+    walker = obj(5, "pedestrian", 0.3, 23.5, 1, sources=("camera",))
+    assert "san.world.picture_on_object" not in fired(reasoner_for("us"), (scene(speed=10.0, limit=13.0,
+                                                                                   objects=[bus, walker]),))

@@ -42,7 +42,8 @@ def test_fault_injection_scenarios_of_the_issue_are_present():
     names = {p.stem for p in FILES}
     assert {"taped_sign_35_reads_85", "misread_sign_30_reads_80", "stop_sign_read_as_speed_limit_45",
             "camera_clear_left_sensor_hit", "camera_loses_car_in_left_lane", "phantom_camera_object",
-            "sign_flickers", "emergency_vehicle_flashing", "flashing_red_light", "flashing_yellow_light"} <= names
+            "sign_flickers", "emergency_vehicle_flashing", "flashing_red_light", "flashing_yellow_light",
+            "steady_red_one_frame_dropped"} <= names
 
 
 def test_every_scenario_frame_is_a_valid_scene_in_a_known_jurisdiction():

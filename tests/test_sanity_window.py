@@ -61,6 +61,8 @@ def test_window_config_rejects_nonsense():
         WindowConfig(confirm_frames=0)
     with pytest.raises(ValueError, match="horizon_s must be > 0"):
         WindowConfig(horizon_s=0)
+    with pytest.raises(ValueError, match="flash_min_phase_s <= flash_max_phase_s"):
+        WindowConfig(flash_min_phase_s=1.5, flash_max_phase_s=1.0)
 
 
 def test_a_plain_frame_without_history_adds_no_facts():
@@ -91,6 +93,55 @@ def test_a_light_going_on_and_off_is_flashing_and_a_steady_one_is_not():
     steady = [at(0.0, lights=red), at(0.25, lights=red), at(0.5, lights=red)]
     assert "light_flashes(red)." in facts(flashing)
     assert not any(f.startswith("light_flashes") for f in facts(steady))
+
+
+RED = [{"colour": "red"}]
+
+
+def _flashes(frames) -> bool:
+    return "light_flashes(red)." in facts(frames)
+
+
+def test_a_steady_red_that_drops_one_frame_is_not_flashing():
+    # 10 frames a second: red, red, dark for 0.1 s, red (the review's red_dropout)
+    frames = [at(0.0, lights=RED), at(0.1, lights=RED), at(0.2), at(0.3, lights=RED)]
+    assert not _flashes(frames)
+
+
+def test_a_light_flashing_at_one_hertz_over_ten_frames_a_second_is_flashing():
+    lit = [(i // 5) % 2 == 0 for i in range(16)]  # 0.5 s lit, 0.5 s dark, ...
+    assert _flashes([at(round(0.1 * i, 1), lights=RED if on else []) for i, on in enumerate(lit)])
+
+
+def test_a_flicker_faster_than_a_flash_is_not_flashing():
+    frames = [at(round(0.1 * i, 1), lights=RED if i % 2 == 0 else []) for i in range(9)]
+    assert not _flashes(frames)
+
+
+def test_going_off_and_on_once_is_no_whole_flash_cycle():
+    assert not _flashes([at(0.0), at(0.5, lights=RED), at(1.0)])  # off, on, off: no dark phase between two lit ones
+
+
+def test_a_light_lit_longer_than_a_flash_phase_is_steady_though_it_drops_out():
+    frames = [at(round(0.1 * i, 1), lights=RED) for i in range(13)]  # lit 1.3 s
+    frames += [at(1.3), at(1.4), at(1.5), at(1.6, lights=RED)]  # then dark 0.3 s
+    assert not _flashes(frames)
+
+
+def test_frames_without_timestamps_never_show_a_flash():
+    assert not _flashes([at(0.0, lights=RED), at(0.0), at(0.0, lights=RED), at(0.0)])
+
+
+def test_the_shortest_flash_phase_is_a_window_parameter():
+    frames = [at(0.0, lights=RED), at(0.2), at(0.4, lights=RED)]
+    assert not _flashes(frames)  # dark for 0.2 s: shorter than a flash by default
+    assert "light_flashes(red)." in facts(frames, WindowProvider(WindowConfig(flash_min_phase_s=0.2)))
+
+
+def test_a_light_reported_flashing_in_an_earlier_frame_is_kept_apart_from_an_inferred_flash():
+    yellow = [{"colour": "yellow", "flashing": True}]
+    found = facts([at(0.0, lights=yellow), at(0.1, lights=[{"colour": "yellow"}])])
+    assert "light_flashing_before(yellow)." in found and "light_flashes(yellow)." not in found
 
 
 def test_a_red_light_out_of_view_is_remembered():
