@@ -31,6 +31,7 @@ from .protocol import RULE_NO_ANSWER, decode_verdict, encode, failsafe_verdict
 log = logging.getLogger(__name__)
 JSON = zenoh.Encoding.APPLICATION_JSON
 STYLES = ("query", "pubsub")
+ZENOH_TIMEOUT = "Timeout"  # the error reply zenoh itself gives a query whose timeout expired
 
 
 class Monitor:
@@ -40,8 +41,10 @@ class Monitor:
     `mode` is peer unless given or set in the file.
     style="query": `check` queries ``discern/<vehicle>/check`` and takes the first reply.
     style="pubsub": `check` publishes on ``discern/<vehicle>/proposal`` and waits for the
-    verdict of that frame on ``discern/<vehicle>/verdict``; `publish` sends without waiting
-    and `on_verdict` sees every verdict.
+    verdict of that frame on ``discern/<vehicle>/verdict``. `publish` sends without waiting.
+    In either style `on_verdict` sees every monitor verdict of the vehicle once: the replies
+    to `check` (before `check` returns them) and the verdicts on ``discern/<vehicle>/verdict``;
+    not the fail-safes the client makes up when no verdict comes.
     """
 
     def __init__(
@@ -94,6 +97,8 @@ class Monitor:
         timeout = self.timeout if timeout is None else timeout
         if self.style == "query":
             verdict = self._query(proposal, timeout)
+            if isinstance(verdict, Verdict) and self._on_verdict is not None:
+                self._on_verdict(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
         else:
             verdict = self._publish_and_wait(proposal, timeout)
         if isinstance(verdict, Verdict):
@@ -157,7 +162,9 @@ class Monitor:
         try:
             for reply in replies:
                 if reply.ok is None:
-                    problem = f"the monitor replied with an error: {reply.err.payload.to_string()[:200]}"
+                    error = reply.err.payload.to_string()
+                    if error != ZENOH_TIMEOUT:  # zenoh's own reply when `timeout` expires: no answer
+                        problem = f"the monitor replied with an error: {error[:200]}"
                     continue
                 try:
                     return decode_verdict(reply.ok.payload.to_bytes())

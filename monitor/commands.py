@@ -7,17 +7,33 @@ from __future__ import annotations
 
 import argparse
 import logging
-import re
 import signal
 import sys
 import threading
 import time
 from pathlib import Path
+from typing import Optional
 
 from discern.rules.engine import JURISDICTIONS
 
 from . import keys
-from .config import DEFAULT_ENDPOINT, LogSettings, MonitorConfig, ZenohSettings, default_monitor_id
+from .config import (
+    BUDGET_MAX_MS,
+    DEFAULT_ENDPOINT,
+    LOG_FLUSH_MAX_S,
+    LOG_FLUSH_MIN_S,
+    LOG_ROTATE_MIN_BYTES,
+    LOG_ROTATE_MIN_S,
+    MIB,
+    STATUS_PERIOD_MAX_S,
+    STATUS_PERIOD_MIN_S,
+    LogSettings,
+    MonitorConfig,
+    ZenohSettings,
+    check_number,
+    default_monitor_id,
+    without_rust_locations,
+)
 
 log = logging.getLogger("discern.monitor")
 
@@ -31,18 +47,43 @@ def register(subparsers) -> None:
     _zenoh_arguments(serve, listen_default=DEFAULT_ENDPOINT)
     serve.add_argument("--id", dest="monitor_id", default=None, help="monitor id, for its status key (default: host-pid)")
     serve.add_argument("--vehicles", default="*", help="serve only these vehicles, e.g. 'fleet_a_*' (default: all)")
-    serve.add_argument("--budget-ms", type=float, default=50.0, help="decision budget; later = fail-safe (default: 50)")
+    serve.add_argument(
+        "--budget-ms",
+        type=float,
+        default=50.0,
+        help=f"decision budget, above 0 and at most {BUDGET_MAX_MS:g}; later = fail-safe (default: 50)",
+    )
     serve.add_argument("--window-s", type=float, default=2.0, help="per-vehicle history window (default: 2)")
     serve.add_argument("--max-payload-bytes", type=int, default=1024 * 1024, help="larger proposals are refused")
     serve.add_argument("--workers", type=int, default=1, help="decision worker processes (default: 1)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
     serve.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
     serve.add_argument("--log-dir", type=Path, default=None, help="write the MCAP log here (default: no log)")
-    serve.add_argument("--log-rotate-mb", type=float, default=256.0, help="start a new log file past this size")
-    serve.add_argument("--log-rotate-s", type=float, default=3600.0, help="start a new log file past this age")
-    serve.add_argument("--log-flush-s", type=float, default=0.5, help="close a chunk this often (bounds crash loss)")
+    serve.add_argument(
+        "--log-rotate-mb",
+        type=float,
+        default=256.0,
+        help=f"start a new log file past this size, at least {LOG_ROTATE_MIN_BYTES / MIB:g} (default: 256)",
+    )
+    serve.add_argument(
+        "--log-rotate-s",
+        type=float,
+        default=3600.0,
+        help=f"start a new log file past this age, at least {LOG_ROTATE_MIN_S:g} (default: 3600)",
+    )
+    serve.add_argument(
+        "--log-flush-s",
+        type=float,
+        default=0.5,
+        help=f"close a chunk this often, bounding crash loss; {LOG_FLUSH_MIN_S:g} to {LOG_FLUSH_MAX_S:g} (default: 0.5)",
+    )
     serve.add_argument("--log-compression", choices=("zstd", "none"), default="zstd")
-    serve.add_argument("--status-period-s", type=float, default=1.0, help="status record period in the log")
+    serve.add_argument(
+        "--status-period-s",
+        type=float,
+        default=1.0,
+        help=f"status record period in the log, {STATUS_PERIOD_MIN_S:g} to {STATUS_PERIOD_MAX_S:g} (default: 1)",
+    )
     serve.add_argument(
         "--test-only-decision-delay-ms",
         type=float,
@@ -102,12 +143,9 @@ def _zenoh_settings(args, mode=None) -> ZenohSettings:
     )
 
 
-_RUST_LOCATION = re.compile(r" at /\S+?\.rs:\d+\.?")
-
-
 def _fail(command: str, message: str) -> int:
     """One line for the user; zenoh's errors carry Rust source locations they have no use for."""
-    print(f"discern {command}: error: {_RUST_LOCATION.sub('', message)}", file=sys.stderr)
+    print(f"discern {command}: error: {without_rust_locations(message)}", file=sys.stderr)
     return 2
 
 
@@ -117,6 +155,20 @@ def _wait_for_signal() -> None:
         signal.signal(sig, lambda *_: stop.set())
     while not stop.wait(0.5):
         pass
+
+
+def _log_settings(args) -> Optional[LogSettings]:
+    if args.log_dir is None:
+        return None
+    # int() of NaN or infinity would raise first, without naming the flag.
+    check_number("--log-rotate-mb", args.log_rotate_mb, LOG_ROTATE_MIN_BYTES / MIB, unit=" MiB")
+    return LogSettings(
+        directory=args.log_dir,
+        rotate_bytes=int(args.log_rotate_mb * MIB),
+        rotate_seconds=args.log_rotate_s,
+        flush_seconds=args.log_flush_s,
+        compression=args.log_compression,
+    )
 
 
 def cmd_serve(args) -> int:
@@ -140,15 +192,7 @@ def cmd_serve(args) -> int:
             workers=args.workers,
             shadow=args.shadow,
             jurisdiction=args.jurisdiction,
-            log=LogSettings(
-                directory=args.log_dir,
-                rotate_bytes=int(args.log_rotate_mb * 1024 * 1024),
-                rotate_seconds=args.log_rotate_s,
-                flush_seconds=args.log_flush_s,
-                compression=args.log_compression,
-            )
-            if args.log_dir
-            else None,
+            log=_log_settings(args),
             status_period_s=args.status_period_s,
             test_decision_delay_ms=args.test_only_decision_delay_ms,
         )
@@ -181,31 +225,48 @@ def cmd_serve(args) -> int:
 
 def cmd_status(args) -> int:
     import zenoh
+    from pydantic import ValidationError
+
+    from discern.rules.scene import describe_errors
 
     from .status import MonitorStatus
 
     try:
+        selector = keys.status_key(keys.monitor_selector(args.monitor_id))
+        check_number("--timeout", args.timeout, 0, unit=" s", above=True)
         session = zenoh.open(_zenoh_settings(args).to_zenoh(default_listen=[]))
     except Exception as exc:
         return _fail("status", str(exc))
-    found = 0
+    answered = found = 0
     try:
-        selector = keys.status_key(args.monitor_id) if args.monitor_id != "*" else keys.ALL_STATUS_KEYS
         deadline = time.monotonic() + args.timeout
         # A freshly opened peer needs a moment to learn the routes: retry until something answers.
-        while not found and time.monotonic() < deadline:
+        while not answered and time.monotonic() < deadline:
             for reply in session.get(selector, timeout=max(0.1, deadline - time.monotonic())):
                 if reply.ok is None:
                     continue
+                answered += 1
+                try:
+                    status = MonitorStatus.model_validate_json(reply.ok.payload.to_bytes())
+                except ValidationError as exc:  # not a monitor of this version: say who, show the others
+                    print(
+                        f"discern status: warning: skipped an unreadable status from {reply.ok.key_expr} "
+                        f"(zenoh id {reply.replier_id.zid if reply.replier_id else 'unknown'}): "
+                        f"{'; '.join(describe_errors(exc).splitlines())}",
+                        file=sys.stderr,
+                        flush=True,
+                    )
+                    continue
                 found += 1
-                status = MonitorStatus.model_validate_json(reply.ok.payload.to_bytes())
                 print(status.model_dump_json(indent=2) if args.json else _status_text(status), flush=True)
-            if not found:
+            if not answered:
                 time.sleep(0.1)
     finally:
         session.close()
-    if not found:
+    if not answered:
         return _fail("status", f"no monitor answered on {selector} within {args.timeout:g} s")
+    if not found:
+        return _fail("status", f"no readable status on {selector}: {answered} unreadable")
     return 0
 
 
@@ -248,9 +309,13 @@ def cmd_router(args) -> int:
 
 
 def cmd_planner_example(args) -> int:
-    from .example_planner import run
+    from .example_planner import run_arguments
 
-    return 1 if run(args.vehicle, args.frames, args.rate, args.connect or [DEFAULT_ENDPOINT], args.style, args.explain) else 0
+    try:
+        failsafes = run_arguments(args)
+    except ValueError as exc:
+        return _fail("planner-example", str(exc))
+    return 1 if failsafes else 0
 
 
 def main(argv=None) -> int:

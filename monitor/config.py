@@ -8,6 +8,7 @@ config file (TLS, access control, routers) and/or --connect endpoints.
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import socket
@@ -22,6 +23,16 @@ from discern.rules.engine import JURISDICTIONS
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 MODES = ("peer", "client", "router")
+
+# Bounds of the settings that pace the monitor's threads: zero or tiny periods busy-loop (a status
+# record or a log file per loop), and a wait past threading.TIMEOUT_MAX (about 9.2e9 s) raises
+# OverflowError in the thread that waits, which then stops for good.
+BUDGET_MAX_MS = 60_000.0
+STATUS_PERIOD_MIN_S, STATUS_PERIOD_MAX_S = 0.1, 3600.0
+LOG_FLUSH_MIN_S, LOG_FLUSH_MAX_S = 0.05, 60.0
+LOG_ROTATE_MIN_S = 1.0
+LOG_ROTATE_MIN_BYTES = 64 * 1024
+MIB = 1024 * 1024
 
 
 def default_monitor_id() -> str:
@@ -86,11 +97,37 @@ def listen_endpoints(config: zenoh.Config) -> list[str]:
     return list(value or [])
 
 
+_RUST_LOCATION = re.compile(r" at /\S+?\.rs:\d+\.?")
+_JSON5_MESSAGE = re.compile(r'msg: "((?:[^"\\]|\\.)*)"')
+
+
+def without_rust_locations(text: str) -> str:
+    """Zenoh's error text without the Rust source locations that mean nothing to a user."""
+    return _RUST_LOCATION.sub("", text)
+
+
 def _insert(config: zenoh.Config, key: str, endpoints: list[str]) -> None:
-    try:
-        config.insert_json5(key, json.dumps(list(endpoints)))
-    except zenoh.ZError as exc:
-        raise ValueError(f"bad zenoh endpoint in {endpoints}: {exc}") from None
+    for endpoint in endpoints:  # one at a time, to name the bad one
+        try:
+            zenoh.Config().insert_json5(key, json.dumps([endpoint]))
+        except zenoh.ZError as exc:
+            inner = _JSON5_MESSAGE.search(str(exc))  # zenoh wraps the reason in its JSON5 error's debug form
+            reason = without_rust_locations(inner.group(1) if inner else str(exc))
+            raise ValueError(f"bad zenoh endpoint {endpoint!r}: {reason}") from None
+    config.insert_json5(key, json.dumps(list(endpoints)))
+
+
+def check_number(flag: str, value, low: float, high: float = math.inf, *, unit: str = "", above: bool = False) -> None:
+    """Refuse NaN, infinities and values out of range, naming the flag that sets the value."""
+    if (
+        isinstance(value, (int, float))
+        and math.isfinite(value)
+        and (value > low if above else value >= low)
+        and value <= high
+    ):
+        return
+    bounds = f"{'above' if above else 'at least'} {low:g}{unit}" + (f" and at most {high:g}{unit}" if high < math.inf else "")
+    raise ValueError(f"{flag} must be a finite number {bounds}, got {value}")
 
 
 @dataclass
@@ -102,6 +139,15 @@ class LogSettings:
     rotate_seconds: float = 3600.0
     flush_seconds: float = 0.5  # a kill -9 loses at most about this much
     compression: str = "zstd"  # or "none"
+
+    def validate(self) -> "LogSettings":
+        """Refuse settings that would make the writer spin: a file or a chunk per loop."""
+        check_number("--log-rotate-mb", self.rotate_bytes / MIB, LOG_ROTATE_MIN_BYTES / MIB, unit=" MiB")
+        check_number("--log-rotate-s", self.rotate_seconds, LOG_ROTATE_MIN_S, unit=" s")
+        check_number("--log-flush-s", self.flush_seconds, LOG_FLUSH_MIN_S, LOG_FLUSH_MAX_S, unit=" s")
+        if self.compression not in ("zstd", "none"):
+            raise ValueError(f"--log-compression must be zstd or none, got {self.compression!r}")
+        return self
 
 
 @dataclass
@@ -121,15 +167,18 @@ class MonitorConfig:
     test_decision_delay_ms: float = 0.0
 
     def validate(self) -> "MonitorConfig":
+        """Refuse, by flag, what the monitor cannot run with, before anything starts."""
         if not re.fullmatch(r"[A-Za-z0-9_\-]{1,128}", self.monitor_id):
             raise ValueError(f"monitor id {self.monitor_id!r} must match [A-Za-z0-9_-]{{1,128}}")
-        for name, value in (("budget_ms", self.budget_ms), ("window_s", self.window_s)):
-            if not value > 0:
-                raise ValueError(f"{name} must be > 0, got {value}")
+        check_number("--budget-ms", self.budget_ms, 0, BUDGET_MAX_MS, unit=" ms", above=True)
+        check_number("--window-s", self.window_s, 0, unit=" s", above=True)
+        check_number("--status-period-s", self.status_period_s, STATUS_PERIOD_MIN_S, STATUS_PERIOD_MAX_S, unit=" s")
+        if self.log is not None:
+            self.log.validate()
         if self.max_payload_bytes < 1024:
-            raise ValueError(f"max_payload_bytes must be >= 1024, got {self.max_payload_bytes}")
+            raise ValueError(f"--max-payload-bytes must be at least 1024, got {self.max_payload_bytes}")
         if self.jurisdiction not in JURISDICTIONS:
             raise ValueError(f"unknown jurisdiction {self.jurisdiction!r}: choose from {', '.join(JURISDICTIONS)}")
         if not 1 <= self.workers <= 64:
-            raise ValueError(f"workers must be between 1 and 64, got {self.workers}")
+            raise ValueError(f"--workers must be between 1 and 64, got {self.workers}")
         return self

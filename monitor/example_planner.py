@@ -9,15 +9,18 @@ load generator of bench/bench_zenoh.py.
 from __future__ import annotations
 
 import argparse
+import math
 import random
 import sys
 import time
 from typing import Optional, Sequence
 
+import zenoh
+
 from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, ObjectClass, Scene, Vec2, Velocity
 
 from .client import Monitor
-from .config import DEFAULT_ENDPOINT
+from .config import DEFAULT_ENDPOINT, without_rust_locations
 
 LANE_WIDTH = 3.5
 
@@ -70,10 +73,19 @@ def run(
     explain: bool = False,
     out=sys.stdout,
 ) -> int:
-    """Drive `frames` frames; returns how many verdicts were fail-safe (0 when all went well)."""
+    """Drive `frames` frames; returns how many verdicts were fail-safe (0 when all went well).
+
+    Raises ValueError, before driving, for a rate, vehicle or endpoint it cannot use.
+    """
+    if not (math.isfinite(rate_hz) and rate_hz > 0):
+        raise ValueError(f"--rate must be a finite number of frames per second above 0, got {rate_hz:g}")
     failsafes = 0
     period = 1.0 / rate_hz
-    with Monitor(vehicle, connect=list(connect), style=style, timeout=0.5) as monitor:
+    try:
+        monitor = Monitor(vehicle, connect=list(connect), style=style, timeout=0.5)
+    except zenoh.ZError as exc:  # e.g. an unknown protocol, or no router to be had in client mode
+        raise ValueError(f"cannot connect to {', '.join(connect)}: {without_rust_locations(str(exc))}") from None
+    with monitor:
         if not monitor.wait_for_monitor(timeout=3.0):
             print(f"no monitor serves vehicle {vehicle!r} at {', '.join(connect)}: expect fail-safe verdicts",
                   file=sys.stderr)
@@ -109,8 +121,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m discern.monitor.example_planner", description=__doc__.split("\n")[0])
     add_arguments(parser)
     args = parser.parse_args(argv)
-    failsafes = run(args.vehicle, args.frames, args.rate, args.connect or [DEFAULT_ENDPOINT], args.style, args.explain)
+    try:
+        failsafes = run_arguments(args)
+    except ValueError as exc:
+        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+        return 2
     return 1 if failsafes else 0
+
+
+def run_arguments(args: argparse.Namespace) -> int:
+    """`run` with the arguments of `add_arguments`."""
+    return run(args.vehicle, args.frames, args.rate, args.connect or [DEFAULT_ENDPOINT], args.style, args.explain)
 
 
 if __name__ == "__main__":

@@ -12,6 +12,8 @@ import re
 
 import zenoh
 
+from .config import without_rust_locations
+
 PREFIX = "discern"
 VEHICLE_PATTERN = re.compile(r"^[A-Za-z0-9_\-]{1,128}$")
 
@@ -32,9 +34,6 @@ def status_key(monitor_id: str) -> str:
     return f"{PREFIX}/monitor/{monitor_id}/status"
 
 
-ALL_STATUS_KEYS = f"{PREFIX}/monitor/*/status"
-
-
 def vehicle_of(key: str) -> str:
     """The vehicle chunk of ``discern/<vehicle>/...``."""
     parts = key.split("/")
@@ -42,17 +41,28 @@ def vehicle_of(key: str) -> str:
 
 
 def vehicle_selector(pattern: str) -> str:
-    """Turn a shell-style vehicle filter ('fleet_a_*') into one zenoh key chunk ('fleet_a_$*').
+    """Turn a shell-style vehicle filter ('fleet_a_*') into one zenoh key chunk ('fleet_a_$*')."""
+    return _chunk_selector(pattern, "vehicle filter")
+
+
+def monitor_selector(pattern: str) -> str:
+    """The same for monitor ids: `discern status --id 'shard_*'` asks every shard."""
+    return _chunk_selector(pattern, "monitor id")
+
+
+def _chunk_selector(pattern: str, what: str) -> str:
+    """One zenoh key chunk from a shell-style pattern; ValueError, naming `what`, if it cannot be one.
 
     A chunk that is already a zenoh wildcard ('*', or using '$*') is kept, so
     both spellings work on the command line.
     """
     pattern = pattern.strip()
     if not pattern or "/" in pattern:
-        raise ValueError(f"vehicle filter {pattern!r} must be one key chunk (no '/')")
+        raise ValueError(f"{what} {pattern!r} must be one key chunk (no '/')")
     if pattern not in ("*", "**") and "$*" not in pattern:
         pattern = pattern.replace("*", "$*")
     try:
         return str(zenoh.KeyExpr.autocanonize(f"{PREFIX}/{pattern}/x")).split("/")[1]
     except zenoh.ZError as exc:
-        raise ValueError(f"vehicle filter {pattern!r} is not a valid key chunk: {exc}") from None
+        reason = without_rust_locations(str(exc).rpartition("`: ")[2])  # after zenoh's quote of the whole key
+        raise ValueError(f"{what} {pattern!r} is not a valid key chunk: {reason}") from None

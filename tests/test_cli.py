@@ -5,6 +5,7 @@ import sys
 import pytest
 
 from discern.monitor.cli import main
+from tests.monitor_process import endpoint, free_port
 from tests.scenes import obj, scene
 
 GOOD = scene(speed=12, lane=2, lanes=3, limit=20, objects=[obj("car", -3.5, 2, lane=1)])
@@ -138,3 +139,50 @@ def test_a_reader_that_leaves_early_gets_no_traceback():
     process.stdout.close()
     err = process.communicate(timeout=60)[1]
     assert process.returncode == 141 and "Traceback" not in err and "BrokenPipe" not in err
+
+
+@pytest.mark.parametrize("monitor_id, message", [
+    ("a//b", "monitor id 'a//b' must be one key chunk (no '/')"),
+    ("a#b", "monitor id 'a#b' is not a valid key chunk: `#` and `?` are forbidden characters"),
+    ("a$b", "monitor id 'a$b' is not a valid key chunk: `$` is only allowed in `$*`"),
+])
+def test_status_refuses_an_id_that_is_not_one_key_chunk(capsys, monitor_id, message):
+    assert main(["status", "--id", monitor_id, "--connect", endpoint(free_port())]) == 2
+    assert capsys.readouterr().err == f"discern status: error: {message}\n"
+
+
+def test_status_skips_an_unreadable_reply_naming_the_replier_and_prints_the_others(capsys):
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+    from discern.monitor.status import MonitorStatus
+
+    good = MonitorStatus(monitor_id="good", vehicles_filter="*", uptime_s=1.0, budget_ms=50.0).model_dump_json()
+    ep = endpoint(free_port())
+    peer = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
+    try:
+        for monitor_id, payload in (("other", b'{"version": 2}'), ("good", good)):
+            key = f"discern/monitor/{monitor_id}/status"
+            peer.declare_queryable(key, lambda q, key=key, payload=payload: q.reply(key, payload))
+        code = main(["status", "--connect", ep, "--json", "--timeout", "10"])
+    finally:
+        peer.close()
+    out, err = capsys.readouterr()
+    assert code == 0 and json.loads(out)["monitor_id"] == "good"
+    [warning] = err.splitlines()
+    assert warning.startswith("discern status: warning: skipped an unreadable status from discern/monitor/other/status")
+    assert "version: Input should be 1" in warning
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--rate", "0"], "--rate must be a finite number of frames per second above 0, got 0"),
+    (["--rate", "-2"], "--rate must be a finite number of frames per second above 0, got -2"),
+    (["--rate", "inf"], "--rate must be a finite number of frames per second above 0, got inf"),
+    (["--vehicle", "bad id"], "vehicle 'bad id' must match [A-Za-z0-9_-]{1,128}"),
+    (["--connect", "nonsense"], "bad zenoh endpoint 'nonsense': Endpoints must be of the form <protocol>/<address>"),
+    (["--connect", "foo/bar:1"], "cannot connect to foo/bar:1: Unicast not supported for foo protocol"),
+])
+def test_planner_example_refuses_bad_arguments_in_one_line(capsys, arguments, message):
+    assert main(["planner-example", "--frames", "1", *arguments]) == 2
+    [line] = capsys.readouterr().err.splitlines()
+    assert line.startswith(f"discern planner-example: error: {message}") and ".rs:" not in line

@@ -90,6 +90,20 @@ def test_status_reports_counts_and_latency(client, monitor):
     assert report["vehicles"] >= 1
 
 
+def test_status_takes_a_shell_style_wildcard_id(monitor):
+    assert [report["monitor_id"] for report in status(monitor, "r*")] == ["rt"]
+
+
+def test_on_verdict_sees_every_verdict_of_the_vehicle_once_in_query_style(client):
+    seen = []
+    monitor = client("car_v", on_verdict=seen.append)
+    replies = [monitor.check(highway_scene(f, 8), "cruise") for f in range(3)]
+    assert [v.frame_id for v in seen] == [0, 1, 2] and seen == replies  # each reply, before check returned it
+    monitor.publish(highway_scene(3, 8), "cruise")
+    assert wait_until(lambda: len(seen) >= 4)
+    assert [v.frame_id for v in seen] == [0, 1, 2, 3]
+
+
 def test_planner_example_drives_against_the_monitor(monitor):
     run = subprocess.run(
         [sys.executable, "-m", "discern.monitor.commands", "planner-example", "--connect", monitor,
@@ -126,6 +140,27 @@ def test_an_unreadable_verdict_becomes_a_client_side_failsafe():
         impostor.close()
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
     assert "unreadable verdict from the monitor" in verdict.error
+
+
+def test_a_monitor_that_answers_after_the_clients_timeout_reads_as_no_verdict_in_time():
+    """Zenoh ends the expired query with an error reply of its own; that is no answer, not the monitor's error."""
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+
+    ep = endpoint(free_port())
+    tardy = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
+    held = []  # the queries it never gets round to answering
+    try:
+        tardy.declare_queryable("discern/tardy/check", held.append)
+        with Monitor("tardy", connect=[ep], timeout=0.2) as client:
+            assert client.wait_for_monitor()
+            verdict = client.check(highway_scene(0, 2), "cruise")
+    finally:
+        held.clear()
+        tardy.close()
+    assert verdict.failsafe and verdict.rules == ["monitor.no_answer"]
+    assert verdict.error == "no verdict from a monitor on discern/tardy/check within 200 ms"
 
 
 def test_shadow_mode_vetoes_without_replacing_the_action():

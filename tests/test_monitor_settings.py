@@ -1,0 +1,69 @@
+"""Settings the monitor cannot run with are refused by flag before anything starts."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from discern.monitor.config import LogSettings, MonitorConfig
+from tests.monitor_process import START_TIMEOUT_S, DiscernProcess, endpoint, free_port
+
+
+def config(tmp_path, **settings) -> MonitorConfig:
+    log = {k: settings.pop(k) for k in ("rotate_bytes", "rotate_seconds", "flush_seconds") if k in settings}
+    return MonitorConfig(monitor_id="settings", log=LogSettings(directory=tmp_path, **log), **settings)
+
+
+@pytest.mark.parametrize(
+    "settings, flag",
+    [
+        (dict(budget_ms=math.inf), "--budget-ms"),
+        (dict(budget_ms=1e13), "--budget-ms"),  # past threading.TIMEOUT_MAX: the watchdog's wait would overflow
+        (dict(budget_ms=60_001), "--budget-ms"),
+        (dict(budget_ms=math.nan), "--budget-ms"),
+        (dict(budget_ms=0), "--budget-ms"),
+        (dict(window_s=math.inf), "--window-s"),
+        (dict(status_period_s=0), "--status-period-s"),
+        (dict(status_period_s=-1), "--status-period-s"),
+        (dict(status_period_s=math.nan), "--status-period-s"),
+        (dict(status_period_s=math.inf), "--status-period-s"),
+        (dict(flush_seconds=0), "--log-flush-s"),
+        (dict(flush_seconds=math.nan), "--log-flush-s"),
+        (dict(flush_seconds=1e12), "--log-flush-s"),
+        (dict(rotate_seconds=0), "--log-rotate-s"),
+        (dict(rotate_seconds=-5), "--log-rotate-s"),
+        (dict(rotate_seconds=math.nan), "--log-rotate-s"),
+        (dict(rotate_bytes=1024), "--log-rotate-mb"),
+    ],
+)
+def test_nonsensical_settings_are_refused_naming_the_flag(tmp_path, settings, flag):
+    with pytest.raises(ValueError, match=f"^{flag} must be a finite number"):
+        config(tmp_path, **settings).validate()
+
+
+def test_the_documented_bounds_are_accepted(tmp_path):
+    config(tmp_path).validate()
+    config(
+        tmp_path, budget_ms=60_000, status_period_s=0.1, flush_seconds=0.05, rotate_seconds=1, rotate_bytes=64 * 1024
+    ).validate()
+
+
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        (["--budget-ms", "inf"], "--budget-ms must be a finite number above 0 ms and at most 60000 ms, got inf"),
+        (["--status-period-s", "0"], "--status-period-s must be a finite number at least 0.1 s"),
+        (["--log-flush-s", "0", "--log-rotate-s", "0"], "--log-rotate-s must be a finite number at least 1 s"),
+        (["--log-rotate-mb", "nan"], "--log-rotate-mb must be a finite number at least 0.0625 MiB, got nan"),
+        (["--connect", "nonsense"], "bad zenoh endpoint 'nonsense': Endpoints must be of the form"),
+    ],
+)
+def test_serve_refuses_bad_settings_in_one_line_with_status_2(tmp_path, flags, message):
+    proc = DiscernProcess("serve", "--listen", endpoint(free_port()), "--log-dir", str(tmp_path), *flags)
+    try:
+        code = proc.proc.wait(START_TIMEOUT_S)
+    finally:
+        proc.stop()
+    assert code == 2 and len(proc.lines) == 1, proc.output
+    assert proc.lines[0].startswith(f"discern serve: error: {message}"), proc.output
