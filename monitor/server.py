@@ -9,6 +9,9 @@ Who does what:
   leaves a planner without an answer (a late decision is then discarded);
 - the MCAP writer runs on its own thread (log/writer.py).
 Every proposal is answered exactly once: whoever claims the request first sends.
+Every answer is logged after the payload it answered: on the proposal channel if
+the payload is a proposal, on the rejected channel if not. A fail-safe sent
+before the worker read the payload is logged once the worker has (_AnswerLog).
 """
 
 from __future__ import annotations
@@ -24,7 +27,6 @@ from typing import Optional
 import zenoh
 
 from discern.rules.scene import Action
-from discern.rules.verdict import Verdict
 
 from . import keys
 from .config import DEFAULT_ENDPOINT, MonitorConfig, listen_endpoints
@@ -78,6 +80,8 @@ class Answer:
     latency_ms: float
     error_kind: Optional[str] = None  # refused as bad input of this kind
     error: Optional[str] = None
+    read: bool = True  # the payload was read before this answer (False: a fail-safe at the deadline or at shutdown)
+    not_proposal: Optional[str] = None  # why the payload is not a proposal, when it is not
 
 
 class MonitorServer:
@@ -109,6 +113,7 @@ class MonitorServer:
         self.session: Optional[zenoh.Session] = None
         self.listen_endpoints: list[str] = []
         self.log: Optional[McapLogWriter] = None
+        self.answers: Optional[_AnswerLog] = None
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -128,6 +133,7 @@ class MonitorServer:
         self.session = zenoh.open(zenoh_config)
         if self.config.log is not None:
             self.log = McapLogWriter(self.config.log, self.config.monitor_id)
+            self.answers = _AnswerLog(self.log)
         self._spawn("discern-watchdog", self._watch)
         if self.log is not None:
             self._spawn("discern-status-log", self._log_status)
@@ -153,6 +159,7 @@ class MonitorServer:
         for req in list(self._open.values()):
             self._answer(req, self._failsafe(req, "the monitor is shutting down", RULE_INTERNAL_ERROR))
         if self.log is not None:
+            self.answers.flush("not read: the monitor stopped before its decision worker read it")
             self.log.write(STATUS_TOPIC, "status", self.status())
             self.log.close()
         if self.session is not None:
@@ -205,7 +212,8 @@ class MonitorServer:
                 reason = f"vehicle chunk {vehicle!r} of key {key!r} is a wildcard: no verdict sent"
                 self.counters.input_refused("vehicle")
                 log.warning("refused a proposal: %s", reason)
-                self._log_rejected(req, reason)
+                if self.answers is not None:
+                    self.answers.rejected(req, reason)
                 return
             refusal = (f"vehicle {vehicle[:140]!r} in the key is not a valid vehicle id ([A-Za-z0-9_-], 1-128 chars)", "vehicle")
         elif data is None:
@@ -234,9 +242,14 @@ class MonitorServer:
 
     def _on_outcome(self, outcome: Outcome) -> None:
         req = self._open.get(outcome.rid)
+        if outcome.receipt or outcome.lost:  # no answer to give: only word on the payload, for the log
+            self._read_late(outcome)
+            return
         if req is None or req.answered:
             self.counters.count("late_decisions")
+            self._read_late(outcome)
             return
+        not_proposal = None if outcome.decoded else (outcome.error or outcome.no_verdict)
         if outcome.verdict is None:
             rule = RULE_INTERNAL_ERROR if outcome.internal else RULE_DEADLINE
             if outcome.internal:
@@ -245,8 +258,13 @@ class MonitorServer:
                 outcome.no_verdict if outcome.internal
                 else f"no decision within the {self.config.budget_ms:g} ms budget: {outcome.no_verdict}"
             )
-            answer = self._failsafe(req, reason, rule, frame_id=outcome.frame_id, action=outcome.action)
-            if self._answer(req, answer) and not outcome.internal:
+            answer = self._failsafe(
+                req, reason, rule, frame_id=outcome.frame_id, action=outcome.action, read=True,
+                not_proposal=not_proposal,
+            )
+            if not self._answer(req, answer):
+                self._read_late(outcome)
+            elif not outcome.internal:
                 self.counters.count("deadline_misses")
             return
         if not outcome.failsafe and outcome.permitted:
@@ -258,9 +276,16 @@ class MonitorServer:
             outcome.latency_ms,
             outcome.error_kind,
             outcome.error,
+            not_proposal=not_proposal,
         )
         if not self._answer(req, answer):
             self.counters.count("late_decisions")
+            self._read_late(outcome)
+
+    def _read_late(self, outcome: Outcome) -> None:
+        """The worker's word on a payload whose answer went before it was read (at the deadline, at shutdown)."""
+        if self.answers is not None:
+            self.answers.read(outcome.rid, None if outcome.decoded else (outcome.error or outcome.no_verdict))
 
     def _on_worker_lost(self, index: int, exitcode: Optional[int]) -> None:
         self.counters.count("internal_errors")
@@ -274,8 +299,7 @@ class MonitorServer:
         while not self._stopping.is_set():
             while self._refusals:
                 req, reason, kind = self._refusals.popleft()
-                verdict = failsafe_verdict(req.vehicle, reason, RULE_BAD_INPUT, shadow=self.config.shadow)
-                self._answer(req, self._finish(req, verdict, error_kind=kind))
+                self._answer(req, self._refuse(req, reason, kind))
             if not pending:
                 self._wake.clear()
                 if not pending and not self._refusals:
@@ -300,8 +324,17 @@ class MonitorServer:
     # -- answers ---------------------------------------------------------------
 
     def _failsafe(
-        self, req: Request, reason: str, rule: str, *, frame_id: Optional[int] = None, action: Optional[str] = None
+        self,
+        req: Request,
+        reason: str,
+        rule: str,
+        *,
+        frame_id: Optional[int] = None,
+        action: Optional[str] = None,
+        read: bool = False,
+        not_proposal: Optional[str] = None,
     ) -> Answer:
+        """A fail-safe answer. `read`: the worker read the payload; it is a proposal unless `not_proposal` says why."""
         if frame_id is None:  # not parsed yet: label the answer with what a glance at the payload gives
             frame_id, proposed = peek_frame(req.payload)
         else:
@@ -315,16 +348,22 @@ class MonitorServer:
             permitted=self._permitted.recent(req.vehicle, time.monotonic()),
             shadow=self.config.shadow,
         )
-        return self._finish(req, verdict)
-
-    def _finish(self, req: Request, verdict: Verdict, error_kind: Optional[str] = None) -> Answer:
         verdict.latency_ms = round((time.monotonic() - req.arrived) * 1000, 3)
         return Answer(
-            encode(verdict), verdict.decision.value, True, verdict.latency_ms, error_kind, error=verdict.error
+            encode(verdict), verdict.decision.value, True, verdict.latency_ms, error=verdict.error, read=read,
+            not_proposal=not_proposal,
+        )
+
+    def _refuse(self, req: Request, reason: str, kind: str) -> Answer:
+        """The answer to a payload refused on arrival, before any worker saw it."""
+        verdict = failsafe_verdict(req.vehicle, reason, RULE_BAD_INPUT, shadow=self.config.shadow)
+        verdict.latency_ms = round((time.monotonic() - req.arrived) * 1000, 3)
+        return Answer(
+            encode(verdict), verdict.decision.value, True, verdict.latency_ms, kind, error=reason, not_proposal=reason
         )
 
     def _answer(self, req: Request, answer: Answer) -> bool:
-        if not req.claim():
+        if not (req.claim() if self.answers is None else self.answers.claim(req, answer)):
             return False
         self._open.pop(req.rid, None)
         try:
@@ -338,23 +377,7 @@ class MonitorServer:
         self.counters.verdict_sent(answer.decision, answer.failsafe, answer.latency_ms, answer.error_kind)
         if answer.error_kind is not None:
             log.warning("refused a proposal on %s: %s", req.key, answer.error or "see the log")
-        if self.log is not None:
-            # The proposal as the planner sent it; a payload that is not a readable proposal goes
-            # to the `rejected` channel instead, with the reason.
-            topic_vehicle = _topic_safe(req.vehicle)
-            if answer.error_kind in (None, "order") and req.payload is not None:
-                self.log.write(vehicle_topic(topic_vehicle, "proposal"), "proposal", req.payload, req.arrived_ns)
-            else:
-                self._log_rejected(req, answer.error or answer.error_kind)
-            self.log.write(vehicle_topic(topic_vehicle, "verdict"), "verdict", answer.verdict)
         return True
-
-    def _log_rejected(self, req: Request, reason: str) -> None:
-        if self.log is None:
-            return
-        excerpt = (req.payload or b"")[:EXCERPT_BYTES].decode("utf-8", "replace")
-        rejected = RejectedInput(vehicle=req.vehicle, key=req.key, size=req.size, error=reason, excerpt=excerpt)
-        self.log.write(vehicle_topic(_topic_safe(req.vehicle), "rejected"), "rejected", rejected, req.arrived_ns)
 
     def _publisher(self, vehicle: str) -> zenoh.Publisher:
         pub = self._publishers.get(vehicle)
@@ -369,6 +392,68 @@ class MonitorServer:
     def _log_status(self) -> None:
         while not self._stopping.wait(self.config.status_period_s):
             self.log.write(STATUS_TOPIC, "status", self.status())
+
+
+class _AnswerLog:
+    """Each answer into the MCAP log, after the payload it answered.
+
+    The payload goes on the proposal channel if it is a valid proposal, else on the rejected
+    channel with the reason, so every logged proposal satisfies its schema. An answer sent before
+    the decision worker read its payload (a fail-safe at the deadline, or at shutdown) waits for
+    the worker's word on it: the monitor's own process never parses a proposal, which would stall
+    the threads that answer. The worker's word may also come first; then it waits for the answer.
+    Claiming a request and logging its answer are one step, so a vehicle's records keep its order.
+    """
+
+    def __init__(self, writer: McapLogWriter):
+        self.writer = writer
+        self._lock = threading.Lock()
+        self._unread: dict[int, tuple[Request, Answer, int]] = {}  # answered, payload not read yet
+        self._read: dict[int, Optional[str]] = {}  # read, answer not sent yet: why it is no proposal (None: it is)
+
+    def claim(self, req: Request, answer: Answer) -> bool:
+        """Claim the request for this answer (Request.claim) and log the answer, or hold it for the worker's word."""
+        with self._lock:
+            if not req.claim():
+                return False
+            sent_ns = time.time_ns()
+            if answer.read:
+                self._write(req, answer, answer.not_proposal, sent_ns)
+            elif req.rid in self._read:
+                self._write(req, answer, self._read.pop(req.rid), sent_ns)
+            else:
+                self._unread[req.rid] = (req, answer, sent_ns)
+            return True
+
+    def read(self, rid: int, not_proposal: Optional[str]) -> None:
+        """The worker read the payload of an answer that did not wait for it."""
+        with self._lock:
+            waiting = self._unread.pop(rid, None)
+            if waiting is None:
+                self._read[rid] = not_proposal
+            else:
+                req, answer, sent_ns = waiting
+                self._write(req, answer, not_proposal, sent_ns)
+
+    def flush(self, why: str) -> None:
+        """Log the answers whose payloads no worker will read, as refused for `why`."""
+        with self._lock:
+            for req, answer, sent_ns in self._unread.values():
+                self._write(req, answer, why, sent_ns)
+            self._unread.clear()
+
+    def rejected(self, req: Request, reason: str) -> None:
+        excerpt = (req.payload or b"")[:EXCERPT_BYTES].decode("utf-8", "replace")
+        rejected = RejectedInput(vehicle=req.vehicle, key=req.key, size=req.size, error=reason, excerpt=excerpt)
+        self.writer.write(vehicle_topic(_topic_safe(req.vehicle), "rejected"), "rejected", rejected, req.arrived_ns)
+
+    def _write(self, req: Request, answer: Answer, not_proposal: Optional[str], sent_ns: int) -> None:
+        topic_vehicle = _topic_safe(req.vehicle)
+        if not_proposal is None and req.payload is not None:
+            self.writer.write(vehicle_topic(topic_vehicle, "proposal"), "proposal", req.payload, req.arrived_ns)
+        else:
+            self.rejected(req, not_proposal or answer.error or "no payload")
+        self.writer.write(vehicle_topic(topic_vehicle, "verdict"), "verdict", answer.verdict, sent_ns)
 
 
 def _direct(callback):

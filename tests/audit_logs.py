@@ -19,6 +19,7 @@ import shutil
 import socket
 import time
 from pathlib import Path
+from typing import Optional
 
 from mcap.reader import make_reader
 from mcap.writer import Writer
@@ -63,7 +64,14 @@ def town(frame: int, pedestrian: bool):
     return scene(speed=8.0, limit=13.9, frame=frame, objects=objects)
 
 
-def _serve(directory: Path, monitor_id: str, send, **config) -> list[Path]:
+def flashing(frame: int, lights: bool = True):
+    """A car ahead whose emergency lights are on in some frames: one on duty once seen on in two frames of the
+    window (or in the first frame, when no earlier one is known): a verdict that depends on the history."""
+    return scene(frame=frame, objects=(obj("car", 0.0, 40.0, lane=1, emergency_lights=lights),))
+
+
+def serve_log(directory: Path, monitor_id: str, send, **config) -> list[Path]:
+    """Run a monitor logging to `directory` while `send(endpoint)` talks to it; its log files."""
     port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     settings = MonitorConfig(
@@ -126,7 +134,7 @@ def monitor_logs(tmp_path_factory) -> dict[str, Path]:
             ("slow", _slow, {"budget_ms": 50.0, "test_decision_delay_ms": 1000.0}),
         ):
             directory = root / name
-            files = _serve(directory, f"audit-{name}", send, **config)
+            files = serve_log(directory, f"audit-{name}", send, **config)
             assert len(files) == 1, files
             _made[name] = files[0]
     return dict(_made)
@@ -162,10 +170,14 @@ def tolerant_rules(directory: Path) -> Path:
     raise AssertionError("rule acc.at_limit is not in the shipped catalog")
 
 
-def rewrite(source: Path, targets: list[Path], splits: tuple[int, ...] = (), foreign: bool = False) -> None:
+def rewrite(
+    source: Path, targets: list[Path], splits: tuple[int, ...] = (), foreign: bool = False,
+    metadata: Optional[dict[str, str]] = None,
+) -> None:
     """Copy a log's messages, in order, into new files with the mcap library (as another recorder would).
 
     Messages after the k-th index in `splits` go to targets[k + 1]: a rotation, where the monitor's would be.
+    `metadata`: a `discern` metadata record for every file, as the monitor writes one.
     """
     with open(source, "rb") as f:
         messages = list(make_reader(f).iter_messages(log_time_order=False))
@@ -174,6 +186,8 @@ def rewrite(source: Path, targets: list[Path], splits: tuple[int, ...] = (), for
     ids: list[dict] = [{} for _ in targets]
     for w in writers:
         w.start(profile="", library="test")
+        if metadata is not None:
+            w.add_metadata("discern", metadata)
     for i, (schema, channel, message) in enumerate(messages):
         k = min(sum(split < i for split in splits), len(targets) - 1)
         w, known = writers[k], ids[k]

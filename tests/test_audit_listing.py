@@ -8,6 +8,7 @@ from datetime import datetime, timezone
 
 import pytest
 
+from discern.monitor.client import Monitor
 from tests.audit_logs import (
     CLEAR_FRAMES,
     FLEET_A_FRAMES,
@@ -17,7 +18,9 @@ from tests.audit_logs import (
     SLOW_FRAMES,
     audit,
     monitor_logs,
+    serve_log,
 )
+from tests.scenes import scene
 
 
 @pytest.fixture(scope="module")
@@ -111,6 +114,34 @@ def test_odometry_integrates_scene_speed_over_scene_time(capsys, tmp_path, all_l
     assert doc["odometry"]["driving_hours"] == pytest.approx((39 + 29 + 9 + 9 + late) * 0.1 / 3600)
 
 
+def test_a_refused_out_of_order_frame_does_not_move_the_odometer(capsys, tmp_path):
+    refused = []
+
+    def drive(endpoint: str) -> None:
+        with Monitor("car_o", connect=[endpoint], timeout=10.0) as car:
+            for frame in [*range(1, 21), 5, *range(21, 31)]:  # frame 5 again after 20: refused
+                verdict = car.check(scene(frame=frame, speed=10.0), "cruise")
+                if verdict.failsafe:
+                    refused.append((frame, verdict.rules))
+
+    serve_log(tmp_path / "log", "ooo", drive, budget_ms=1000.0)
+    assert refused == [(5, ["monitor.bad_input"])]
+    doc = export(capsys, tmp_path, str(tmp_path / "log"))
+    assert doc["frames"] == 31 and [d["frame_id"] for d in doc["disagreements"]] == [5]
+    # frames 1 to 30, 0.1 s apart at 10 m/s: 29 steps, as if the refused frame had not been sent
+    assert doc["odometry"]["km"] == pytest.approx(29 * 0.1 * 10 / 1000)
+    assert doc["odometry"]["driving_hours"] == pytest.approx(29 * 0.1 / 3600)
+
+
+def test_since_and_until_take_epoch_nanoseconds_as_the_csv_gives_them(capsys, tmp_path, all_logs):
+    times = [d["log_time_ns"] for d in export(capsys, tmp_path, *all_logs)["disagreements"]]
+    since, until = (times[2] + times[3]) // 2, (times[7] + times[8]) // 2
+    by_ns = export(capsys, tmp_path, *all_logs, "--since", str(since), "--until", str(until))
+    by_s = export(capsys, tmp_path, *all_logs, "--since", f"{since / 1e9:.6f}", "--until", f"{until / 1e9:.6f}")
+    assert [d["log_time_ns"] for d in by_ns["disagreements"]] == times[3:8]
+    assert by_s["disagreements"] == by_ns["disagreements"]
+
+
 def test_csv_export_has_one_row_per_disagreement(capsys, tmp_path, all_logs):
     out = tmp_path / "audit.csv"
     code, _, err = audit(capsys, *all_logs, "--csv", str(out), "--workers", "1", "--quiet")
@@ -136,7 +167,13 @@ def test_worker_processes_give_the_same_audit_as_one_process(capsys, tmp_path, a
     "args, message",
     [
         (["/nonexistent/run.mcap"], "/nonexistent/run.mcap: no such file or directory"),
-        (["{log}", "--since", "yesterday"], "time 'yesterday' is neither ISO 8601"),
+        (["{log}", "--since", "yesterday"], "--since: time 'yesterday' is neither ISO 8601"),
+        (["{log}", "--until", "inf"], "--until inf: not a finite time"),
+        (["{log}", "--since", "nan", "--replay"], "--since nan: not a finite time"),
+        (["{log}", "--since", "1e30"], "--since 1e30: out of range: epoch seconds go from 0 to"),
+        (["{log}", "--replay", "--until", "-1"], "--until -1: out of range"),
+        (["{log}", "--since", "1795317229313"], "--since 1795317229313: out of range"),  # milliseconds
+        (["{log}", "--until", "1969-07-20T20:17:40Z"], "--until 1969-07-20T20:17:40Z: out of range"),
         (["{log}", "--since", "2026-01-02", "--until", "2026-01-01"], "--since 2026-01-02 is after --until 2026-01-01"),
         (["{log}", "--rules", "/tmp"], "--rules only applies with --replay"),
         (["{log}", "--replay", "--rules", "/nonexistent"], "--rules /nonexistent: not a directory"),

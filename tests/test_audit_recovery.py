@@ -101,3 +101,31 @@ def test_an_unreadable_file_beside_good_logs_is_named_and_the_rest_audited(capsy
     assert code == 0
     assert f"warning: nothing could be read from {wrong}" in err
     assert "frames: 0 " not in out
+
+
+def test_a_log_of_another_schema_version_is_named_unreadable_once_not_read_message_by_message(
+    capsys, tmp_path, fleet, caplog
+):
+    other = tmp_path / "v2.mcap"
+    rewrite(fleet, [other], metadata={"monitor_id": "future", "schema_version": "2", "pid": "1"})
+    with caplog.at_level(logging.WARNING):
+        code, out, err = audit(capsys, str(other), "--workers", "1", "--quiet")
+    assert code == 2, "nothing at all could be read: not a clean audit"
+    reason = "schema version 2; this discern reads version 1"
+    assert f"{other}: unreadable, 0 records" in out and reason in out and "skipped" not in out
+    assert err.count(f"warning: nothing could be read from {other}: {reason}") == 1 and "Traceback" not in err
+    assert not [r for r in caplog.records if "fail their schema" in r.getMessage()]
+    assert audit(capsys, "--replay", str(other), "--workers", "1")[0] == 2
+
+    same = tmp_path / "v1.mcap"
+    rewrite(fleet, [same], metadata={"monitor_id": "now", "schema_version": "1", "pid": "1"})
+    assert audit_json(capsys, tmp_path, same)["frames"] == audit_json(capsys, tmp_path, fleet)["frames"]
+    code, out, err = audit(capsys, str(other), str(same), "--workers", "1", "--quiet")
+    assert code == 0 and reason in err
+
+
+def test_a_file_given_twice_is_read_once(capsys, tmp_path, fleet):
+    once = audit_json(capsys, tmp_path, fleet.parent)
+    twice = audit_json(capsys, tmp_path, fleet.parent, fleet, Path(str(fleet).replace("/fleet/", "/fleet/./")))
+    assert [f["path"] for f in twice["files"]] == [f["path"] for f in once["files"]]
+    assert twice["frames"] == once["frames"] and twice["disagreements"] == once["disagreements"]

@@ -8,8 +8,10 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
+from discern.monitor.audit.aggregate import Aggregates, audit_logs
 from discern.monitor.audit.frames import plan_tasks
 from discern.monitor.audit.replay import ReplayCatalog, replay_logs
+from discern.monitor.client import Monitor
 from tests.audit_logs import (
     CLEAR_FRAMES,
     FLEET_A_FRAMES,
@@ -19,8 +21,10 @@ from tests.audit_logs import (
     SHADOW_FRAMES,
     SLOW_FRAMES,
     audit,
+    flashing,
     monitor_logs,
     rewrite,
+    serve_log,
     tolerant_rules,
 )
 
@@ -134,8 +138,8 @@ def test_a_monitors_rotated_files_are_cut_into_runs_each_led_in_by_the_file_befo
     tasks = plan_tasks([str(p) for p in rotated] + [str(other)], parts=2)
     mine = [t for t in tasks if t.paths[0] != str(other)]
     assert [p for t in mine for p in t.paths] == [str(p) for p in rotated] and len(mine) == 2
-    assert mine[0].lead_in is None and mine[1].lead_in == mine[0].paths[-1]
-    assert [t for t in tasks if t not in mine] == [type(tasks[0])((str(other),), None)]
+    assert mine[0].lead_in == () and mine[1].lead_in == mine[0].paths  # the log is short: all of it leads in
+    assert [t for t in tasks if t not in mine] == [type(tasks[0])((str(other),), ())]
     assert len(plan_tasks([str(p) for p in rotated], parts=1)) == 1
 
 
@@ -151,6 +155,67 @@ def test_a_rotated_log_replays_as_the_whole_one_in_one_process_or_split_by_vehic
         ]
         assert [f.path for f in t.recovery] == rotated  # every file once, its shards' records added up
         assert sum(f.records for f in t.recovery) == whole.recovery[0].records
+
+
+def test_a_run_led_in_by_short_files_reads_back_far_enough_whatever_the_workers(logs, tmp_path, tolerant):
+    """Files of one or two messages: a lead-in of one file would not reach the pairs and scenes before it."""
+    directory = tmp_path / "short"
+    directory.mkdir()
+    splits = (20, 21, 50, 80, 81, 100)
+    parts = [directory / f"discern-m1-20260101T0000{i:02d}-{i:04d}.mcap" for i in range(len(splits) + 1)]
+    rewrite(logs["fleet"], parts, splits=splits)
+    whole = audit_logs([str(logs["fleet"])], workers=1)
+    catalog = ReplayCatalog.of([str(tolerant)])
+    replayed = replay_logs([str(logs["fleet"])], catalog, workers=1).tally
+
+    def listing(tally):
+        return [(d.time_ns, d.vehicle, d.frame_id, d.kind) for d in tally.disagreements]
+
+    for workers in (2, 3, 4):
+        tally = audit_logs([str(directory)], workers=workers)
+        assert (tally.frames, tally.unanswered, listing(tally)) == (whole.frames, 0, listing(whole))
+        assert tally.odometer.distance_m == pytest.approx(whole.odometer.distance_m)
+        assert Aggregates.of(tally).per_scenario == Aggregates.of(whole).per_scenario
+        t = replay_logs([str(directory)], catalog, workers=workers).tally
+        assert [(c.vehicle, c.frame_id, c.transition) for c in t.changes] == [
+            (c.vehicle, c.frame_id, c.transition) for c in replayed.changes
+        ]
+
+
+def test_a_restarted_monitors_files_are_not_read_as_the_previous_runs_continuation(capsys, tmp_path):
+    """Across a restart nothing pairs and no history carries, however long a window the replay is given."""
+    directory = tmp_path / "restarts"
+
+    def send(frame: int, lights: bool, action: str):
+        def drive(endpoint: str) -> None:
+            with Monitor("car_r", connect=[endpoint], timeout=10.0) as car:
+                verdict = car.check(flashing(frame, lights), "cruise")
+                assert not verdict.failsafe and verdict.action.value == action
+
+        return drive
+
+    [before] = serve_log(directory, "m1", send(1, False, "cruise"), budget_ms=1000.0)
+    # a new monitor knows no earlier frame: lights seen in this one frame are an emergency vehicle on duty
+    [after] = serve_log(directory, "m1", send(2, True, "pull_over"), budget_ms=1000.0)
+    assert before != after and before.exists()
+    tasks = plan_tasks([str(directory)], parts=2)
+    assert sorted(t.paths for t in tasks) == sorted([(str(before),), (str(after),)])
+    assert all(t.lead_in == () for t in tasks)
+    code, doc, _ = replay(capsys, tmp_path, str(directory), "--window", "600", "--workers", "1")
+    assert code == 0 and doc["changes"] == [] and doc["frames"] == 2
+
+
+def test_older_logs_named_without_a_run_continue_one_another_only_within_one_process(logs, tmp_path):
+    names = ["discern-m1-20260101T000000-0000.mcap", "discern-m1-20260101T000100-0001.mcap"]
+    for label, pids in (("same", ("7", "7")), ("restarted", ("7", "8")), ("renumbered", None)):
+        directory = tmp_path / label
+        directory.mkdir()
+        for name, pid in zip(names, pids or ("7", "7")):
+            rewrite(logs["fleet"], [directory / name], metadata={"monitor_id": "m1", "schema_version": "1", "pid": pid})
+        if pids is None:  # the same process, but the second file does not follow the first: a restart
+            (directory / names[1]).rename(directory / names[1].replace("-0001", "-0000"))
+        tasks = plan_tasks([str(directory)], parts=1)
+        assert len(tasks) == (1 if label == "same" else 2), label
 
 
 def test_deciding_every_frame_in_full_finds_the_same_changes(capsys, tmp_path, logs, tolerant):

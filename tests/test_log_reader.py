@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import logging
+import resource
+import signal
 import time
 
 from mcap.reader import make_reader
@@ -18,6 +20,7 @@ from discern.monitor.protocol import RULE_BAD_INPUT, failsafe_verdict
 from discern.monitor.status import StatusCounters
 from discern.rules.engine import Reasoner
 from discern.rules.scene import Proposal
+from tests.monitor_process import wait_until
 
 
 def write_session(directory, frames=5, **settings) -> list[Proposal]:
@@ -174,7 +177,7 @@ def test_merge_interleaves_files_by_log_time(tmp_path):
     assert merged == [0, 1, 2, 3, 4]
 
 
-def test_unknown_channels_are_skipped_with_a_warning(tmp_path, caplog):
+def test_unknown_channels_and_bad_messages_are_skipped_with_one_warning_per_channel(tmp_path, caplog):
     path = tmp_path / "mixed.mcap"
     with open(path, "wb") as f:
         w = Writer(f)
@@ -186,14 +189,17 @@ def test_unknown_channels_are_skipped_with_a_warning(tmp_path, caplog):
         w.add_message(cam, log_time=1, publish_time=1, data=b'{"pixels": []}')
         p = Proposal(vehicle="v", action="brake", scene=highway_scene(0, 2))
         w.add_message(prop, log_time=2, publish_time=2, data=p.model_dump_json(by_alias=True).encode())
-        w.add_message(prop, log_time=3, publish_time=3, data=b'{"not": "a proposal"}')
+        for t in range(3, 6):
+            w.add_message(prop, log_time=t, publish_time=t, data=b'{"not": "a proposal"}')
         w.finish()
     report = RecoveryReport()
     with caplog.at_level(logging.WARNING, logger="discern.monitor.log.reader"):
         records = list(read_log(path, report))
     assert [r.proposal for r in records] == [p]
-    assert report.skipped == 2
-    assert caplog.text.count("unknown channel '/camera/front'") == 1 and "fails its schema" in caplog.text
+    assert report.skipped == 4
+    assert caplog.text.count("unknown channel '/camera/front'") == 1
+    assert caplog.text.count("skipping /discern/v/proposal messages that fail their schema") == 1
+    assert "first: action: Field required" in caplog.text
 
     before = len(caplog.records)  # readers split by vehicle: the unknown channel is warned about once in all
     shares = [RecoveryReport(), RecoveryReport()]
@@ -202,7 +208,7 @@ def test_unknown_channels_are_skipped_with_a_warning(tmp_path, caplog):
             list(read_log(path, share, vehicles=pick))
     warned = [r.getMessage() for r in caplog.records[before:] if "unknown channel '/camera/front'" in r.getMessage()]
     assert len(warned) == 1
-    assert [share.skipped for share in shares] == [1, 1]  # the foreign message; the bad proposal of v
+    assert [share.skipped for share in shares] == [1, 3]  # the foreign message; the bad proposals of v
 
 
 def test_empty_missing_and_foreign_files_yield_nothing_but_are_reported(tmp_path):
@@ -216,3 +222,42 @@ def test_empty_missing_and_foreign_files_yield_nothing_but_are_reported(tmp_path
     assert junk.truncated and "magic" in junk.stopped_by
     assert "cannot open" in gone.stopped_by
     assert "empty" in report.summary()
+
+
+def test_a_disk_error_drops_and_counts_records_until_a_new_file_opens(tmp_path, caplog):
+    """A write past RLIMIT_FSIZE fails like one on a full disk (EFBIG instead of ENOSPC)."""
+    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, compression="none"), "full")
+
+    def write(frames) -> None:
+        for f in frames:
+            proposal = Proposal(action="cruise", scene=highway_scene(f, 4))
+            writer.write(vehicle_topic("v", "proposal"), "proposal", proposal)
+
+    def logged() -> list[int]:
+        return [r.proposal.scene.frame_id for r in read_log(writer.files)]
+
+    write(range(0, 5))
+    assert wait_until(lambda: logged() == [0, 1, 2, 3, 4])
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)
+    sigxfsz = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # else the kernel kills the process
+    try:
+        with caplog.at_level(logging.INFO, logger="discern.monitor.log.writer"):
+            resource.setrlimit(resource.RLIMIT_FSIZE, (1, limit[1]))  # no file may grow: the disk is full
+            write(range(5, 10))  # in the chunk that cannot be written
+            assert wait_until(lambda: writer.dropped == 5)
+            write(range(10, 15))  # while no file can be opened
+            assert wait_until(lambda: writer.dropped == 10)
+            resource.setrlimit(resource.RLIMIT_FSIZE, limit)
+            assert wait_until(lambda: len(writer.files) == 2)
+            write(range(15, 20))
+            writer.close()
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, limit)
+        signal.signal(signal.SIGXFSZ, sigxfsz)
+    assert (writer.records, writer.dropped) == (10, 10)  # every record either in a file or counted
+    report = RecoveryReport()
+    assert [r.proposal.scene.frame_id for r in read_log(writer.files, report)] == [0, 1, 2, 3, 4, *range(15, 20)]
+    assert [f.complete for f in report.files] == [False, True]  # the first file stays readable up to its error
+    errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR]
+    assert len(errors) == 1 and "cannot write the log" in errors[0]  # once, though every flush tried a new file
+    assert f"logging again, to {writer.files[1]}" in caplog.text

@@ -18,6 +18,7 @@ from discern.rules.engine import Reasoner, Request
 from discern.rules.scene import Proposal
 from discern.rules.verdict import Verdict
 from tests.monitor_process import serve
+from tests.audit_logs import flashing
 
 BUDGET_MS = 3000
 DELAY_MS = 150  # test-only hook: each batch sleeps this long first
@@ -124,6 +125,49 @@ def test_a_batch_that_fails_is_decided_one_by_one_so_only_the_poisoned_frame_fai
     assert first.verdict is not None and third.verdict is not None and first.decision == third.decision == "approve"
     assert poisoned.verdict is None and poisoned.internal and poisoned.no_verdict == "internal error: RuntimeError: poisoned"
     assert poisoned.frame_id == 1 and poisoned.action == "cruise"
+
+
+def test_jobs_answered_before_the_worker_took_them_enter_the_window_and_get_no_second_answer():
+    """The watchdog answered them at their deadline; their scenes are still the vehicle's history."""
+    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    now = time.monotonic()
+
+    def job(rid: int, data: bytes, answered: bool = False) -> Job:
+        return Job(rid, "late", data, now, now + 10.0, answered=answered)
+
+    backlog = deque([
+        job(0, payload("late", flashing(0, lights=False), "cruise")),
+        job(1, payload("late", flashing(1), "cruise"), answered=True),
+        job(2, b'{"action": "cruise", "scene": {', answered=True),
+        job(3, payload("late", flashing(1), "brake"), answered=True),  # a duplicate frame: stays out, unrefused
+        job(4, payload("late", flashing(2), "cruise")),
+    ])
+    outcomes = {}
+    while backlog:
+        outcomes.update((o.rid, o) for o in judge.next_batch(backlog))
+    receipts = [outcomes[rid] for rid in (1, 2, 3)]
+    assert all(o.receipt and o.verdict is None and o.no_verdict is None and o.error_kind is None for o in receipts)
+    assert [o.decoded for o in receipts] == [True, False, True] and receipts[1].error.startswith("malformed JSON")
+    decided = Verdict.model_validate_json(outcomes[4].verdict)  # lights in frames 1 and 2: an emergency on duty
+    assert decided.action.value == "pull_over" and "san.emergency.flashing" in decided.rules
+
+
+def test_a_proposal_shed_for_lack_of_time_still_enters_its_vehicles_window():
+    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    now = time.monotonic()
+
+    def job(rid: int, frame: int, lights: bool = True, arrived: float = now, left: float = 10.0) -> Job:
+        return Job(rid, "shed", payload("shed", flashing(frame, lights), "cruise"), arrived, now + left)
+
+    [first] = judge.next_batch(deque([job(0, 0, lights=False)]))
+    assert first.decision == "approve"
+    judge.time.fixed_s, judge.time.per_proposal_s = 0.0, 0.05  # 50 ms a decision: 75 ms with the margin
+    [shed] = judge.next_batch(deque([job(1, 1, arrived=now - 0.09, left=0.01)]))  # 10 ms of its 100 left
+    assert shed.verdict is None and "left after queueing" in shed.no_verdict
+    [decided] = judge.next_batch(deque([job(2, 2)]))
+    verdict = Verdict.model_validate_json(decided.verdict)  # lights in frames 1 and 2: an emergency on duty
+    assert verdict.action.value == "pull_over" and "san.emergency.flashing" in verdict.rules
+    assert shed.decoded and shed.frame_id == 1 and shed.action == "cruise"  # logged as the proposal it is
 
 
 def test_a_batch_holds_only_what_can_be_decided_before_the_oldest_deadline():

@@ -2,27 +2,55 @@
 
 from __future__ import annotations
 
+import json
 import threading
 
 import pytest
+import zenoh
 
 from discern.monitor.client import Monitor
+from discern.monitor.config import ZenohSettings
 from discern.monitor.example_planner import highway_scene
+from discern.monitor.log import read_log
 from discern.monitor.protocol import RULE_DEADLINE, failsafe_verdict
 from discern.monitor.vehicle_state import PERMITTED_MEMORY_S, PermittedMemory
-from discern.rules.scene import Action
-from discern.rules.verdict import Decision
+from discern.rules.scene import Action, Proposal
+from discern.rules.verdict import Decision, Verdict
+from tests.audit_logs import audit, flashing
 from tests.monitor_process import serve, status, wait_until
 
 BUDGET_MS = 50
 DELAY_MS = 400  # test-only hook: every decision sleeps this long first
+MALFORMED = b'{"action": "cruise", "frame_id": 7, "scene": '
 
 
 @pytest.fixture(scope="module")
-def slow_monitor():
-    proc, ep = serve("--id", "slow", "--budget-ms", str(BUDGET_MS), "--test-only-decision-delay-ms", str(DELAY_MS))
+def slow_log(tmp_path_factory):
+    return tmp_path_factory.mktemp("slow-log")
+
+
+@pytest.fixture(scope="module")
+def slow_monitor(slow_log):
+    proc, ep = serve(
+        "--id", "slow", "--budget-ms", str(BUDGET_MS), "--test-only-decision-delay-ms", str(DELAY_MS),
+        "--log-dir", str(slow_log), "--log-flush-s", "0.05",
+    )
     yield ep
     assert proc.stop() == 0, proc.output
+
+
+def ask(session: zenoh.Session, vehicle: str, payload: bytes):
+    """Send a proposal without waiting; `answer(...)` of the result is its verdict."""
+    return session.get(f"discern/{vehicle}/check", payload=payload, timeout=10)
+
+
+def answer(replies) -> Verdict:
+    [reply] = [r.ok for r in replies if r.ok is not None]
+    return Verdict.model_validate_json(reply.payload.to_bytes())
+
+
+def proposal(vehicle: str, frame_scene, action: str = "cruise") -> bytes:
+    return Proposal(vehicle=vehicle, action=action, scene=frame_scene).model_dump_json(by_alias=True).encode()
 
 
 def test_a_decision_over_budget_gets_a_failsafe_verdict_at_the_deadline(slow_monitor):
@@ -83,3 +111,57 @@ def test_a_worker_that_once_was_slow_still_tries_fresh_proposals():
     assert fresh.verdict is not None and fresh.decision == "approve"
     [stale] = judge.next_batch(deque([Job(2, "v", payload, now - 0.045, now + 0.005)]))  # 5 ms of 50 left
     assert stale.verdict is None and "left after queueing" in stale.no_verdict
+
+
+def test_a_malformed_payload_answered_at_the_deadline_is_logged_as_refused_not_as_a_proposal(slow_monitor, slow_log):
+    session = zenoh.open(ZenohSettings(listen=[], connect=[slow_monitor]).to_zenoh())
+    try:
+        busy = ask(session, "busy", proposal("busy", highway_scene(0, 4)))  # the worker's next 400 ms
+        garbled = answer(ask(session, "garbled", MALFORMED))  # answered by the watchdog, unread
+        answer(busy)
+    finally:
+        session.close()
+    assert garbled.failsafe and garbled.rules == [RULE_DEADLINE] and garbled.frame_id == 7
+
+    def logged():  # once its verdict is: the log is read while the monitor writes it
+        records = [r for r in read_log(slow_log) if r.vehicle == "garbled"]
+        return records if any(r.kind == "verdict" for r in records) else None
+
+    records = wait_until(logged)
+    assert [r.kind for r in records] == ["rejected", "verdict"]  # no proposal record: it never was one
+    assert records[0].rejected.error.startswith("malformed JSON") and records[0].rejected.excerpt == MALFORMED.decode()
+
+
+SHED_BUDGET_MS, SHED_DELAY_MS = 1000, 700  # alone a decision makes its budget; queued behind another it cannot
+
+
+def test_a_shed_frames_scene_is_in_the_window_of_the_next_decided_frame_and_the_replay_agrees(tmp_path, capsys):
+    proc, ep = serve(
+        "--id", "shedder", "--budget-ms", str(SHED_BUDGET_MS), "--test-only-decision-delay-ms", str(SHED_DELAY_MS),
+        "--log-dir", str(tmp_path),
+    )
+    session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
+    try:
+        assert not answer(ask(session, "siren", proposal("siren", flashing(0, False)))).failsafe  # timed: it may shed
+        first = ask(session, "siren", proposal("siren", flashing(1, False)))
+        shed = ask(session, "siren", proposal("siren", flashing(2, True)))  # waits out frame 1's 700 ms
+        garbled = ask(session, "garbled", MALFORMED)  # shed too, its payload read all the same
+        shed, garbled = answer(shed), answer(garbled)
+        answer(first)
+        after = answer(ask(session, "siren", proposal("siren", flashing(3, True))))
+    finally:
+        session.close()
+        assert proc.stop() == 0, proc.output
+    assert shed.failsafe and shed.rules == [RULE_DEADLINE] and shed.frame_id == 2
+    assert garbled.failsafe and garbled.rules == [RULE_DEADLINE]
+    # the lights were seen in frames 2 and 3: an emergency vehicle on duty, only if frame 2 is in the window
+    assert not after.failsafe and after.action is Action.pull_over and "san.emergency.flashing" in after.rules
+
+    records = list(read_log(tmp_path))
+    assert [r.proposal.scene.frame_id for r in records if r.kind == "proposal" and r.vehicle == "siren"] == [0, 1, 2, 3]
+    assert [r.kind for r in records if r.vehicle == "garbled"] == ["rejected", "verdict"]
+    out = tmp_path / "replay.json"
+    code, _, err = audit(capsys, "--replay", str(tmp_path), "--workers", "1", "--json", str(out))
+    replay = json.loads(out.read_text())
+    assert code == 0, err
+    assert replay["changes"] == [] and replay["frames"] + replay["skipped_failsafe"] == 4

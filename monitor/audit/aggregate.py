@@ -11,7 +11,9 @@ For each vehicle, consecutive frames with 0 < dt <= MAX_GAP_S add
 driving. dt is the difference of the scene timestamps when the later frame
 has one (> 0; the earlier may be a simulation's t = 0), else of the
 proposals' arrival times at the monitor. A larger gap or a clock going back
-(a new episode) starts a new stretch instead of being bridged.
+(a new episode) starts a new stretch instead of being bridged. A frame the
+monitor refused (out of order, a duplicate) is no step of the drive: it does
+not move the odometer, as it did not enter the monitor's window.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from enum import Enum
 from typing import Iterable, Optional, Sequence
 
 from discern.monitor.log import FileRecovery, RecoveryReport
+from discern.monitor.protocol import RULE_BAD_INPUT
 from discern.rules.scene import Intent, ObjectClass, Scene
 from discern.rules.verdict import Decision, Verdict
 
@@ -202,8 +205,9 @@ class Tally:
             return
         verdict = frame.verdict
         scene = frame.proposal.scene if frame.proposal is not None else None
-        if frame.lead_in:  # the previous file's last frames start this file's odometry
-            if scene is not None:
+        driven = scene is not None and RULE_BAD_INPUT not in verdict.rules  # a refused frame is no step
+        if frame.lead_in:  # the earlier files' last frames start this task's odometry
+            if driven:
                 self.odometer.warm(frame.vehicle, scene.timestamp, frame.arrived_ns / 1e9, scene.ego.speed)
             return
         kind = disagreement_kind(verdict)
@@ -217,7 +221,7 @@ class Tally:
         self.last_ns = t if self.last_ns is None else max(self.last_ns, t)
         if verdict.latency_ms is not None:
             self.latencies_ms.append(verdict.latency_ms)
-        if scene is not None:
+        if driven:
             self.odometer.add(frame.vehicle, scene.timestamp, frame.arrived_ns / 1e9, scene.ego.speed)
         if kind is not None and filters.disagreement_selected(kind, verdict.rules):
             self.disagreements.append(

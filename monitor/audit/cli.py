@@ -60,7 +60,9 @@ def register(subparsers) -> None:
         "--vehicle", action="append", default=[], metavar="PATTERN", help="only these vehicles (shell pattern)"
     )
     p.add_argument(
-        "--since", metavar="TIME", help="only frames logged at or after TIME (ISO 8601, UTC default, or epoch s)"
+        "--since",
+        metavar="TIME",
+        help="only frames logged at or after TIME (ISO 8601, UTC default; epoch seconds; or epoch ns, as in the CSV)",
     )
     p.add_argument("--until", metavar="TIME", help="only frames logged at or before TIME")
     p.add_argument(
@@ -176,8 +178,8 @@ def _log_paths(logs: Sequence[str]) -> list[str]:
 
 def _filters(args: argparse.Namespace) -> Filters:
     try:
-        since = parse_time(args.since) if args.since else None
-        until = parse_time(args.until) if args.until else None
+        since = parse_time(args.since, "--since") if args.since else None
+        until = parse_time(args.until, "--until") if args.until else None
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     if since is not None and until is not None and since > until:

@@ -5,12 +5,18 @@ The monitor logs a proposal and its verdict on two channels
 the pair is matched here by vehicle and frame id. A proposal refused before it
 parsed has no proposal record: its frame carries the verdict alone.
 
-A task reads a run of consecutive files of one monitor (that is what runs in
-parallel), pairing across their rotations. The file before the run, when it is
-the same monitor's previous file, is read first as a lead-in so that a pair cut
-by the rotation still meets and the replay gets the same history window the
-monitor had. Only the lead-in's tail is decoded: the history window plus a
-slack far longer than any decision takes.
+Files continue one another only when one monitor process wrote them in turn:
+same directory and monitor id, the same run id in their names (older logs,
+named without one: not two processes in their `discern` metadata) and the
+index one up. A restarted monitor starts a sequence of its own, so no pair, no
+history and no odometry carries across a restart.
+
+A task reads a stretch of consecutive files of one sequence (that is what runs
+in parallel), pairing across their rotations. The files before the stretch are
+read first, back from the nearest until they cover the history window plus a
+slack far longer than any decision takes: a lead-in, so that a pair cut by a
+rotation still meets and the replay gets the same history window the monitor
+had, however short the files. Only that span of the lead-in is decoded.
 """
 
 from __future__ import annotations
@@ -21,15 +27,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
-from discern.monitor.log import LogRecord, RecoveryReport, first_log_time_ns, log_files, read_log
+from discern.monitor.log import LogRecord, RecoveryReport, first_log_time_ns, log_files, log_metadata, read_log
 from discern.monitor.protocol import InputError
 from discern.monitor.vehicle_state import VehicleState
 from discern.rules.scene import Proposal, Scene
 from discern.rules.verdict import Verdict
 
-# discern-<monitor id>-<UTC stamp>-<index>.mcap, as monitor/log/writer.py names its files
-_ROTATED = re.compile(r"^(discern-.+)-\d{8}T\d{6}-\d{4}\.mcap$")
-LEAD_IN_SLACK_S = 10.0  # of the previous file read beyond the window: a verdict is never this late
+# discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap, as monitor/log/writer.py names its files (older: no run)
+_ROTATED = re.compile(r"^(discern-.+)-\d{8}T\d{6}-(?:([0-9a-f]{8})-)?(\d{4,})\.mcap$")
+LEAD_IN_SLACK_S = 10.0  # of the earlier files read beyond the window: a verdict is never this late
 PENDING_PER_VEHICLE = 256  # proposals waiting for their verdict; more means the log lost verdicts
 
 
@@ -42,15 +48,15 @@ class Frame:
     proposal: Optional[Proposal] = None  # None when the payload was refused before it parsed
     arrived_ns: Optional[int] = None  # log time of the proposal: when it reached the monitor
     history: Optional[tuple[Scene, ...]] = None  # the monitor's window, when rebuilt; None if it refused the frame
-    lead_in: bool = False  # from the previous file: context for this file's frames, not one of them
+    lead_in: bool = False  # from the earlier files: context for the task's frames, not one of them
 
 
 @dataclass
 class FrameTask:
-    """Consecutive files of one monitor to read, with the file they continue (or None)."""
+    """Consecutive files of one sequence to read, with the earlier files of it that lead in (in order)."""
 
     paths: tuple[str, ...]
-    lead_in: Optional[str] = None
+    lead_in: tuple[str, ...] = ()
 
 
 @dataclass
@@ -75,10 +81,10 @@ class Pairing:
     did, with the monitor's own VehicleState, timed by the proposal's arrival.
     """
 
-    def __init__(self, window_s: Optional[float] = None, lead_in: Optional[str] = None):
-        """`lead_in`: the file read for context only, whose leftover proposals its own task counted."""
+    def __init__(self, window_s: Optional[float] = None, lead_in: tuple[str, ...] = ()):
+        """`lead_in`: the files read for context only, whose leftover proposals their own tasks counted."""
         self.window_s = window_s
-        self.lead_in = lead_in
+        self.lead_in = frozenset(lead_in)
         self.pending: dict[str, deque[LogRecord]] = {}
         self.states: dict[str, VehicleState] = {}
         self.counts = PairingCounts()
@@ -105,7 +111,7 @@ class Pairing:
 
     def finish(self) -> None:
         """Count the proposals left without a verdict (the lead-in's were counted with their own task)."""
-        self.counts.unanswered += sum(str(r.path) != self.lead_in for q in self.pending.values() for r in q)
+        self.counts.unanswered += sum(str(r.path) not in self.lead_in for q in self.pending.values() for r in q)
         self.pending.clear()
 
     def _frame(self, record: LogRecord) -> Frame:
@@ -114,7 +120,7 @@ class Pairing:
         proposal_record = self._take(vehicle, verdict.frame_id)
         frame = Frame(file=str(record.path), log_time_ns=record.log_time_ns, vehicle=vehicle, verdict=verdict)
         if proposal_record is not None:
-            if self.lead_in is not None and str(proposal_record.path) == self.lead_in:
+            if str(proposal_record.path) in self.lead_in:
                 self.counts.carried += 1
             frame.proposal = proposal_record.proposal
             frame.arrived_ns = proposal_record.log_time_ns
@@ -143,11 +149,13 @@ class Pairing:
             return None
 
 
-def plan_tasks(paths: list[str], parts: int = 1) -> list[FrameTask]:
-    """Each monitor's run of rotated files cut into at most `parts` tasks of consecutive files, even in bytes.
+def plan_tasks(paths: list[str], parts: int = 1, lead_in_s: float = LEAD_IN_SLACK_S) -> list[FrameTask]:
+    """Each sequence of one monitor process's files cut into at most `parts` tasks of consecutive files,
+    even in bytes.
 
-    A task's lead-in is the file before its first one, when that is the same
-    monitor's previous file. Fewer, longer tasks read fewer lead-ins.
+    A task's lead-in is the files before its first one in the sequence, back from the nearest, as
+    many as it takes to reach `lead_in_s` seconds before the task's first message. Fewer, longer
+    tasks read fewer lead-ins.
     """
     files = [str(p) for p in log_files(paths)]
     sequences: list[list[str]] = []
@@ -158,11 +166,33 @@ def plan_tasks(paths: list[str], parts: int = 1) -> list[FrameTask]:
             sequences.append([path])
     tasks = []
     for sequence in sequences:
-        previous: Optional[str] = None
-        for run in _even_runs(sequence, parts):
-            tasks.append(FrameTask(tuple(run), previous))
-            previous = run[-1]
+        done = 0
+        for stretch in _even_runs(sequence, parts):
+            tasks.append(FrameTask(tuple(stretch), _lead_in(sequence[:done], stretch, lead_in_s)))
+            done += len(stretch)
     return tasks
+
+
+def _lead_in(before: list[str], stretch: list[str], seconds: float) -> tuple[str, ...]:
+    """The files of `before` from the last one back to the first that starts `seconds` before the stretch does."""
+    if not before:
+        return ()
+    start = _first_time(stretch)
+    if start is None:  # the stretch holds no message: nothing to lead into
+        return ()
+    reach = start - int(seconds * 1e9)
+    first = len(before) - 1
+    while first > 0:
+        t = first_log_time_ns(before[first])
+        if t is not None and t <= reach:
+            break
+        first -= 1
+    return tuple(before[first:])
+
+
+def _first_time(files) -> Optional[int]:
+    """Log time of the first message of these files."""
+    return next((t for t in map(first_log_time_ns, files) if t is not None), None)
 
 
 def _even_runs(files: list[str], parts: int) -> list[list[str]]:
@@ -187,9 +217,18 @@ def _size(path: str) -> int:
 
 
 def _same_sequence(before: str, after: str) -> bool:
+    """Whether `after` is the file the same monitor run wrote next after `before`."""
     a, b = Path(before), Path(after)
     ma, mb = _ROTATED.match(a.name), _ROTATED.match(b.name)
-    return a.parent == b.parent and ma is not None and mb is not None and ma.group(1) == mb.group(1)
+    if a.parent != b.parent or ma is None or mb is None or ma.group(1, 2) != mb.group(1, 2):
+        return False
+    if int(mb.group(3)) != int(ma.group(3)) + 1:  # a restarted monitor numbers its files from 0 again
+        return False
+    if ma.group(2) is not None:
+        return True
+    # named without a run: an older log, whose metadata names its process where the writer wrote one
+    pids = [log_metadata(path).get("pid") for path in (before, after)]
+    return None in pids or pids[0] == pids[1]
 
 
 def read_frames(
@@ -207,8 +246,8 @@ def read_frames(
     pairing = Pairing(window_s, task.lead_in)
 
     def frames() -> Iterator[Frame]:
-        if task.lead_in is not None:
-            start = first_log_time_ns(task.paths[0])
+        if task.lead_in:
+            start = _first_time(task.paths)
             since = None if start is None else start - int(((window_s or 0.0) + LEAD_IN_SLACK_S) * 1e9)
             for record in read_log(task.lead_in, RecoveryReport(), since_ns=since, vehicles=keep):
                 frame = pairing.feed(record)

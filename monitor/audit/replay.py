@@ -44,7 +44,7 @@ from discern.rules.scene import Action
 from discern.rules.verdict import Verdict
 
 from .aggregate import Filters, scenario_kind
-from .frames import Frame, FrameTask, PairingCounts, plan_tasks, read_frames
+from .frames import LEAD_IN_SLACK_S, Frame, FrameTask, PairingCounts, plan_tasks, read_frames
 from .parallel import run_jobs
 
 BATCH = 96  # distinct frames grounded together: the per-rule cost is paid once per batch (rules/batch.py)
@@ -368,7 +368,7 @@ def replay_logs(
     start = time.perf_counter()
     _init_worker(catalog)  # a broken catalog fails here, once; forked workers inherit the loaded rules
     try:
-        tasks = plan_tasks(list(paths), parts=max(1, workers))
+        tasks = plan_tasks(list(paths), parts=max(1, workers), lead_in_s=window + LEAD_IN_SLACK_S)
         shards = max(1, workers)  # every run of files split by vehicle: even shares, whatever the file sizes
         jobs = [ReplayJob(task, shard, shards, filters, window, compare_rules) for task in tasks for shard in range(shards)]
         total = ReplayTally()

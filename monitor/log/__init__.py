@@ -10,7 +10,7 @@ Reader API for audits::
 """
 
 from .channels import STATUS_TOPIC, RejectedInput, parse_topic, vehicle_topic
-from .reader import FileRecovery, LogRecord, RecoveryReport, first_log_time_ns, log_files, read_log
+from .reader import FileRecovery, LogRecord, RecoveryReport, first_log_time_ns, log_files, log_metadata, read_log
 from .writer import McapLogWriter
 
 __all__ = [
@@ -22,6 +22,7 @@ __all__ = [
     "STATUS_TOPIC",
     "first_log_time_ns",
     "log_files",
+    "log_metadata",
     "parse_topic",
     "read_log",
     "vehicle_topic",

@@ -4,23 +4,27 @@
 models the monitor wrote. A file without its summary (the monitor was killed)
 is read chunk by chunk up to the last complete one; `RecoveryReport` says how
 much of each file that was. Channels this log does not know are skipped with a
-warning, an empty file yields nothing.
+warning, an empty file yields nothing. A file whose `discern` metadata names a
+schema version other than this reader's is not read at all (its messages would
+each fail the models, or worse, pass them meaning something else) and is
+reported as unreadable, with the reason.
 """
 
 from __future__ import annotations
 
 import heapq
+import json
 import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Iterator, Optional, Union
 
-from mcap.records import Channel, Chunk, Footer, Message, Schema
+from mcap.records import Channel, Chunk, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from pydantic import ValidationError
 
-from discern.rules.scene import Proposal
+from discern.rules.scene import SCHEMA_VERSION, Proposal
 from discern.rules.verdict import Verdict
 
 from ..status import MonitorStatus
@@ -30,6 +34,7 @@ log = logging.getLogger(__name__)
 
 PathLike = Union[str, os.PathLike]
 RECORD_SIZE_LIMIT = 1 << 30
+METADATA_NAME = "discern"  # the writer's metadata record: monitor_id, schema_version, pid, run
 
 
 @dataclass(frozen=True)
@@ -100,12 +105,20 @@ class RecoveryReport:
 
 
 def log_files(paths: Union[PathLike, Iterable[PathLike]]) -> list[Path]:
-    """Expand a file, a directory (its *.mcap, by name: rotation names sort in time) or a list of both."""
+    """Expand a file, a directory (its *.mcap, by name: rotation names sort in time) or a list of both.
+
+    A file named twice (a directory and one of its files) is read once, where it first appears.
+    """
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
     files: list[Path] = []
+    seen: set[Path] = set()
     for p in map(Path, paths):
-        files.extend(sorted(p.glob("*.mcap")) if p.is_dir() else [p])
+        for f in sorted(p.glob("*.mcap")) if p.is_dir() else [p]:
+            key = f.resolve()
+            if key not in seen:
+                seen.add(key)
+                files.append(f)
     return files
 
 
@@ -153,6 +166,32 @@ def first_log_time_ns(path: PathLike) -> Optional[int]:
     return None
 
 
+def log_metadata(path: PathLike) -> dict[str, str]:
+    """The writer's `discern` metadata of a file (monitor_id, schema_version, pid, run); {} when it has none.
+
+    The writer puts it right after the header, so only the file's first records are read.
+    """
+    try:
+        with open(path, "rb") as f:
+            for record in StreamReader(f, emit_chunks=True, record_size_limit=RECORD_SIZE_LIMIT).records:
+                if isinstance(record, Metadata):
+                    if record.name == METADATA_NAME:
+                        return dict(record.metadata)
+                elif not isinstance(record, Header):
+                    break
+    except Exception:  # unreadable or cut short: no metadata to go by
+        pass
+    return {}
+
+
+def _unsupported_version(metadata: dict[str, str]) -> Optional[str]:
+    """Why a file of this metadata cannot be read, if its schema version is not this reader's."""
+    version = metadata.get("schema_version")
+    if version is None or version == str(SCHEMA_VERSION):
+        return None
+    return f"schema version {version}; this discern reads version {SCHEMA_VERSION}"
+
+
 def _read_file(
     path: Path,
     recovery: FileRecovery,
@@ -178,6 +217,12 @@ def _read_file(
             except Exception as exc:  # the tail of a killed writer: a record cut anywhere
                 recovery.stopped_by = _describe(exc)
                 break
+            if isinstance(record, Metadata) and record.name == METADATA_NAME:
+                why = _unsupported_version(record.metadata)
+                if why is not None:
+                    recovery.stopped_by = why
+                    recovery.recovered_bytes = 0  # nothing of it is read: an unreadable file
+                    break
             if isinstance(record, Chunk):
                 try:
                     inner = breakup_chunk(record, validate_crc=True)
@@ -200,6 +245,19 @@ def _read_file(
                 break
 
 
+def _first_error(exc: ValidationError, data: bytes) -> str:
+    """The first reason a message failed, naming its schema version when it is not this reader's."""
+    try:
+        version = json.loads(data).get("version")
+    except (ValueError, AttributeError, RecursionError):  # not a JSON object
+        version = None
+    if isinstance(version, int) and version != SCHEMA_VERSION:
+        return f"schema version {version}; this discern reads version {SCHEMA_VERSION}"
+    error = exc.errors()[0]
+    where = ".".join(str(p) for p in error["loc"])
+    return f"{where}: {error['msg']}" if where else error["msg"]
+
+
 def _describe(exc: Exception) -> str:
     text = str(exc)
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
@@ -215,6 +273,7 @@ class _ChannelDecoder:
         self.schemas: dict[int, Schema] = {}
         self.channels: dict[int, Optional[tuple[Optional[str], str, str]]] = {}
         self.elsewhere: set[int] = set()  # channels of vehicles another reader decodes
+        self.invalid: set[int] = set()  # channels warned about for a message that failed its schema
 
     def feed(self, record) -> Optional[LogRecord]:
         if isinstance(record, Schema):
@@ -263,7 +322,14 @@ class _ChannelDecoder:
             value = CHANNEL_KINDS[kind][1].model_validate_json(message.data)
         except ValidationError as exc:
             self.recovery.skipped += 1
-            log.warning("%s: skipping a %s message that fails its schema: %s", self.path, kind, exc.errors()[0]["msg"])
+            if message.channel_id not in self.invalid:  # once per channel: the file line counts them all
+                self.invalid.add(message.channel_id)
+                log.warning(
+                    "%s: skipping %s messages that fail their schema (counted in the file's skipped), first: %s",
+                    self.path,
+                    topic,
+                    _first_error(exc, message.data),
+                )
             return None
         if kind == "proposal" and "vehicle" not in value.model_fields_set and vehicle:
             value.vehicle = vehicle  # the key named it, as on the wire

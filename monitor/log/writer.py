@@ -5,6 +5,17 @@ a verdict (a full queue drops records and counts them instead). The current
 chunk is closed and handed to the OS every `flush_seconds`, so a `kill -9`
 loses at most that much and the file stays readable up to its last chunk
 (see reader.py). Files rotate by size and age.
+
+A disk error (a full disk, a log directory gone) loses the current file, never
+the monitor: the records it held since the last flush and those written while
+no file can be opened are counted as dropped, the error is logged once, and a
+new file is tried at every flush until one opens.
+
+Files are named discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap: the run
+(one writer's life, its id also in the file's `discern` metadata) keeps a
+restarted monitor from overwriting a file of the same second, and an audit from
+reading its files as the continuation of the previous run's; the index counts
+the run's files from 0000.
 """
 
 from __future__ import annotations
@@ -14,6 +25,7 @@ import os
 import queue
 import threading
 import time
+import uuid
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Optional, Union
@@ -30,6 +42,7 @@ log = logging.getLogger(__name__)
 
 MAX_QUEUED = 100_000
 CHUNK_BYTES = 512 * 1024
+RUN_CHARS = 8  # of the run id in file names: 32 random bits, unique among one monitor id's runs
 _STOP = object()
 
 Payload = Union[bytes, BaseModel]
@@ -57,7 +70,9 @@ class McapLogWriter:
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
         self._opened_at = 0.0
-        self._pending = 0
+        self._pending = 0  # records added since the last flush: lost if the file fails
+        self._failing = False  # since a disk error, until a new file opens
+        self.run = uuid.uuid4().hex
         self._open_file()  # fail now, in the caller, if the directory is not writable
         self._thread = threading.Thread(target=self._run, name="discern-mcap-writer", daemon=True)
         self._thread.start()
@@ -86,18 +101,57 @@ class McapLogWriter:
             except queue.Empty:
                 item = None
             if item is _STOP:
-                self._finish_file()
+                self._on_disk(self._finish_file)
                 return
             if item is not None:
-                try:
-                    self._add(*item)
-                except Exception:  # a record that cannot be written must not stop the log
+                if self._writer is None:
                     self.dropped += 1
-                    log.exception("dropped a log record")
+                else:
+                    self._on_disk(lambda: self._add_one(item))
             now = time.monotonic()
             if now >= next_flush:
                 next_flush = now + flush_every
-                self._flush_and_maybe_rotate(now)
+                if self._writer is None:  # lost to a disk error: try a new file
+                    self._on_disk(self._open_file)
+                else:
+                    self._on_disk(lambda: self._flush_and_maybe_rotate(now))
+
+    def _add_one(self, item) -> None:
+        try:
+            self._add(*item)
+        except OSError:
+            self.dropped += 1  # this record; the file's unflushed ones are counted by _on_disk
+            raise
+        except Exception:  # a record that cannot be written must not stop the log
+            self.dropped += 1
+            log.exception("dropped a log record")
+
+    def _on_disk(self, step) -> None:
+        """Run a step that writes to the file; a disk error drops the file and its unflushed records."""
+        try:
+            step()
+        except OSError as exc:
+            self.dropped += self._pending
+            self.records -= self._pending
+            self._pending = 0
+            if self._stream is not None:
+                try:
+                    self._stream.close()
+                except OSError:
+                    pass  # its buffer cannot reach the disk either
+            self._stream = self._writer = None
+            if not self._failing:
+                log.error(
+                    "cannot write the log in %s (%s): records are dropped until a new file opens; "
+                    "trying at every flush",
+                    self.directory,
+                    exc.strerror or exc,
+                )
+            self._failing = True
+            return
+        if self._failing and self._writer is not None:
+            log.warning("logging again, to %s", self.files[-1])
+            self._failing = False
 
     def _add(self, topic: str, kind: str, payload: Payload, log_time_ns: int) -> None:
         data = payload if isinstance(payload, bytes) else payload.model_dump_json(by_alias=True).encode()
@@ -130,15 +184,31 @@ class McapLogWriter:
 
     def _open_file(self) -> None:
         stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S")
-        path = self.directory / f"discern-{self.monitor_id}-{stamp}-{len(self.files):04d}.mcap"
-        self._stream = open(path, "wb")
-        compression = CompressionType.ZSTD if self.settings.compression == "zstd" else CompressionType.NONE
-        self._writer = Writer(self._stream, chunk_size=CHUNK_BYTES, compression=compression)
-        self._writer.start(profile="", library="discern")
-        self._writer.add_metadata(
-            "discern", {"monitor_id": self.monitor_id, "schema_version": str(SCHEMA_VERSION), "pid": str(os.getpid())}
-        )
-        self._stream.flush()
+        path = self.directory / f"discern-{self.monitor_id}-{stamp}-{self.run[:RUN_CHARS]}-{len(self.files):04d}.mcap"
+        stream = open(path, "wb")
+        try:
+            compression = CompressionType.ZSTD if self.settings.compression == "zstd" else CompressionType.NONE
+            writer = Writer(stream, chunk_size=CHUNK_BYTES, compression=compression)
+            writer.start(profile="", library="discern")
+            writer.add_metadata(
+                "discern",
+                {
+                    "monitor_id": self.monitor_id,
+                    "schema_version": str(SCHEMA_VERSION),
+                    "pid": str(os.getpid()),
+                    "run": self.run,
+                },
+            )
+            stream.flush()
+        except BaseException:
+            # Not a log file: remove it, as the index only moves on with a file opened.
+            for undo in (stream.close, lambda: path.unlink(missing_ok=True)):
+                try:
+                    undo()
+                except OSError:
+                    pass
+            raise
+        self._stream, self._writer = stream, writer
         self._channels.clear()
         self._schemas.clear()
         self._opened_at = time.monotonic()
@@ -150,5 +220,5 @@ class McapLogWriter:
             return
         self._writer.finish()
         self._stream.close()
-        self._writer = None
+        self._stream = self._writer = None
         self._pending = 0
