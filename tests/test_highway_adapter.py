@@ -104,3 +104,18 @@ def test_wrapper_refuses_an_env_without_the_five_meta_actions():
     env = gym.make("intersection-v2")  # longitudinal meta-actions only
     with pytest.raises(ValueError, match="all five meta-actions"):
         DiscernWrapper(env, passthrough=True)
+
+
+@pytest.mark.parametrize("name", ["roundabout-v0", "two-way-v0", "u-turn-v0", "exit-v0"])
+def test_wrapper_refuses_roads_the_scene_conversion_gets_wrong(name):
+    import warnings
+
+    import gymnasium as gym
+
+    from discern.adapters.highway.wrapper import DiscernWrapper
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        env = gym.make(name, config={"action": {"type": "DiscreteMetaAction"}})
+    with pytest.raises(ValueError, match=f"{name}.*highway-fast-v0, highway-v0, merge-v0"):
+        DiscernWrapper(env, passthrough=True)

@@ -90,8 +90,47 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
     )
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err
-    for problem in ("gremlins", "magic", "--episodes", "'warp'", "decel needs a non-negative number"):
+    for problem in ("gremlins", "magic", "--episodes", "'warp'", "--param decel needs a finite number"):
         assert problem in err
+
+
+@pytest.mark.parametrize(
+    "argv,problem",
+    [
+        (["--param", "decel=0"], "--param decel needs a finite number of at least 0.01, got '0'"),
+        (["--param", "reaction_s=nan"], "--param reaction_s needs a finite number"),
+        (["--param", "min_gap=-1"], "--param min_gap needs a finite number"),
+        (["--faults", "signs", "--sign-rate", "1.5"], "--sign-rate is a chance and must lie in [0, 1], got 1.5"),
+        (["--miss-rate", "nan"], "--miss-rate is a chance"),
+        (["--sign-value", "-5"], "--sign-value must lie in [0, 150] m/s"),
+        (["--sign-value", "151"], "--sign-value must lie in [0, 150] m/s"),
+        (["--noise", "inf"], "--noise must be a finite number"),
+        (["--variants", ","], "--variants names no variant"),
+        (["--duration", "nan"], "--duration must be a finite number of seconds above 0"),
+        (["--duration", "inf"], "--duration must be a finite number of seconds above 0"),
+        (["--faults", "none", "missed", "--miss-rate", "0"], "--faults gives more than one set that comes out as 'none'"),
+    ],
+)
+def test_cli_rejects_odd_option_values_in_one_line_without_a_traceback(argv, problem, capsys):
+    code = cli_main(["eval", "highway", "--episodes", "1", *argv])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert err.startswith("discern eval: error: ") and problem in err
+
+
+def test_cli_refuses_a_monitor_that_does_not_answer(capsys):
+    from tests.monitor_process import endpoint, free_port
+
+    nowhere = endpoint(free_port())
+    code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "discern", "--monitor", nowhere])
+    err = capsys.readouterr().err
+    assert code == 2 and f"no monitor answered on {nowhere}" in err and "Traceback" not in err
+
+
+def test_evaluation_loads_the_weights_each_setup_names(tmp_path):
+    evaluate(1, [Faults()], ["planner"], Setup(duration=2), progress=False)
+    with pytest.raises(FileNotFoundError, match="missing.pt"):
+        evaluate(1, [Faults()], ["planner"], Setup(duration=2, weights=str(tmp_path / "missing.pt")), progress=False)
 
 
 def test_wrapper_asks_a_running_monitor_over_zenoh():
@@ -114,6 +153,43 @@ def test_wrapper_asks_a_running_monitor_over_zenoh():
         assert proc.stop() == 0, proc.output
     assert all(not v.failsafe and v.error is None for v in verdicts), [v.error for v in verdicts]
     assert Decision.override in {v.decision for v in verdicts}
+
+
+def test_monitor_keeps_judging_after_the_wrapper_resets():
+    from tests.monitor_process import serve
+
+    proc, endpoint = serve("--id", "highway-resets", "--budget-ms", "5000")
+    try:
+        env = DiscernWrapper(
+            make_env("highway-fast-v0", duration=3), monitor=True, monitor_options={"connect": [endpoint]}, timeout=5.0
+        )
+        episodes = []
+        for seed in (10_001, 10_002, 10_003):  # two resets after the first episode
+            env.reset(seed=seed)
+            episodes.append([Verdict.model_validate(env.step(FASTER)[4]["discern"]) for _ in range(2)])
+        env.close()
+    finally:
+        assert proc.stop() == 0, proc.output
+    frames = [v.frame_id for verdicts in episodes for v in verdicts]
+    assert frames == sorted(set(frames)), "frame ids must keep rising across resets"
+    assert all(not v.failsafe and v.error is None for verdicts in episodes for v in verdicts), [
+        v.error for verdicts in episodes for v in verdicts
+    ]
+
+
+def test_evaluation_through_a_monitor_judges_every_episode():
+    from tests.monitor_process import serve
+
+    proc, endpoint = serve("--id", "highway-eval", "--budget-ms", "5000")
+    try:
+        results = evaluate(2, [Faults()], ["discern"], Setup(duration=3, monitor=(endpoint,)), progress=False)
+    finally:
+        assert proc.stop() == 0, proc.output
+    assert [r.seed for r in results] == [10_000, 10_001]
+    assert all(r.steps > 0 and len(r.decide_ms) == r.steps for r in results)
+    assert not any(rule.startswith("monitor.") or rule == "failsafe" for r in results for rule in r.rules), [
+        r.rules for r in results
+    ]
 
 
 def test_evaluation_records_every_proposal_and_verdict_to_mcap(tmp_path):

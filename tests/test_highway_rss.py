@@ -24,7 +24,7 @@ def _scene(gap_ahead: float, lead_speed: float, lane: int = 2) -> Scene:
             DetectedObject(
                 id=1,
                 cls="car",
-                position=Vec2(x=(lane - 2) * 4.0, y=gap_ahead + 5.0),
+                position=Vec2(x=(lane - 2) * 4.0, y=gap_ahead),  # bumper to bumper, as scene.py reports it
                 lane=LaneRef(kind=LaneKind.current, id=lane),
                 velocity=Velocity(y=lead_speed),
                 size=Size(length=5.0, width=2.0),
@@ -44,3 +44,10 @@ def test_rss_approves_a_safe_gap_and_blocks_a_lane_change_into_an_unsafe_one():
     assert checker.check(_scene(gap_ahead=150.0, lead_speed=25.0), Action.cruise).decision is Decision.approve
     blocked = checker.check(_scene(gap_ahead=30.0, lead_speed=25.0, lane=3), Action.change_lane_right)
     assert blocked.decision is Decision.override and blocked.action is Action.cruise
+
+
+def test_rss_reads_the_scene_gap_as_bumper_to_bumper_without_taking_car_lengths_off():
+    need = safe_distance(30.0, 25.0, RssParameters())
+    checker = RssChecker()
+    assert checker.check(_scene(gap_ahead=need + 1.0, lead_speed=25.0), Action.cruise).decision is Decision.approve
+    assert checker.check(_scene(gap_ahead=need - 1.0, lead_speed=25.0), Action.cruise).decision is Decision.override

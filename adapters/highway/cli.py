@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 DEMO_FAULTS = ("none", "signs,missed")
+MIN_PARAM = 0.01  # the facts carry parameters in cm and ms: anything smaller reaches the rules as 0
+MONITOR_WAIT_S = 5.0
 
 
 def register(subparsers) -> None:
@@ -50,7 +53,9 @@ def _options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--phantom-rate", type=float, default=None, help="phantom chance per frame")
     parser.add_argument("--sign-rate", type=float, default=None, help="chance each sign is misread")
     parser.add_argument("--sign-value", type=float, default=None, help="limit read off a misread sign, m/s")
-    parser.add_argument("--noise", type=float, default=None, help="distance noise std at 50 m, metres")
+    parser.add_argument(
+        "--noise", type=float, default=None, help="distance noise, metres: std NOISE*(0.2 + range/50 m), 1.2*NOISE at 50 m"
+    )
     parser.add_argument(
         "--param",
         action="append",
@@ -84,12 +89,14 @@ def _run_eval(args: argparse.Namespace) -> int:
         from .perception import Faults
     except ImportError as exc:
         print(
-            f"discern: error: the highway evaluation needs the planner extra (pip install 'discern[planner]'): {exc}",
+            f"discern eval: error: the highway evaluation needs the planner extra (pip install 'discern[planner]'): {exc}",
             file=sys.stderr,
         )
         return 2
     variants = [v.strip() for v in args.variants.split(",") if v.strip()]
     problems = [f"unknown variant {v!r} (choose from {', '.join(VARIANTS)})" for v in variants if v not in VARIANTS]
+    if not variants:
+        problems.append(f"--variants names no variant (choose from {', '.join(VARIANTS)})")
     if args.episodes < 1:
         problems.append(f"--episodes must be at least 1, got {args.episodes}")
     if args.env not in SUPPORTED:
@@ -97,8 +104,9 @@ def _run_eval(args: argparse.Namespace) -> int:
     params = _params(args.param, problems)
     if args.record is not None and args.jobs > 1:
         problems.append("--record writes one MCAP log from one process: use it with --jobs 1")
-    if args.duration is not None and args.duration <= 0:
-        problems.append(f"--duration must be positive, got {args.duration}")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        problems.append(f"--duration must be a finite number of seconds above 0, got {args.duration}")
+    problems += _rate_problems(args)
     fault_sets = []
     for kinds in args.faults:
         try:
@@ -115,9 +123,16 @@ def _run_eval(args: argparse.Namespace) -> int:
             )
         except ValueError as exc:
             problems.append(str(exc))
+    labels = [f.label() for f in fault_sets]
+    problems += [
+        f"--faults gives more than one set that comes out as {label!r} with these rates: their rows would merge"
+        for label in sorted({l for l in labels if labels.count(l) > 1})
+    ]
+    if args.monitor and "discern" in variants and not problems:
+        problems += _monitor_problems(args.monitor)
     if problems:
         for problem in problems:
-            print(f"discern: error: {problem}", file=sys.stderr)
+            print(f"discern eval: error: {problem}", file=sys.stderr)
         return 2
     setup = Setup(
         env=args.env, duration=args.duration, weights=args.weights, monitor=(args.monitor,) if args.monitor else (),
@@ -128,12 +143,43 @@ def _run_eval(args: argparse.Namespace) -> int:
     try:
         results = evaluate(args.episodes, fault_sets, variants, setup, seed=args.seed, jobs=args.jobs, progress=not args.quiet)
     except (FileNotFoundError, RuntimeError) as exc:
-        print(f"discern: error: {exc}", file=sys.stderr)
+        print(f"discern eval: error: {exc}", file=sys.stderr)
         return 2
     _, text = report(results, args.out)
     print(text)
     print(f"\nwrote {args.out}/: summary.csv, episodes.csv, summary.txt, evaluation.png, vetoing_rules.png")
     return 0
+
+
+def _rate_problems(args: argparse.Namespace) -> list[str]:
+    """Chances in [0, 1], a finite noise of 0 or more, and a sign value a Scene can hold (0..150 m/s)."""
+    from discern.rules.scene import MAX_SPEED_MS as MAX_SIGN_VALUE
+
+    problems = []
+    for flag, value in (("--miss-rate", args.miss_rate), ("--phantom-rate", args.phantom_rate), ("--sign-rate", args.sign_rate)):
+        if value is not None and not 0.0 <= value <= 1.0:
+            problems.append(f"{flag} is a chance and must lie in [0, 1], got {value}")
+    if args.noise is not None and not (math.isfinite(args.noise) and args.noise >= 0.0):
+        problems.append(f"--noise must be a finite number of metres of 0 or more, got {args.noise}")
+    if args.sign_value is not None and not 0.0 <= args.sign_value <= MAX_SIGN_VALUE:
+        problems.append(f"--sign-value must lie in [0, {MAX_SIGN_VALUE:g}] m/s, got {args.sign_value}")
+    return problems
+
+
+def _monitor_problems(endpoint: str) -> list[str]:
+    """Without a reachable monitor every verdict would be a fail-safe brake dressed up as a normal row."""
+    from .wrapper import MonitorChecker
+
+    try:
+        probe = MonitorChecker(vehicle="highway-eval-probe", connect=[endpoint])
+    except Exception as exc:  # zenoh refuses a malformed endpoint
+        return [f"--monitor {endpoint}: cannot open a zenoh session: {str(exc).splitlines()[0] if str(exc) else exc!r}"]
+    try:
+        if probe.client.wait_for_monitor(MONITOR_WAIT_S):
+            return []
+    finally:
+        probe.close()
+    return [f"no monitor answered on {endpoint} within {MONITOR_WAIT_S:g} s: start one with `discern serve --listen {endpoint}`"]
 
 
 def _params(pairs: list[str], problems: list[str]) -> tuple[tuple[str, float], ...]:
@@ -153,8 +199,9 @@ def _params(pairs: list[str], problems: list[str]) -> tuple[tuple[str, float], .
             number = None
         if name not in known:
             problems.append(f"unknown --param {name!r} (known: {', '.join(sorted(known))})")
-        elif number is None or number < 0:
-            problems.append(f"--param {name} needs a non-negative number, got {value!r}")
+        elif number is None or not (math.isfinite(number) and number >= MIN_PARAM):
+            # every parameter is a gap, time, speed or deceleration (decel divides): 0 would turn rules off
+            problems.append(f"--param {name} needs a finite number of at least {MIN_PARAM:g}, got {value!r}")
         else:
             parsed[name] = number
     return tuple(sorted(parsed.items()))

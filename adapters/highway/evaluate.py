@@ -67,7 +67,8 @@ class Setup:
 _worker: dict = {}
 
 
-def _checker(variant: str, setup: Setup):
+def _checker(variant: str, setup: Setup, vehicle: str):
+    """The variant's checker; a monitor one is the episode's own (see run_episode), the others are cached."""
     if variant == "planner":
         return None
     if variant == "rss":
@@ -77,9 +78,7 @@ def _checker(variant: str, setup: Setup):
     if setup.monitor:
         from .wrapper import MonitorChecker
 
-        if "monitor" not in _worker:
-            _worker["monitor"] = MonitorChecker(connect=list(setup.monitor))
-        return _worker["monitor"]
+        return MonitorChecker(vehicle=vehicle, connect=list(setup.monitor))
     key = ("reasoner", setup.params)
     if key not in _worker:
         from discern.rules.facts import Params
@@ -108,17 +107,20 @@ def close_recorder() -> None:
 
 
 def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> EpisodeResult:
-    if "planner" not in _worker:
-        _worker["planner"] = Planner.load(setup.weights)
-    planner: Planner = _worker["planner"]
-    checker = _checker(variant, setup)
+    """One seeded episode; through a monitor, as its own vehicle, whose frame ids no other episode has used."""
+    key = ("planner", setup.weights)
+    if key not in _worker:
+        _worker[key] = Planner.load(setup.weights)
+    planner: Planner = _worker[key]
+    vehicle = f"{variant}_{faults.label().replace(',', '-')}_{seed}"
+    checker = _checker(variant, setup, vehicle)
     env = DiscernWrapper(
         make_env(setup.env, duration=setup.duration),
         checker=checker,
         faults=faults,
         passthrough=checker is None,
         recorder=_recorder(setup),
-        vehicle=f"{variant}_{faults.label().replace(',', '-')}_{seed}",
+        vehicle=vehicle,
     )
     result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed)
     period = policy_period(env)
@@ -154,6 +156,8 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
         result.collided = bool(info.get("crashed", False))
         done = terminated or truncated
     env.close()
+    if setup.monitor and checker is not None:
+        checker.close()  # the episode's own zenoh session
     return result
 
 

@@ -33,7 +33,7 @@ RANGE_SIDE = 40.0  # m: corner radars
 class Faults:
     """Fault rates; all zero is a perfect perception."""
 
-    noise: float = 0.0  # m: distance noise std at 50 m (scales with range)
+    noise: float = 0.0  # m: distance noise std is noise * (0.2 + range / 50 m): 1.2x noise at 50 m
     miss_rate: float = 0.0  # per vehicle and frame: chance the camera starts losing it
     miss_frames: int = 3
     miss_drop_track: bool = False  # missed vehicles vanish from the object list (range readings only)

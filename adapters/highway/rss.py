@@ -102,8 +102,8 @@ def _speed(obj: DetectedObject) -> float:
 
 
 def _gap(obj: DetectedObject) -> float:
-    length = obj.size.length if obj.size is not None else EGO_LENGTH
-    return abs(obj.position.y) - (length + EGO_LENGTH) / 2.0
+    """Free road between bumpers: the scene's `y` already is that gap (scene.py), so no lengths come off."""
+    return abs(obj.position.y)
 
 
 class RssChecker:

@@ -40,7 +40,10 @@ def _ahead(track: Track, ego_length: float) -> float:
     return gap if track.ahead >= 0 else -gap
 
 
-def build_scene(perceived: Perceived, previous_speed: float | None = None, period: float = 1.0) -> Scene:
+def build_scene(
+    perceived: Perceived, previous_speed: float | None = None, period: float = 1.0, frame_id: int | None = None
+) -> Scene:
+    """`frame_id` overrides the perception's per-episode frame number (a monitor wants ids that only rise)."""
     truth = perceived.truth
     ego = truth.ego
     lane_limit = truth.lane_limit(ego.lane)
@@ -69,7 +72,7 @@ def build_scene(perceived: Perceived, previous_speed: float | None = None, perio
     ]
     acceleration = None if previous_speed is None else _r((ego.speed - previous_speed) / period)
     return Scene(
-        frame_id=perceived.frame,
+        frame_id=perceived.frame if frame_id is None else frame_id,
         timestamp=_r(truth.time),
         ego=Ego(
             speed=_r(ego.speed),

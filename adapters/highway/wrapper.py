@@ -15,12 +15,14 @@ from typing import Protocol, Sequence
 
 import gymnasium as gym
 from highway_env.envs.common.action import DiscreteMetaAction
+from highway_env.envs.highway_env import HighwayEnv, HighwayEnvFast
+from highway_env.envs.merge_env import MergeEnv
 
 from discern.rules.scene import Action, Proposal, Scene
 from discern.rules.verdict import Decision, Justification, Verdict
 
 from .actions import from_catalog, to_catalog
-from .envs import policy_period
+from .envs import SUPPORTED, policy_period
 from .perception import Faults, Perceived, Perception
 from .scene import build_scene
 from .truth import VehicleIds, read_truth
@@ -29,6 +31,9 @@ from .truth import VehicleIds, read_truth
 # highway-env's MDPVehicle sheds 4.3-5 m/s in the second after a SLOWER (measured in the closed loop):
 # Discern's stopping gaps must assume what this vehicle can brake, not the catalog's 6 m/s^2 default.
 VEHICLE_PARAMS = {"decel": 4.0}
+
+# The roads of envs.SUPPORTED; the scene conversion gets curved, two-way and exit geometry wrong.
+SUPPORTED_CLASSES = (HighwayEnv, HighwayEnvFast, MergeEnv)
 
 
 class Checker(Protocol):
@@ -127,6 +132,12 @@ class DiscernWrapper(gym.Wrapper):
                 "DiscernWrapper needs highway-env's DiscreteMetaAction with all five meta-actions "
                 f"(LANE_LEFT, IDLE, LANE_RIGHT, FASTER, SLOWER); this environment acts with {actions!r}"
             )
+        if type(env.unwrapped) not in SUPPORTED_CLASSES:  # exact: ExitEnv subclasses HighwayEnv
+            spec = getattr(env.unwrapped, "spec", None)
+            raise ValueError(
+                f"DiscernWrapper cannot convert {spec.id if spec else type(env.unwrapped).__name__}'s road into "
+                f"scenes (straight multi-lane roads only): use one of {', '.join(SUPPORTED)}"
+            )
         self._owns_checker = checker is None
         self.vehicle = vehicle
         if passthrough:
@@ -145,6 +156,11 @@ class DiscernWrapper(gym.Wrapper):
         self.perceived: Perceived | None = None
         self.scene: Scene | None = None
         self._ids = VehicleIds()
+        self._frames = 0  # scene frame ids: never reset, a monitor refuses a frame id it has judged already
+
+    def _frame_id(self) -> int:
+        frame, self._frames = self._frames, self._frames + 1
+        return frame
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         obs, info = self.env.reset(seed=seed, options=options)
@@ -153,7 +169,7 @@ class DiscernWrapper(gym.Wrapper):
         self._episodes += 1
         episode = seed if seed is not None else self._episodes  # keys the injected faults
         self.perceived = self.perception.reset(episode, read_truth(self.env, self._ids))
-        self.scene = build_scene(self.perceived, period=policy_period(self.env))
+        self.scene = build_scene(self.perceived, period=policy_period(self.env), frame_id=self._frame_id())
         return obs, info
 
     def judge(self, action: int) -> Verdict | None:
@@ -198,7 +214,9 @@ class DiscernWrapper(gym.Wrapper):
         previous = self.scene
         self.history.append(previous)
         self.perceived = self.perception.step(read_truth(self.env, self._ids))
-        self.scene = build_scene(self.perceived, previous_speed=previous.ego.speed, period=policy_period(self.env))
+        self.scene = build_scene(
+            self.perceived, previous_speed=previous.ego.speed, period=policy_period(self.env), frame_id=self._frame_id()
+        )
         while self.history and self.history[0].timestamp < self.scene.timestamp - self.history_seconds:
             self.history.popleft()
 
