@@ -19,7 +19,7 @@ from typing import Iterable
 
 from clingo import Control, Function, Number, Symbol, ast, parse_term
 
-from .catalog import Catalog
+from .catalog import Catalog, static_predicates
 from .fact_text import FACT_NAME, is_plain
 from .justify import AnswerSet, shown_atoms
 from .terms import Shape
@@ -31,23 +31,6 @@ _LOC = ast.Location(ast.Position("<batch>", 1, 1), ast.Position("<batch>", 1, 1)
 # A fact's name starts the text or follows the '.' that ends the previous fact;
 # quoted strings are matched whole first, so nothing inside them is touched.
 _FACT_START = re.compile(r'"(?:[^"\\]|\\.)*"|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)([(.])')
-
-
-def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset[str]:
-    """Predicates whose atoms are the same in every frame: defined by the catalog from such predicates alone.
-
-    `shared` names predicates given once for the whole batch (the reasoner's parameters).
-    """
-    static = set(catalog.fact_predicates) | {rule.signature[0] for rule in catalog.compiled} | set(shared)
-    changed = True
-    while changed:
-        changed = False
-        for rule in catalog.compiled:
-            head = rule.signature[0]
-            if head in static and any(lit.predicate not in static for lit in rule.body if lit.is_atom):
-                static.discard(head)
-                changed = True
-    return frozenset(static)
 
 
 class FrameTagger:

@@ -135,6 +135,11 @@ class Catalog:
         return index
 
     @cached_property
+    def static(self) -> frozenset[str]:
+        """Predicates no frame changes: why one of their atoms is absent needs no proof, like a class hierarchy."""
+        return static_predicates(self)
+
+    @cached_property
     def replayable(self) -> frozenset[tuple[str, int]]:
         """Predicates whose atoms with a given first argument the prover can find by replaying their rules.
 
@@ -436,3 +441,20 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
             raise CatalogError(f"rule id {info.id} is used twice ({seen[info.id].file}, {info.file})")
         seen[info.id] = info
     return catalog
+
+
+def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset[str]:
+    """Predicates whose atoms are the same in every frame: defined by the catalog from such predicates alone.
+
+    `shared` names predicates given alike to every frame (the reasoner's parameters).
+    """
+    static = set(catalog.fact_predicates) | {rule.signature[0] for rule in catalog.compiled} | set(shared)
+    changed = True
+    while changed:
+        changed = False
+        for rule in catalog.compiled:
+            head = rule.signature[0]
+            if head in static and any(lit.predicate not in static for lit in rule.body if lit.is_atom):
+                static.discard(head)
+                changed = True
+    return frozenset(static)

@@ -222,12 +222,18 @@ def _words(sym: Symbol) -> str:
     return str(sym).replace("_", " ")
 
 
+def _article(found: re.Match) -> str:
+    return found.group(2) if found.group(2) else found.group(1) + "n "
+
+
 def _ordinal(n: int) -> str:
     suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
     return f"{n}{suffix}"
 
 
 _LOOSE_SPACE = re.compile(r" +(?=[,.;:)]|$)| (?= )")  # left where an unknown value reads as no words
+# "a" before a value: "an" before a vowel sound; none before a mass noun ("debris can be swerved around")
+_ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8|1[18]\b))")
 _PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000), "decel": ("m/s²", 100)}
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ahead": "somewhere", "right": "somewhere",
             "lane": "a lane", "detail": "", "paren": ""}
@@ -287,7 +293,8 @@ class Phrasebook:
             value, unknown = values.get(parts[i]), parts[i + 2]
             words.append(unknown if value is None and unknown is not None else self.value(value, parts[i + 1], parts[i]))
             words.append(parts[i + 3])
-        return _LOOSE_SPACE.sub("", "".join(words))
+        text = _LOOSE_SPACE.sub("", "".join(words))
+        return _ARTICLE.sub(_article, text) if "a @(" in template.template else text
 
     def atom(self, sym: Symbol) -> str:
         _, name, args = self._answer.shape(sym)
@@ -427,8 +434,7 @@ class Prover:
         if not rules:
             return JustificationNode(literal=literal, holds=True, text=text, kind="absent")
         children: list[JustificationNode] = []
-        closed = all(rule.info.id.startswith("ent.") for rule in rules)  # the hierarchy speaks for itself
-        if negative_left > 0 and depth < self.max_depth and not closed:
+        if negative_left > 0 and depth < self.max_depth and name not in self.catalog.static:
             for rule in rules:
                 blocked = self._blocked(rule, args, depth + 1, negative_left - 1)
                 if blocked is not None and blocked not in children:  # one id's two bodies may miss the same fact

@@ -38,10 +38,26 @@ def test_negative_justification_says_there_is_no_evidence(reasoner):
     assert "rule acc.red_light needs that the traffic light is red, and there is no evidence of it" in text
 
 
-def test_hierarchy_is_not_spelled_out_class_by_class(reasoner):
+def test_what_no_frame_can_change_is_stated_not_spelled_out_class_by_class(reasoner):
     verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate", explain=True)
-    assert "needs that a pedestrian is a kind of automobile, and there is no evidence of it" in verdict.justification.text
-    assert "rule ent.transitive" not in verdict.justification.text
+    text = verdict.justification.text
+    assert "there is no evidence that a pedestrian is a motor vehicle\n" in text
+    assert "rule def.motor_vehicle" not in text and "rule ent.transitive" not in text
+
+
+def test_preference_is_explained_by_the_better_actions_not_by_rank_numbers(reasoner):
+    verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
+    text = verdict.justification.text
+    assert "rule dec.preference does not apply, because" in text
+    assert "that pull over is called for and permitted, and there is no evidence of it" in text
+    assert not re.search(r"\b(\d+) < \1\b", text)
+
+
+def test_articles_agree_with_the_word_they_precede(reasoner):
+    texts = [reasoner.decide(scene(speed=4, objects=[obj(kind, 0, 5, lane=1)]), "accelerate", explain=True)
+             .justification.text for kind in ("unknown", "debris")]
+    assert "object 1 is an unknown" in texts[0] and "object 1 is debris" in texts[1]
+    assert not [text for text in texts if re.search(r"\ba (?:[aeiu]|debris)", text)]
 
 
 def test_approval_fast_path_has_summary_and_rules_without_tree(reasoner):
