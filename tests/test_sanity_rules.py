@@ -170,3 +170,16 @@ def test_a_camera_only_pedestrian_in_front_of_a_bus_is_no_picture_on_it():
     walker = obj(5, "pedestrian", 0.3, 23.5, 1, sources=("camera",))
     assert "san.world.picture_on_object" not in fired(reasoner_for("us"), (scene(speed=10.0, limit=13.0,
                                                                                    objects=[bus, walker]),))
+
+
+def test_traffic_is_no_stop_evidence_for_the_ego_on_the_major_road():
+    def frames(road):
+        crossing = obj(5, "car", -15.0, 25.0, 1, kind="cross_left", vy=0.0, vx=10.0)
+        braking = obj(6, "car", 0.0, 20.0, 1, vy=8.0, indicator="brake_light")
+        intersection = {"type": "t_intersect", "stage": "arriving", "road": road}
+        return (scene(limit=11.0, intersection=intersection, other_lanes=("cross_left",),
+                      signs=[{"kind": "speed_limit", "value": 20.1, "source": "camera"}], objects=[crossing, braking]),)
+
+    assert "san.stop.evidence_traffic" in fired(reasoner_for("us"), frames("minor"))
+    assert "san.stop.evidence_traffic" not in fired(reasoner_for("us"), frames("major"))
+    assert "san.stop.misread_sign" not in _decide(frames("major"), Action.cruise).rules
