@@ -109,6 +109,10 @@ CASES = {
     "cll.lane_taken": (scene(lane=2, lanes=2, objects=[car_left_close]), scene(lane=2, lanes=2, objects=[obj("car", -3.5, 25, lane=1)])),
     "clr.lane_taken": (scene(lane=1, lanes=2, objects=[obj("car", 3.5, -4, lane=2)]),
                        scene(lane=1, lanes=2, objects=[obj("car", 3.5, -40, lane=2)])),
+    "cll.lane_claimed": (scene(lane=3, lanes=3, objects=[obj("car", -7, 5, lane=1, vy=10, indicator="right")]),
+                         scene(lane=3, lanes=3, objects=[obj("car", -7, 5, lane=1, vy=10, indicator="left")])),
+    "clr.lane_claimed": (scene(lane=1, lanes=3, objects=[obj("car", 7, -3, lane=3, vy=10, indicator="left")]),
+                         scene(lane=1, lanes=3, objects=[obj("car", 7, -60, lane=3, vy=10, indicator="left")])),
     "cll.sensor_blocked": (scene(lane=2, lanes=2, sensors={"left": 0.4}), scene(lane=2, lanes=2, sensors={"left": 2.5})),
     "clr.sensor_blocked": (scene(lane=1, lanes=2, sensors={"rear_right": 0.6}), scene(lane=1, lanes=2, sensors={"rear_right": 2.5})),
     "cll.in_intersection": (scene(lane=2, lanes=2, intersection=at_stop), scene(lane=2, lanes=2)),
@@ -263,6 +267,15 @@ def test_an_object_reported_without_a_lane_is_placed_in_the_lane_its_offset_fall
     assert "cll.lane_taken" in beside.rules
     off_the_road = scene(lane=2, lanes=2, objects=[obj("truck", -9, 1, vy=10)])
     assert decide(off_the_road, "change_lane_left").decision.value == "approve"
+
+
+def test_a_car_signalling_into_the_target_lane_blocks_the_change_and_the_merge():
+    cutting = obj("car", -7, 5, lane=1, vy=10, indicator="right")
+    verdict = decide(scene(lane=3, lanes=3, objects=[cutting]), "change_lane_left")
+    assert verdict.decision.value == "override" and "cll.lane_claimed" in verdict.rules
+    assert "car 1 signals into lane 2 within the gap it needs" in verdict.justification.text
+    merging = scene(lane=3, lanes=3, intent="merge_into_left_lane", objects=[cutting])
+    assert decide(merging, "change_lane_left").action.value == "brake"
 
 
 def test_fallback_brake_is_recommended_when_no_rule_calls_for_anything(tmp_path: Path):
