@@ -2,7 +2,7 @@
 
 Adapters build it, the rules and the sanity layer read it, the zenoh protocol
 and the MCAP log carry it as JSON. Units are SI (metres, m/s, seconds);
-positions are relative to the ego: x to the right, y ahead.
+positions are relative to the ego: x to the right, y ahead, bumper to nearest face.
 """
 
 from __future__ import annotations
@@ -198,7 +198,10 @@ class Size(Strict):
 class DetectedObject(Strict):
     id: int = Field(ge=1, le=MAX_ID, description="object id; 0 is the ego")
     cls: ObjectClass = Field(alias="class")
-    position: Vec2 = Field(description="metres relative to the ego: x right, y ahead")
+    position: Vec2 = Field(description=(
+        "metres relative to the ego: x right, centre to centre; y ahead, from the ego's nearest bumper to the "
+        "object's nearest face (negative behind, 0 alongside), as a range sensor measures it: the rules compare y "
+        "with gaps of free road"))
     lane: Optional[LaneRef] = None
     velocity: Optional[Velocity] = Field(
         None, description="ground velocity in the ego's axes, m/s (y: along the ego's heading)"
