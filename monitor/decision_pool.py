@@ -5,8 +5,9 @@ collection: up to ~80 ms measured on a 50-object scene). In one process that
 would stall the zenoh callbacks and the deadline watchdog with it, and a
 second thread would not add a core. So each worker is a process with its own
 Reasoner; each vehicle always goes to the same worker, which keeps its frame
-window and checks its frame order. A worker that dies is replaced; what it
-had in hand is answered by the watchdog.
+window and checks its frame order. A worker that dies is replaced: what it
+had in hand is answered at once with a fail-safe, what is queued for it goes to
+its replacement.
 
 A worker decides in batches: when it frees up it takes every proposal waiting
 on its pipe and grounds as many as can still meet their deadlines in one clingo
@@ -106,7 +107,7 @@ class Outcome:
     internal: bool = False  # ... because the engine failed (else: no time left)
     decoded: bool = False  # the payload is a valid proposal of its vehicle (error says why not, if not)
     receipt: bool = False  # the job was answered before the worker took it: its scene only entered the window
-    lost: bool = False  # the worker died with the job: nobody read the payload
+    lost: bool = False  # the worker died with the job (no_verdict says so): nobody read the payload
 
 
 class DecisionPool:
@@ -124,7 +125,8 @@ class DecisionPool:
         self._on_worker_lost = on_worker_lost
         self._context = multiprocessing.get_context("spawn")  # never fork a process running zenoh threads
         self._queues: list[queue.SimpleQueue] = [queue.SimpleQueue() for _ in range(workers)]
-        self._slots: list[Optional[_Slot]] = [None] * workers
+        self._slots: list[Optional[_Slot]] = [None] * workers  # None: died and could not be replaced
+        self._changed = threading.Condition()  # a slot was replaced or given up, or the pool is stopping
         self._stopping = False
 
     def start(self) -> None:
@@ -133,7 +135,8 @@ class DecisionPool:
         for index, slot in enumerate(slots):
             self._slots[index] = slot
             slot.wait_ready()
-            self._run(index, slot)
+            self._listen(index, slot)
+            threading.Thread(target=self._send, args=(index,), name=f"discern-send-{index}", daemon=True).start()
 
     def worker_of(self, vehicle: str) -> int:
         return zlib.crc32(vehicle.encode()) % len(self._queues)
@@ -145,47 +148,68 @@ class DecisionPool:
         return [slot.process.pid for slot in self._slots if slot is not None]
 
     def stop(self) -> None:
-        self._stopping = True
+        with self._changed:
+            self._stopping = True
+            self._changed.notify_all()
         for q in self._queues:
             q.put(_STOP)
         for slot in self._slots:
             if slot is not None:
                 slot.stop()
 
-    # -- per worker: a sender thread and a receiver thread ------------------------
+    # -- per worker: a sender thread for the pool's life, a receiver thread per process ---------
 
-    def _run(self, index: int, slot: "_Slot") -> None:
-        threading.Thread(target=self._send, args=(index, slot), name=f"discern-send-{index}", daemon=True).start()
+    def _listen(self, index: int, slot: "_Slot") -> None:
         slot.receiver = threading.Thread(
             target=self._receive, args=(index, slot), name=f"discern-recv-{index}", daemon=True
         )
         slot.receiver.start()
 
-    def _send(self, index: int, slot: "_Slot") -> None:
-        """Feed the worker; blocks on its pipe instead of the zenoh threads.
+    def _send(self, index: int) -> None:
+        """Feed worker `index`, whichever process it is now; blocks on its pipe instead of the zenoh threads.
 
+        The one thread that takes the worker's jobs off its queue, across replacements: a job taken
+        while a dead worker is replaced waits for the replacement, never goes down with the dead one.
         A job already answered still goes, flagged: its scene belongs in the vehicle's window.
         """
         work = self._queues[index]
-        while not slot.lost.is_set():
+        while True:
             item = work.get()
             if item is _STOP:
-                _quietly(lambda: slot.conn.send(_STOP))
+                slot = self._slots[index]
+                if slot is not None:
+                    _quietly(lambda: slot.conn.send(_STOP))
                 return
             job, still_open = item
-            if not still_open():
-                job = replace(job, answered=True)
-            with slot.lock:
-                gone = slot.lost.is_set()
-                if not gone:
-                    slot.in_hand.add(job.rid)
-            if gone:  # taken off the queue after its worker died: the receiver has counted its jobs already
-                self._on_outcome(_lost(job.rid))
-                return
-            try:
-                slot.conn.send(job)
-            except (OSError, EOFError, ValueError):
-                return  # the worker is gone: the receiver reports the job lost and replaces the worker
+            while True:
+                slot = self._live(index)
+                if slot is None:
+                    self._on_outcome(_lost(job.rid, f"decision worker {index} died and was not replaced"))
+                    break
+                if self._hand(slot, job if still_open() else replace(job, answered=True)):
+                    break
+
+    def _live(self, index: int) -> Optional["_Slot"]:
+        """Worker `index`, once replaced if it died; None if no replacement is coming (it failed, or the pool stops)."""
+        with self._changed:
+            self._changed.wait_for(
+                lambda: self._stopping or self._slots[index] is None or not self._slots[index].lost.is_set()
+            )
+            slot = self._slots[index]
+            return slot if slot is not None and not slot.lost.is_set() else None
+
+    @staticmethod
+    def _hand(slot: "_Slot", job: Job) -> bool:
+        """Send the job to the slot's worker; False if that worker was found dead first (the job is not sent)."""
+        with slot.lock:
+            if slot.lost.is_set():
+                return False
+            slot.in_hand.add(job.rid)
+        try:
+            slot.conn.send(job)
+        except (OSError, EOFError, ValueError):
+            pass  # the worker died with the job in hand: its receiver reports it lost
+        return True
 
     def _receive(self, index: int, slot: "_Slot") -> None:
         while True:
@@ -198,20 +222,31 @@ class DecisionPool:
         with slot.lock:
             slot.lost.set()
             lost, slot.in_hand = slot.in_hand, set()
-        for rid in sorted(lost):  # the watchdog answers them
-            self._on_outcome(_lost(rid))
+        slot.process.join(1)
+        exitcode = slot.process.exitcode
+        for rid in sorted(lost):
+            self._on_outcome(_lost(rid, f"decision worker {index} died (exit code {exitcode}) before deciding it"))
         if self._stopping:
             return
-        slot.process.join(1)
-        self._on_worker_lost(index, slot.process.exitcode)
+        self._on_worker_lost(index, exitcode)
         try:
             replacement = _Slot.spawn(self._context, self.settings)
             replacement.wait_ready()
         except Exception:
-            log.exception("could not replace decision worker %d", index)
+            log.exception("could not replace decision worker %d: its proposals get fail-safe verdicts", index)
+            replacement = None
+        with self._changed:
+            stopping = self._stopping
+            if not stopping:
+                self._slots[index] = replacement
+            self._changed.notify_all()
+        if replacement is None:
             return
-        self._slots[index] = replacement
-        self._run(index, replacement)
+        if stopping:  # stop() did not see it: nothing was sent to it
+            _quietly(lambda: replacement.conn.send(_STOP))
+            replacement.stop()
+            return
+        self._listen(index, replacement)
 
 
 class _Slot:
@@ -543,8 +578,8 @@ class _Judge:
         )
 
 
-def _lost(rid: int) -> Outcome:
-    return Outcome(rid, lost=True, error="not read: its decision worker died first")
+def _lost(rid: int, why: str) -> Outcome:
+    return Outcome(rid, no_verdict=why, lost=True, error="not read: its decision worker died first")
 
 
 def _quietly(fn) -> None:

@@ -40,6 +40,11 @@ def vehicle_of(key: str) -> str:
     return parts[1] if len(parts) >= 3 and parts[0] == PREFIX else ""
 
 
+def is_wild(key: str) -> bool:
+    """Whether a key expression has a wildcard chunk ('*', '**', 'a$*'): then it names no one vehicle."""
+    return "*" in key  # a concrete zenoh key never holds one
+
+
 def vehicle_selector(pattern: str) -> str:
     """Turn a shell-style vehicle filter ('fleet_a_*') into one zenoh key chunk ('fleet_a_$*')."""
     return _chunk_selector(pattern, "vehicle filter")

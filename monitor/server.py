@@ -51,6 +51,7 @@ class Request:
     key: str
     vehicle: str
     payload: Optional[bytes]  # None when empty or over the size limit
+    head: bytes  # the payload's first EXCERPT_BYTES, over the size limit too: what the log shows of a refusal
     size: int
     arrived: float  # time.monotonic(), the clock the workers share
     arrived_ns: int  # wall clock, for the log
@@ -202,19 +203,27 @@ class MonitorServer:
         now = time.monotonic()
         size = len(payload) if payload is not None else 0
         limit = self.config.max_payload_bytes
-        data = payload.to_bytes() if size and size <= limit else None
+        # Copied over the limit too, for its first bytes (zenoh offers no cheaper way at them); never parsed.
+        raw = payload.to_bytes() if size else b""
+        data = raw if 0 < size <= limit else None
         vehicle = keys.vehicle_of(key)
-        req = Request(next(self._rids), key, vehicle, data, size, now, time.time_ns(), now + self._budget_s, query)
-        if not keys.VEHICLE_PATTERN.match(vehicle):
-            if query is None and any(c in vehicle for c in "*$"):
-                # A wildcard put names no vehicle: a verdict could only be broadcast. Refuse it quietly.
+        wild = keys.is_wild(key)
+        req = Request(
+            next(self._rids), key, vehicle, data, raw[:EXCERPT_BYTES], size, now, time.time_ns(), now + self._budget_s,
+            query,
+        )
+        if wild:
+            # Not a vehicle: no per-vehicle state, and no verdict but a query's reply (a put's would be broadcast).
+            reason = f"key {key[:200]!r} has a wildcard: a proposal's key names its vehicle, discern/<vehicle>/..."
+            if query is None:
                 req.claim()
-                reason = f"vehicle chunk {vehicle!r} of key {key!r} is a wildcard: no verdict sent"
                 self.counters.input_refused("vehicle")
-                log.warning("refused a proposal: %s", reason)
+                log.warning("refused a proposal, no verdict sent: %s", reason)
                 if self.answers is not None:
                     self.answers.rejected(req, reason)
                 return
+            refusal = (reason, "vehicle")
+        elif not keys.VEHICLE_PATTERN.match(vehicle):
             refusal = (f"vehicle {vehicle[:140]!r} in the key is not a valid vehicle id ([A-Za-z0-9_-], 1-128 chars)", "vehicle")
         elif data is None:
             refusal = (
@@ -224,7 +233,8 @@ class MonitorServer:
             )
         else:
             refusal = None
-        self._vehicles.add(vehicle)
+        if refusal is None or refusal[1] != "vehicle":  # a key naming no valid vehicle is no vehicle
+            self._vehicles.add(vehicle)
         self._open[req.rid] = req
         if refusal is not None:
             # Cheap to decide, but answered from the watchdog's thread, never from a zenoh thread.
@@ -242,7 +252,12 @@ class MonitorServer:
 
     def _on_outcome(self, outcome: Outcome) -> None:
         req = self._open.get(outcome.rid)
-        if outcome.receipt or outcome.lost:  # no answer to give: only word on the payload, for the log
+        if outcome.lost:  # its worker died: a fail-safe saying so now, rather than at the deadline
+            if req is not None and req.still_open():
+                self._answer(req, self._failsafe(req, outcome.no_verdict, RULE_INTERNAL_ERROR))
+            self._read_late(outcome)
+            return
+        if outcome.receipt:  # no answer to give: only word on the payload, for the log
             self._read_late(outcome)
             return
         if req is None or req.answered:
@@ -443,7 +458,7 @@ class _AnswerLog:
             self._unread.clear()
 
     def rejected(self, req: Request, reason: str) -> None:
-        excerpt = (req.payload or b"")[:EXCERPT_BYTES].decode("utf-8", "replace")
+        excerpt = req.head.decode("utf-8", "replace")
         rejected = RejectedInput(vehicle=req.vehicle, key=req.key, size=req.size, error=reason, excerpt=excerpt)
         self.writer.write(vehicle_topic(_topic_safe(req.vehicle), "rejected"), "rejected", rejected, req.arrived_ns)
 

@@ -10,7 +10,9 @@ import zenoh
 
 from discern.monitor.config import ZenohSettings
 from discern.monitor.example_planner import highway_scene
+from discern.monitor.log import read_log
 from discern.monitor.protocol import CAUTION_ORDER, most_cautious
+from discern.monitor.server import EXCERPT_BYTES
 from discern.rules.scene import Action, Proposal
 from discern.rules.verdict import Decision, Verdict
 from tests.monitor_process import serve, status, wait_until
@@ -19,8 +21,16 @@ MAX_PAYLOAD = 8192
 
 
 @pytest.fixture(scope="module")
-def monitor():
-    proc, ep = serve("--id", "bad", "--budget-ms", "5000", "--max-payload-bytes", str(MAX_PAYLOAD))
+def log_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("bad-log")
+
+
+@pytest.fixture(scope="module")
+def monitor(log_dir):
+    proc, ep = serve(
+        "--id", "bad", "--budget-ms", "5000", "--max-payload-bytes", str(MAX_PAYLOAD),
+        "--log-dir", str(log_dir), "--log-flush-s", "0.05",
+    )
     yield ep, proc
     assert proc.stop() == 0, proc.output
 
@@ -113,6 +123,42 @@ def test_duplicate_and_out_of_order_frames_are_refused(session):
 def test_an_invalid_vehicle_in_the_key_is_answered_on_that_key(session):
     verdict = ask(session, "discern/not.a.vehicle/check", json.dumps(proposal("x")).encode())
     assert verdict.failsafe and "not a valid vehicle id" in verdict.error
+
+
+def test_an_oversized_payload_is_logged_with_an_excerpt_of_its_first_bytes(session, log_dir):
+    padded = {"pad": "é" * MAX_PAYLOAD} | proposal("big_one")  # two bytes a character: the excerpt ends mid-character
+    payload = json.dumps(padded, ensure_ascii=False).encode()
+    verdict = ask(session, "discern/big_one/check", payload)
+    assert verdict.failsafe and "exceeds the limit" in verdict.error
+
+    def rejected():  # the log is read while the monitor writes it
+        return [r.rejected for r in read_log(log_dir) if r.vehicle == "big_one" and r.kind == "rejected"]
+
+    [record] = wait_until(rejected)
+    assert record.size == len(payload) and "exceeds the limit" in record.error
+    assert record.excerpt == payload[:EXCERPT_BYTES].decode("utf-8", "replace")
+
+
+WILDCARD_KEYS = ("discern/*/check", "discern/**/check", "discern/car_$*/check", "discern/wild/*")
+
+
+def test_a_wildcard_key_or_an_invalid_vehicle_id_is_refused_as_an_error_and_never_counted_as_a_vehicle(session, monitor):
+    ep, _ = monitor
+    [before] = status(ep, "bad")
+    for key in WILDCARD_KEYS:
+        verdict = ask(session, key, json.dumps(proposal("wild")).encode())
+        assert verdict.failsafe and verdict.rules == ["monitor.bad_input"], key
+        assert f"key {key!r} has a wildcard" in verdict.error, verdict.error
+    invalid = ask(session, "discern/not.a.vehicle/check", json.dumps(proposal("wild")).encode())
+    assert invalid.failsafe and "not a valid vehicle id" in invalid.error
+    puts = ("discern/*/proposal", "discern/**")
+    for key in puts:  # nobody to answer: counted only
+        session.put(key, json.dumps(proposal("wild")).encode())
+    refused = len(WILDCARD_KEYS) + len(puts) + 1
+    wanted = before["errors_by_kind"].get("vehicle", 0) + refused
+    [after] = wait_until(lambda: [r for r in status(ep, "bad") if r["errors_by_kind"].get("vehicle", 0) >= wanted])
+    assert after["errors_by_kind"]["vehicle"] == wanted and after["errors"] == before["errors"] + refused
+    assert after["vehicles"] == before["vehicles"]
 
 
 def test_bad_published_proposal_gets_its_verdict_on_the_vehicle_key(session):
