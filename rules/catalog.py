@@ -27,7 +27,7 @@ from clingo import Control, Symbol, ast
 
 from .terms import Literal, Term, compile_literal, compile_term, term_vars
 
-_ANNOTATION = re.compile(r"^%!\s*(rule|says|source|pred|hide)\s+(.*?)\s*$")
+_ANNOTATION = re.compile(r"^%!\s*(rule|says|source|pred|term|hide)\s+(.*?)\s*$")
 _PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
 # A template's placeholder: @(Var), @(Var:format), and either with |words to say when Var is unknown.
 PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
@@ -242,7 +242,7 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[PredTe
             if not arity.isdigit():
                 raise CatalogError(f"{path}:{number}: hide needs name/arity, got {value!r}")
             hidden.add((name, int(arity)))
-        elif key == "pred":
+        elif key in ("pred", "term"):  # a term's words (hazard(obstacle(3))) are written like a predicate's
             pred = _PRED.match(value)
             if not pred:
                 raise CatalogError(f"{path}:{number}: bad pred annotation {value!r}")

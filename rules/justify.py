@@ -234,8 +234,9 @@ def _ordinal(n: int) -> str:
 _LOOSE_SPACE = re.compile(r" +(?=[,.;:)]|$)| (?= )")  # left where an unknown value reads as no words
 # "a" before a value: "an" before a vowel sound; none before a mass noun ("debris can be swerved around")
 _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8|1[18]\b))")
-_PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000), "decel": ("m/s²", 100)}
-_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ahead": "somewhere", "right": "somewhere",
+_PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000), "decel": ("m/s²", 100),
+                "speed_margin": ("m/s", 100)}
+_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ms": "some time", "ahead": "somewhere", "right": "somewhere",
             "lane": "a lane", "detail": "", "paren": ""}
 _WRAPPED = {"lane": "lane {}", "detail": ": {}", "paren": " ({})"}  # a value with the words around it, unknown: none
 
@@ -254,6 +255,8 @@ class Phrasebook:
             return _UNKNOWN.get(fmt or "", f"some {param}")
         if fmt in _WRAPPED:
             return _WRAPPED[fmt].format(self.value(sym, None, param))
+        if sym.type == SymbolType.Function and sym.arguments and (sym.name, len(sym.arguments)) in self.catalog.templates:
+            return self.sentence(sym.name, list(sym.arguments))
         if sym.type != SymbolType.Number:
             return _words(sym)
         n = sym.number
@@ -280,7 +283,7 @@ class Phrasebook:
     def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
         if name == "param" and len(args) == 2 and args[0] is not None and args[1] is not None:
             unit, scale = _PARAM_UNITS.get(args[0].name, ("m", 100))
-            label = args[0].name.removesuffix("_ms").replace("_", " ")
+            label = args[0].name.removesuffix("_ms").replace("_dist", "_distance").replace("_", " ")
             return f"the {label} is {args[1].number / scale:g} {unit}"
         template = self.catalog.templates.get((name, len(args)))
         if template is None:
@@ -315,7 +318,7 @@ class Phrasebook:
             by_param = {m.group(1): m.group(2) for m in PLACEHOLDER.finditer(template.template)}
             for param, arg in zip(template.params, term[2]):
                 fmt = by_param.get(param)
-                if arg[0] == "v" and fmt in ("m", "mps", "ahead", "right"):
+                if arg[0] == "v" and fmt in ("m", "mps", "ahead", "right", "ms"):
                     formats.setdefault(arg[1], "m" if fmt in ("ahead", "right") else fmt)
         self._formats[rule.index] = formats
         return formats
@@ -467,17 +470,23 @@ class Prover:
         if not failures:
             return None
         deepest = max(f.depth for f in failures)
-        worst = [f for f in failures if f.depth == deepest][: self.alternatives]
+        worst = [f for f in failures if f.depth == deepest]
         reasons: list[JustificationNode] = []
-        for failure in worst:  # bindings that fail alike read alike: each reason once
+        for failure in worst[: self.alternatives]:  # bindings that fail alike read alike: each reason once
             reason = self._failure_node(rule, failure, depth, negative_left)
             if reason not in reasons:
                 reasons.append(reason)
-        if len(reasons) == 1:
+        if len(reasons) == 1 and len(worst) <= self.alternatives:
             only = reasons[0]
             only.text = f"rule {rule.info.id} needs {only.text}"
             only.rule = rule.info.id
             return only
+        for reason in reasons:
+            reason.text = f"it needs {reason.text}"
+        if len(worst) > self.alternatives:  # say that the list is cut, not that it is all
+            more = len(worst) - self.alternatives
+            reasons.append(JustificationNode(literal=rule.info.id, holds=False, kind="blocked",
+                                             text=f"and {more} other way{'s' if more > 1 else ''} it could apply, each failing as well"))
         return JustificationNode(literal=rule.info.id, holds=False, text=f"rule {rule.info.id} does not apply",
                                  rule=rule.info.id, kind="blocked", children=reasons)
 

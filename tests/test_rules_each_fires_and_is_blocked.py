@@ -35,6 +35,12 @@ CASES = {
         scene(sign="stop", intersection={"type": "four_way", "stage": "arriving"}),
         scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}),
     ),
+    "brake.stop_sign_cross_traffic": (
+        scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
+              objects=[obj("car", -25, 6, lane=1, kind="cross_left", velocity={"x": 15.0, "y": 0.0})]),
+        scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
+              objects=[obj("car", -25, 6, lane=1, kind="cross_left", velocity={"x": -15.0, "y": 0.0})]),
+    ),
     "brake.stop_sign_full_stop": (
         scene(speed=3, sign="stop", intersection={"type": "four_way", "stage": "at"}),
         scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}),
@@ -82,6 +88,10 @@ CASES = {
     "acc.lane_not_clear": (scene(speed=15, objects=[obj("car", 0, 13, lane=1)]), scene(objects=[obj("car", 0, 40, lane=1)])),
     "acc.red_light": (scene(light="red"), scene(light="green")),
     "acc.at_limit": (scene(speed=15, limit=15), scene(speed=14, limit=15)),
+    "acc.cut_in": (scene(speed=15, lane=2, lanes=2, limit=20, objects=[obj("car", -3, 3, lane=1, vy=11, indicator="right")]),
+                   scene(speed=15, lane=2, lanes=2, limit=20, objects=[obj("car", -3, 3, lane=1, vy=11, indicator="left")])),
+    "cruise.over_limit": (scene(speed=25, limit=9), scene(speed=9.5, limit=9)),
+    "brake.over_limit": (scene(speed=25, limit=9), scene(speed=9.5, limit=9)),
     "acc.hazard": (scene(sensors={"front": 0.2}), scene(sensors={"front": 60.0})),
     "cruise.default": (scene(), None),
     "cruise.hazard": (scene(objects=[ped_ahead]), scene(objects=[obj("pedestrian", 0, 30, lane=1)])),
@@ -113,6 +123,8 @@ CASES = {
                          scene(lane=3, lanes=3, objects=[obj("car", -7, 5, lane=1, vy=10, indicator="left")])),
     "clr.lane_claimed": (scene(lane=1, lanes=3, objects=[obj("car", 7, -3, lane=3, vy=10, indicator="left")]),
                          scene(lane=1, lanes=3, objects=[obj("car", 7, -60, lane=3, vy=10, indicator="left")])),
+    "cll.target_lane_ends": (scene(speed=20, lane=2, lanes=2, lane_ends={1: 15}), scene(speed=20, lane=2, lanes=2, lane_ends={1: 90})),
+    "clr.target_lane_ends": (scene(speed=20, lane=1, lanes=2, lane_ends={2: 15}), scene(speed=20, lane=1, lanes=2, lane_ends={2: 90})),
     "cll.sensor_blocked": (scene(lane=2, lanes=2, sensors={"left": 0.4}), scene(lane=2, lanes=2, sensors={"left": 2.5})),
     "clr.sensor_blocked": (scene(lane=1, lanes=2, sensors={"rear_right": 0.6}), scene(lane=1, lanes=2, sensors={"rear_right": 2.5})),
     "cll.in_intersection": (scene(lane=2, lanes=2, intersection=at_stop), scene(lane=2, lanes=2)),
@@ -171,6 +183,8 @@ CASES = {
     "jur.right_hand_traffic": (scene(), None),
     "po.intent": (scene(intent="pull_over"), scene()),
     "po.not_edge_lane": (scene(lane=1, lanes=2), scene(lane=2, lanes=2)),
+    "po.hazard": (scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",), objects=[obj("pedestrian", 0, 8, lane=2)]),
+                  scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",))),
     "po.kerb_taken": (
         scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",),
               objects=[obj("truck", 3.5, 4, lane=1, kind="shoulder", vy=0)]),
@@ -276,6 +290,35 @@ def test_a_car_signalling_into_the_target_lane_blocks_the_change_and_the_merge()
     assert "car 1 signals into lane 2 within the gap it needs" in verdict.justification.text
     merging = scene(lane=3, lanes=3, intent="merge_into_left_lane", objects=[cutting])
     assert decide(merging, "change_lane_left").action.value == "brake"
+
+
+def test_after_its_full_stop_at_a_stop_sign_the_ego_still_waits_for_near_cross_traffic():
+    crossing = obj("car", -25, 6, lane=1, kind="cross_left", velocity={"x": 15.0, "y": 0.0})
+    stopped = scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
+                    objects=[crossing])
+    verdict = decide(stopped, "accelerate")
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+    assert "brake.stop_sign_cross_traffic" in verdict.rules and "car 1 has the right of way" in verdict.justification.text
+
+
+def test_a_follower_signalling_in_the_egos_lane_claims_no_lane():
+    follower = obj("car", 0, -6, lane=2, vy=20, indicator="left")
+    verdict = decide(scene(speed=20, lane=2, lanes=2, limit=25, intent="merge_into_left_lane", objects=[follower]),
+                     "change_lane_left")
+    assert verdict.decision.value == "approve"
+
+
+def test_a_hazard_ahead_is_braked_for_rather_than_pulled_over_for():
+    walker = obj("pedestrian", 0, 8, lane=2)
+    verdict = decide(scene(speed=12, lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",), objects=[walker]),
+                     "cruise")
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+
+
+def test_holding_a_speed_far_over_the_limit_is_overridden_with_braking():
+    verdict = decide(scene(speed=25, limit=9, zone="school"), "cruise")
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+    assert "the ego is faster than the speed limit allows" in verdict.justification.text
 
 
 def test_fallback_brake_is_recommended_when_no_rule_calls_for_anything(tmp_path: Path):
