@@ -14,6 +14,7 @@ The logs are made once per test session.
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 import socket
@@ -172,12 +173,13 @@ def tolerant_rules(directory: Path) -> Path:
 
 def rewrite(
     source: Path, targets: list[Path], splits: tuple[int, ...] = (), foreign: bool = False,
-    metadata: Optional[dict[str, str]] = None,
+    metadata: Optional[dict[str, str]] = None, version: Optional[int] = None,
 ) -> None:
     """Copy a log's messages, in order, into new files with the mcap library (as another recorder would).
 
     Messages after the k-th index in `splits` go to targets[k + 1]: a rotation, where the monitor's would be.
     `metadata`: a `discern` metadata record for every file, as the monitor writes one.
+    `version`: the schema version every message that states one states instead (a log of another version).
     """
     with open(source, "rb") as f:
         messages = list(make_reader(f).iter_messages(log_time_order=False))
@@ -194,7 +196,10 @@ def rewrite(
         if channel.topic not in known:
             schema_id = w.register_schema(schema.name, schema.encoding, schema.data)
             known[channel.topic] = w.register_channel(channel.topic, channel.message_encoding, schema_id)
-        w.add_message(known[channel.topic], message.log_time, message.data, message.publish_time)
+        data = message.data
+        if version is not None and "version" in json.loads(data):
+            data = json.dumps({**json.loads(data), "version": version}).encode()
+        w.add_message(known[channel.topic], message.log_time, data, message.publish_time)
         if foreign:
             if "camera" not in known:
                 camera = w.register_schema("acme.CameraInfo", "jsonschema", b'{"type": "object"}')

@@ -9,6 +9,11 @@ from datetime import datetime, timezone
 import pytest
 
 from discern.monitor.client import Monitor
+from discern.monitor.config import LogSettings
+from discern.monitor.example_planner import highway_scene
+from discern.monitor.log import McapLogWriter, RejectedInput, vehicle_topic
+from discern.rules.engine import Reasoner
+from discern.rules.scene import Proposal
 from tests.audit_logs import (
     CLEAR_FRAMES,
     FLEET_A_FRAMES,
@@ -100,6 +105,21 @@ def test_aggregates_per_rule_action_pair_scenario_and_time(capsys, tmp_path, all
     assert doc["latency_ms"]["samples"] == doc["frames"] == FRAMES
 
 
+def test_json_export_counts_every_decision_kind_even_when_none_occurred(capsys, tmp_path, logs):
+    doc = export(capsys, tmp_path, str(logs["shadow"]))
+    assert doc["decisions"] == {"approve": 0, "veto": SHADOW_FRAMES, "override": 0, "failsafe": 0}
+
+
+def test_the_terminal_shows_disagreements_per_scenario_and_per_vehicle_out_of_their_frames(capsys, all_logs):
+    code, out, err = audit(capsys, *all_logs, "--workers", "1")
+    assert code == 0, err
+    per_scenario = out.split("Disagreements per scenario kind:\n")[1]
+    assert f"  {PEDESTRIAN_FRAMES:>6}  city/vulnerable_road_user (of {PEDESTRIAN_FRAMES} frames)\n" in per_scenario
+    per_vehicle = out.split("Disagreements per vehicle:\n")[1]
+    assert f"  {FLEET_A_FRAMES // 2:>6}  car_a (of {FLEET_A_FRAMES} frames, 0.12 km)\n" in per_vehicle
+    assert f"  {0:>6}  car_c (of {CLEAR_FRAMES} frames, 0.01 km)\n" in per_vehicle
+
+
 def test_odometry_integrates_scene_speed_over_scene_time(capsys, tmp_path, all_logs):
     doc = export(capsys, tmp_path, *all_logs)
     km = {v["vehicle"]: v["km"] for v in doc["per_vehicle"]}
@@ -133,6 +153,31 @@ def test_a_refused_out_of_order_frame_does_not_move_the_odometer(capsys, tmp_pat
     assert doc["odometry"]["driving_hours"] == pytest.approx(29 * 0.1 / 3600)
 
 
+def test_refusals_and_unanswered_proposals_are_counted_under_the_vehicle_and_time_filters(capsys, tmp_path):
+    writer = McapLogWriter(LogSettings(directory=tmp_path / "log"), "filters")
+    reasoner = Reasoner()
+    second = 1_800_000_000 * 10**9
+    for f in range(3):
+        p = Proposal(vehicle="car_a", action="cruise", scene=highway_scene(f, 2))
+        writer.write(vehicle_topic("car_a", "proposal"), "proposal", p, log_time_ns=second * (f + 1))
+        verdict = reasoner.decide(p.scene, p.action, vehicle="car_a")
+        writer.write(vehicle_topic("car_a", "verdict"), "verdict", verdict, log_time_ns=second * (f + 1) + 1)
+    lost = Proposal(vehicle="car_b", action="cruise", scene=highway_scene(0, 2))  # its verdict never logged
+    writer.write(vehicle_topic("car_b", "proposal"), "proposal", lost, log_time_ns=second)
+    refused = RejectedInput(vehicle="car_b", key="discern/car_b/check", size=3, error="malformed JSON", excerpt="{{{")
+    writer.write(vehicle_topic("car_b", "rejected"), "rejected", refused, log_time_ns=second)
+    writer.close()
+    log = str(tmp_path / "log")
+    car_b = "1 proposal without a logged verdict; 1 refused input"
+    assert car_b in audit(capsys, log, "--workers", "1", "-q")[1]
+    assert car_b in audit(capsys, log, "--vehicle", "car_b", "--workers", "1", "-q")[1]
+    for args in (["--vehicle", "car_a"], ["--since", str(second * 2)], ["--until", str(second - 1)]):
+        code, out, err = audit(capsys, log, *args, "--workers", "1", "-q")
+        assert code == 0 and "without a logged verdict" not in out and "refused input" not in out, (args, out)
+        _, out, _ = audit(capsys, "--replay", log, *args, "--workers", "1", "-q")
+        assert "without a logged verdict" not in out, (args, out)
+
+
 def test_since_and_until_take_epoch_nanoseconds_as_the_csv_gives_them(capsys, tmp_path, all_logs):
     times = [d["log_time_ns"] for d in export(capsys, tmp_path, *all_logs)["disagreements"]]
     since, until = (times[2] + times[3]) // 2, (times[7] + times[8]) // 2
@@ -163,6 +208,18 @@ def test_worker_processes_give_the_same_audit_as_one_process(capsys, tmp_path, a
     assert two == one
 
 
+def test_a_report_that_cannot_be_written_is_refused_before_the_logs_are_read(capsys, tmp_path, logs):
+    written = tmp_path / "audit.csv"
+    nowhere = tmp_path / "no" / "r.html"
+    for mode in ([], ["--replay"]):
+        code, out, err = audit(capsys, str(logs["fleet"]), *mode, "--csv", str(written), "--html", str(nowhere))
+        assert code == 2 and out == "" and not written.exists(), err
+        assert err.strip() == f"discern audit: cannot write {nowhere}: No such file or directory"
+    code, out, err = audit(capsys, str(logs["fleet"]), "--csv", str(written), "--json", str(written))
+    assert code == 2 and out == "" and not written.exists()
+    assert f"--csv and --json name the same file {written}" in err
+
+
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -178,7 +235,12 @@ def test_worker_processes_give_the_same_audit_as_one_process(capsys, tmp_path, a
         (["{log}", "--rules", "/tmp"], "--rules only applies with --replay"),
         (["{log}", "--replay", "--rules", "/nonexistent"], "--rules /nonexistent: not a directory"),
         (["{log}", "--replay", "--verdict", "veto"], "--rule and --verdict filter the audit listing"),
-        (["{log}", "--workers", "0"], "--workers must be at least 1"),
+        (["{log}", "--workers", "0"], "--workers must be 1 to 64, got 0"),
+        (["{log}", "--workers", "100000"], "--workers must be 1 to 64, got 100000"),
+        (["{log}", "--since", ""], "--since: time '' is neither ISO 8601"),  # an unset shell variable
+        (["{log}", "--replay", "--until", ""], "--until: time '' is neither ISO 8601"),
+        (["{log}", "--replay", "--window", "inf"], "--window must be a finite number above 0 s, got inf"),
+        (["{log}", "--replay", "--window", "0"], "--window must be a finite number above 0 s, got 0.0"),
         (["{log}", "--html", "/nonexistent/dir/report.html"], "cannot write /nonexistent/dir/report.html"),
     ],
 )

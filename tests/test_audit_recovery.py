@@ -43,6 +43,15 @@ def test_a_file_cut_by_a_crash_is_read_up_to_its_last_complete_chunk(capsys, tmp
     assert strip(doc["disagreements"]) == strip(whole["disagreements"][:n])
 
 
+def test_a_quiet_replay_still_says_how_much_of_each_file_was_read(capsys, tmp_path, fleet):
+    data = fleet.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    code, out, err = audit(capsys, "--replay", str(cut), "--workers", "1", "-q")
+    assert code == 0, err
+    assert f"{cut}: truncated, " in out and "stopped: " in out and "no decision would change" in out
+
+
 def test_a_pair_split_by_file_rotation_is_joined(capsys, tmp_path, fleet):
     whole = audit_json(capsys, tmp_path, fleet)
     with open(fleet, "rb") as f:
@@ -122,6 +131,25 @@ def test_a_log_of_another_schema_version_is_named_unreadable_once_not_read_messa
     assert audit_json(capsys, tmp_path, same)["frames"] == audit_json(capsys, tmp_path, fleet)["frames"]
     code, out, err = audit(capsys, str(other), str(same), "--workers", "1", "--quiet")
     assert code == 0 and reason in err
+
+
+def test_a_log_of_another_schema_version_without_metadata_is_named_unreadable_by_its_messages(
+    capsys, tmp_path, fleet, caplog
+):
+    other = tmp_path / "v2.mcap"
+    rewrite(fleet, [other], version=2)
+    reason = "schema version 2; this discern reads version 1"
+    with caplog.at_level(logging.WARNING):
+        code, out, err = audit(capsys, str(other), "--workers", "1", "--quiet")
+    assert code == 2, "nothing at all could be read: not a clean audit"
+    assert f"{other}: unreadable, 0 records" in out and reason in out and "skipped" not in out
+    assert err.count(f"warning: nothing could be read from {other}: {reason}") == 1
+    assert not [r for r in caplog.records if "fail their schema" in r.getMessage()]
+    for workers in ("1", "4"):  # split by vehicle, only some readers meet the file's messages
+        code, out, err = audit(capsys, "--replay", str(other), "--workers", workers)
+        assert code == 2 and f"{other}: unreadable, 0 records" in out and reason in err, workers
+    code, out, err = audit(capsys, str(other), str(fleet), "--workers", "1", "--quiet")
+    assert code == 0 and reason in err and "frames: 0 " not in out
 
 
 def test_a_file_given_twice_is_read_once(capsys, tmp_path, fleet):

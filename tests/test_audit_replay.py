@@ -102,6 +102,14 @@ def test_replay_rebuilds_the_history_the_monitor_decided_with(capsys, tmp_path, 
     assert {(c["recorded_decision"], c["replayed_decision"]) for c in forgetful["changes"]} == {("override", "approve")}
 
 
+def test_a_filtered_replay_says_which_frames_it_replayed(capsys, tmp_path, logs, tolerant):
+    code, doc, text = replay(
+        capsys, tmp_path, str(logs["fleet"]), "--vehicle", "car_a", "--rules", str(tolerant), "--workers", "1", "-q"
+    )
+    assert code == 1 and doc["frames"] == FLEET_A_FRAMES
+    assert doc["filters"] == ["vehicle car_a"] and "filters: vehicle car_a" in text
+
+
 def test_identical_frames_are_decided_once(capsys, tmp_path, logs):
     _, doc, text = replay(capsys, tmp_path, str(logs["shadow"]), "--workers", "1")
     # car_s proposes the same acceleration in the same scene every 0.1 s; once its 2 s history window is full,
@@ -155,6 +163,36 @@ def test_a_rotated_log_replays_as_the_whole_one_in_one_process_or_split_by_vehic
         ]
         assert [f.path for f in t.recovery] == rotated  # every file once, its shards' records added up
         assert sum(f.records for f in t.recovery) == whole.recovery[0].records
+
+
+def test_rotated_files_given_out_of_order_are_read_in_the_order_the_monitor_wrote_them(logs, rotated, tolerant):
+    backwards = [str(p) for p in reversed(rotated)]
+    in_order = audit_logs([str(p) for p in rotated], workers=1)
+    tally = audit_logs(backwards, workers=1)
+    assert [f.path for f in tally.recovery] == rotated
+    assert (tally.frames, tally.unanswered) == (in_order.frames, 0)
+    assert tally.odometer.distance_m == pytest.approx(in_order.odometer.distance_m)
+    assert Aggregates.of(tally).per_scenario == Aggregates.of(in_order).per_scenario
+    catalog = ReplayCatalog.of([str(tolerant)])
+    whole = replay_logs([str(logs["fleet"])], catalog, workers=1).tally
+    t = replay_logs(backwards, catalog, workers=2).tally
+    assert [(c.vehicle, c.frame_id, c.transition) for c in t.changes] == [
+        (c.vehicle, c.frame_id, c.transition) for c in whole.changes
+    ]
+
+
+def test_a_runs_files_stamped_by_a_clock_set_back_are_read_by_their_index(logs, rotated, tmp_path):
+    directory = tmp_path / "clock"
+    directory.mkdir()
+    for i, part in enumerate(rotated):  # the clock went back an hour at each rotation: names sort backwards
+        (directory / f"discern-m1-20260101T0{2 - i}0000-0a1b2c3d-000{i}.mcap").write_bytes(part.read_bytes())
+    [task] = plan_tasks([str(directory)], parts=1)
+    assert [Path(p).name[-9:] for p in task.paths] == ["0000.mcap", "0001.mcap", "0002.mcap"]
+    whole = audit_logs([str(logs["fleet"])], workers=1)
+    for workers in (1, 2):
+        tally = audit_logs([str(directory)], workers=workers)
+        assert (tally.frames, tally.unanswered) == (whole.frames, 0)
+        assert tally.odometer.distance_m == pytest.approx(whole.odometer.distance_m)
 
 
 def test_a_run_led_in_by_short_files_reads_back_far_enough_whatever_the_workers(logs, tmp_path, tolerant):

@@ -261,3 +261,20 @@ def test_a_disk_error_drops_and_counts_records_until_a_new_file_opens(tmp_path, 
     errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR]
     assert len(errors) == 1 and "cannot write the log" in errors[0]  # once, though every flush tried a new file
     assert f"logging again, to {writer.files[1]}" in caplog.text
+
+
+def test_readers_split_by_vehicle_all_name_a_file_of_another_schema_version_unreadable(tmp_path):
+    from tests.audit_logs import rewrite
+
+    write_session(tmp_path / "v1")
+    other = tmp_path / "v2.mcap"
+    rewrite(next((tmp_path / "v1").glob("*.mcap")), [other], version=2)
+    shares = []
+    for pick in (lambda v: v == "car_9", lambda v: v == "car_1"):  # one meets no message of the file
+        report = RecoveryReport()
+        assert list(read_log(other, report, vehicles=pick)) == []
+        shares.append(report.files[0])
+    merged, theirs = shares
+    merged.add_share(theirs)
+    assert (merged.recovered_bytes, merged.complete, merged.records, merged.skipped) == (0, False, 0, 0)
+    assert merged.stopped_by == "schema version 2; this discern reads version 1"

@@ -103,11 +103,15 @@ class Filters:
     kinds: tuple[Kind, ...] = ()
 
     def frame_selected(self, frame: Frame) -> bool:
-        if self.vehicles and not any(fnmatch.fnmatchcase(frame.vehicle, p) for p in self.vehicles):
+        return self.selects(frame.vehicle, frame.log_time_ns)
+
+    def selects(self, vehicle: Optional[str], log_time_ns: int) -> bool:
+        """Whether the vehicle and time filters take a record of this vehicle (None: monitor-wide) and time."""
+        if self.vehicles and (vehicle is None or not any(fnmatch.fnmatchcase(vehicle, p) for p in self.vehicles)):
             return False
-        if self.since_ns is not None and frame.log_time_ns < self.since_ns:
+        if self.since_ns is not None and log_time_ns < self.since_ns:
             return False
-        return self.until_ns is None or frame.log_time_ns <= self.until_ns
+        return self.until_ns is None or log_time_ns <= self.until_ns
 
     def disagreement_selected(self, kind: Kind, rules: Iterable[str]) -> bool:
         if self.kinds and kind not in self.kinds:
@@ -354,7 +358,7 @@ def tally_task(job: tuple[FrameTask, Filters]) -> Tally:
     """One task's tally (runs in a worker process)."""
     task, filters = job
     report = RecoveryReport()
-    frames, pairing = read_frames(task, report)
+    frames, pairing = read_frames(task, report, counted=filters.selects)
     tally = Tally()
     for frame in frames:
         tally.add(frame, filters)

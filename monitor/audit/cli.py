@@ -12,6 +12,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
+from discern.monitor.config import check_number
 from discern.rules.catalog import CatalogError, load_catalog
 from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
 
@@ -20,6 +21,7 @@ from .parallel import default_workers
 from .timefmt import parse_time
 
 EXIT_OK, EXIT_CHANGED, EXIT_USAGE = 0, 1, 2
+MAX_WORKERS = 64  # as the monitor's --workers: each is a process, and a replay makes files x workers jobs
 
 
 class UsageError(ValueError):
@@ -98,9 +100,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     paths = _log_paths(args.logs)
-    if args.workers < 1:
-        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if not 1 <= args.workers <= MAX_WORKERS:
+        raise UsageError(f"--workers must be 1 to {MAX_WORKERS}, got {args.workers}")
     filters = _filters(args)
+    _check_outputs(args)
     if args.replay:
         return _replay(args, paths, filters)
     for flag in ("rules", "window", "jurisdiction", "compare_rules"):
@@ -121,8 +124,11 @@ def _run(args: argparse.Namespace) -> int:
 def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int:
     if filters.rules or filters.kinds:
         raise UsageError("--rule and --verdict filter the audit listing; a replay takes --vehicle, --since, --until")
-    if args.window is not None and not args.window > 0:
-        raise UsageError(f"--window must be > 0 seconds, got {args.window}")
+    if args.window is not None:
+        try:  # as the monitor's --window-s: an infinite window is no window the monitor could have run with
+            check_number("--window", args.window, 0, unit=" s", above=True)
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
     for d in args.rules or ():
         if not Path(d).is_dir():
             raise UsageError(f"--rules {d}: not a directory")
@@ -138,10 +144,7 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         raise UsageError(f"rules catalog: {exc}") from None
     result = replay_logs(paths, catalog, filters, args.workers, args.window, args.compare_rules)
     nothing_read = _warn_unreadable(result.tally.recovery)
-    text = replay_report.render_text(result)
-    if args.quiet:
-        text = "\n".join(replay_report.headline(result)) + "\n"
-    sys.stdout.write(text)
+    sys.stdout.write(replay_report.render_text(result, listing=not args.quiet))
     _write(args.csv, lambda: replay_report.render_csv(result))
     _write(args.json, lambda: replay_report.render_json(result))
     _write(args.html, lambda: replay_report.render_html(result))
@@ -178,8 +181,9 @@ def _log_paths(logs: Sequence[str]) -> list[str]:
 
 def _filters(args: argparse.Namespace) -> Filters:
     try:
-        since = parse_time(args.since, "--since") if args.since else None
-        until = parse_time(args.until, "--until") if args.until else None
+        # an empty value (an unset shell variable) is a mistake, not the absence of the filter
+        since = parse_time(args.since, "--since") if args.since is not None else None
+        until = parse_time(args.until, "--until") if args.until is not None else None
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     if since is not None and until is not None and since > until:
@@ -191,6 +195,24 @@ def _filters(args: argparse.Namespace) -> Filters:
         rules=tuple(args.rule),
         kinds=tuple(Kind(k) for k in args.verdict),
     )
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse a report that could not be written before the logs are read, not after a long replay."""
+    named: dict[Path, str] = {}
+    for flag in ("html", "csv", "json"):
+        path = getattr(args, flag)
+        if not path:
+            continue
+        target = Path(path)
+        if target.is_dir():
+            raise UsageError(f"cannot write {path}: Is a directory")
+        if not target.parent.is_dir():
+            raise UsageError(f"cannot write {path}: No such file or directory")
+        key = target.resolve()
+        if key in named:
+            raise UsageError(f"--{named[key]} and --{flag} name the same file {path}: one would overwrite the other")
+        named[key] = flag
 
 
 def _write(path: Optional[str], render: Callable[[], str]) -> None:

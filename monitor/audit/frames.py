@@ -81,10 +81,20 @@ class Pairing:
     did, with the monitor's own VehicleState, timed by the proposal's arrival.
     """
 
-    def __init__(self, window_s: Optional[float] = None, lead_in: tuple[str, ...] = ()):
-        """`lead_in`: the files read for context only, whose leftover proposals their own tasks counted."""
+    def __init__(
+        self,
+        window_s: Optional[float] = None,
+        lead_in: tuple[str, ...] = (),
+        counted: Optional[Callable[[Optional[str], int], bool]] = None,
+    ):
+        """`lead_in`: the files read for context only, whose leftover proposals their own tasks counted.
+
+        `counted(vehicle, log_time_ns)`: the refusals and unanswered proposals counted, as the audit's
+        vehicle and time filters count frames (default: all).
+        """
         self.window_s = window_s
         self.lead_in = frozenset(lead_in)
+        self.counted = counted or (lambda vehicle, log_time_ns: True)
         self.pending: dict[str, deque[LogRecord]] = {}
         self.states: dict[str, VehicleState] = {}
         self.counts = PairingCounts()
@@ -96,23 +106,27 @@ class Pairing:
             self.counts.proposals += 1
             queue = self.pending.setdefault(record.vehicle, deque())
             if len(queue) >= PENDING_PER_VEHICLE:
-                queue.popleft()
-                self.counts.unanswered += 1
+                self.counts.unanswered += self._counts(queue.popleft())
             queue.append(record)
             return None
         if kind == "verdict":
             self.counts.verdicts += 1
             return self._frame(record)
         if kind == "rejected":
-            self.counts.rejected += 1
+            self.counts.rejected += self._counts(record)
         elif kind == "status":
             self.counts.status += 1
         return None
 
     def finish(self) -> None:
         """Count the proposals left without a verdict (the lead-in's were counted with their own task)."""
-        self.counts.unanswered += sum(str(r.path) not in self.lead_in for q in self.pending.values() for r in q)
+        self.counts.unanswered += sum(
+            str(r.path) not in self.lead_in and self._counts(r) for q in self.pending.values() for r in q
+        )
         self.pending.clear()
+
+    def _counts(self, record: LogRecord) -> bool:
+        return self.counted(record.vehicle, record.log_time_ns)
 
     def _frame(self, record: LogRecord) -> Frame:
         verdict = record.verdict
@@ -121,7 +135,7 @@ class Pairing:
         frame = Frame(file=str(record.path), log_time_ns=record.log_time_ns, vehicle=vehicle, verdict=verdict)
         if proposal_record is not None:
             if str(proposal_record.path) in self.lead_in:
-                self.counts.carried += 1
+                self.counts.carried += self._counts(proposal_record)
             frame.proposal = proposal_record.proposal
             frame.arrived_ns = proposal_record.log_time_ns
             if self.window_s is not None:
@@ -157,20 +171,42 @@ def plan_tasks(paths: list[str], parts: int = 1, lead_in_s: float = LEAD_IN_SLAC
     many as it takes to reach `lead_in_s` seconds before the task's first message. Fewer, longer
     tasks read fewer lead-ins.
     """
-    files = [str(p) for p in log_files(paths)]
-    sequences: list[list[str]] = []
-    for path in files:
-        if sequences and _same_sequence(sequences[-1][-1], path):
-            sequences[-1].append(path)
-        else:
-            sequences.append([path])
     tasks = []
-    for sequence in sequences:
+    for sequence in _sequences([str(p) for p in log_files(paths)]):
         done = 0
         for stretch in _even_runs(sequence, parts):
             tasks.append(FrameTask(tuple(stretch), _lead_in(sequence[:done], stretch, lead_in_s)))
             done += len(stretch)
     return tasks
+
+
+def _sequences(files: list[str]) -> list[list[str]]:
+    """The files cut into sequences, each in the order its monitor wrote them, whatever order they were given in.
+
+    A monitor run's files are gathered and taken by their index (`audit f2 f1` pairs, counts and
+    replays as `audit f1 f2` does), not by their time stamp: a clock set back while the monitor ran
+    (a vehicle's time synchronised after boot) stamps later files earlier. Older logs, named without
+    a run, go by name, as a directory lists them. The sequences come in the order their first file
+    was given.
+    """
+    runs: dict[tuple, list[tuple]] = {}  # (directory, monitor, run) -> (order, path); a file of another name alone
+    for path in files:
+        named = _ROTATED.match(Path(path).name)
+        if named is None:
+            runs[(path,)] = [((), path)]
+            continue
+        monitor, run, index = named.groups()
+        order = (int(index),) if run else (Path(path).name,)
+        runs.setdefault((str(Path(path).parent), monitor, run), []).append((order, path))
+    sequences: list[list[str]] = []
+    for run in runs.values():
+        start = len(sequences)
+        for _, path in sorted(run):
+            if len(sequences) > start and _same_sequence(sequences[-1][-1], path):
+                sequences[-1].append(path)
+            else:
+                sequences.append([path])
+    return sequences
 
 
 def _lead_in(before: list[str], stretch: list[str], seconds: float) -> tuple[str, ...]:
@@ -236,14 +272,16 @@ def read_frames(
     report: RecoveryReport,
     window_s: Optional[float] = None,
     keep: Optional[Callable[[Optional[str]], bool]] = None,
+    counted: Optional[Callable[[Optional[str], int], bool]] = None,
 ) -> tuple[Iterator[Frame], Pairing]:
     """The lead-in's frames (flagged), then those whose verdict is in the task's files.
 
     `keep(vehicle)` picks the vehicles whose records are read (None: the
     monitor-wide ones); the others are skipped undecoded and not counted.
+    `counted` picks the refusals and unanswered proposals counted (Pairing).
     The Pairing holds the task's counts once iteration ends.
     """
-    pairing = Pairing(window_s, task.lead_in)
+    pairing = Pairing(window_s, task.lead_in, counted)
 
     def frames() -> Iterator[Frame]:
         if task.lead_in:

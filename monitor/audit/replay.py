@@ -145,6 +145,7 @@ class ReplayResult:
     wall_s: float
     workers: int
     compare_rules: bool = False
+    filters: Filters = field(default_factory=Filters)
 
     @property
     def frames_per_s(self) -> float:
@@ -210,7 +211,7 @@ def _replay_task(job: ReplayJob) -> ReplayTally:
     cpu_start = time.process_time()
     report = RecoveryReport()
     keep = None if job.shards == 1 else lambda vehicle: vehicle_shard(vehicle, job.shards) == job.shard
-    frames, pairing = read_frames(job.task, report, window_s=job.window_s, keep=keep)
+    frames, pairing = read_frames(job.task, report, window_s=job.window_s, keep=keep, counted=job.filters.selects)
     tally = ReplayTally()
     chunk: list[tuple[Frame, bytes, str]] = []  # decided as the frames stream by: memory stays flat on long logs
     for frame in frames:
@@ -378,4 +379,4 @@ def replay_logs(
         _init_worker(None)  # drop the rules and caches, or a later fork inherits them
     wall = time.perf_counter() - start
     total.changes.sort(key=lambda c: (c.time_ns, c.vehicle))
-    return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))), compare_rules)
+    return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))), compare_rules, filters)

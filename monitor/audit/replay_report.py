@@ -31,7 +31,8 @@ CSV_FIELDS = [
 
 def headline(result: ReplayResult) -> list[str]:
     t = result.tally
-    lines = [
+    lines = ["filters: " + "; ".join(result.filters.describe())] if result.filters.describe() else []
+    lines += [
         f"replayed {t.frames} frames with {result.catalog.describe()} in {result.wall_s:.2f} s "
         f"({result.frames_per_s:.0f} frames/s, {result.workers} worker{'s' if result.workers != 1 else ''}; "
         f"{t.solved} solved, {t.reused} identical to a frame solved before; {t.decided} decided in full)",
@@ -62,9 +63,13 @@ def _side(verdict: dict) -> str:
     return f"{verdict['decision']} {verdict['action']} [{', '.join(verdict.get('rules') or [])}]"
 
 
-def render_text(result: ReplayResult) -> str:
+def render_text(result: ReplayResult, listing: bool = True) -> str:
+    """The file lines and the headline, then (with `listing`) every change; -q keeps the file lines too,
+    as the audit's does: a file cut short or unreadable must not go unsaid."""
     t = result.tally
     lines = ["Logs:"] + ["  " + line for line in recovery_lines(t.recovery)] + headline(result)
+    if not listing:
+        return "\n".join(lines) + "\n"
     for c in t.changes:
         lines.append("")
         lines.append(
@@ -122,6 +127,7 @@ def render_json(result: ReplayResult) -> str:
         "reused": t.reused,
         "decided_in_full": t.decided,
         "compared_rules": result.compare_rules,
+        "filters": result.filters.describe(),
         "wall_s": result.wall_s,
         "worker_cpu_s": t.cpu_s,
         "solver_s": t.solve_s,

@@ -12,7 +12,7 @@ from typing import Optional
 from discern.monitor.log import FileRecovery
 
 from . import plots
-from .aggregate import Aggregates, Disagreement, Filters, Tally
+from .aggregate import Aggregates, Disagreement, Filters, Kind, Tally
 from .timefmt import iso
 
 CSV_FIELDS = [
@@ -119,7 +119,9 @@ def render_text(tally: Tally, agg: Aggregates, filters: Filters, listing: bool =
     for title, items in (
         ("per rule", agg.per_rule),
         ("per action pair (proposed -> executed)", agg.per_pair),
-        ("per scenario kind", [(k, n) for k, n, _ in agg.per_scenario if n]),
+        # with the frames of the kind and of the vehicle, as docs/audit.md says: a count alone is no rate
+        ("per scenario kind", [(f"{k} (of {plural(f, 'frame')})", n) for k, n, f in agg.per_scenario if n]),
+        ("per vehicle", [(f"{v} (of {plural(f, 'frame')}, {km:.2f} km)", n) for v, n, f, km in agg.per_vehicle]),
     ):
         if items:
             lines.append("")
@@ -174,7 +176,7 @@ def render_json(tally: Tally, agg: Aggregates, filters: Filters) -> str:
         "files": files,
         "filters": filters.describe(),
         "frames": tally.frames,
-        "decisions": dict(tally.decisions),
+        "decisions": {d: tally.decisions[d] for d in ("approve", *(k.value for k in Kind))},  # zeros too
         "unanswered_proposals": tally.unanswered,
         "refused_inputs": tally.counts.rejected,
         "first_log_time": iso(tally.first_ns) if tally.first_ns is not None else None,

@@ -7,7 +7,9 @@ much of each file that was. Channels this log does not know are skipped with a
 warning, an empty file yields nothing. A file whose `discern` metadata names a
 schema version other than this reader's is not read at all (its messages would
 each fail the models, or worse, pass them meaning something else) and is
-reported as unreadable, with the reason.
+reported as unreadable, with the reason. A file without that metadata (another
+recorder's copy) tells its version by its messages: the first that names
+another schema version ends the reading the same way.
 """
 
 from __future__ import annotations
@@ -67,9 +69,16 @@ class FileRecovery:
         return not self.complete and self.size_bytes > 0
 
     def add_share(self, other: "FileRecovery") -> None:
-        """Another reader's share of the same file (read_log's `vehicles`): records and skips add up."""
+        """Another reader's share of the same file (read_log's `vehicles`): records and skips add up.
+
+        The file was read as far as the share that stopped first: only the share holding a message of
+        another schema version sees it.
+        """
         self.records += other.records
         self.skipped += other.skipped
+        if other.recovered_bytes < self.recovered_bytes:
+            self.recovered_bytes, self.complete = other.recovered_bytes, other.complete
+            self.stopped_by = other.stopped_by
 
 
 @dataclass
@@ -231,6 +240,7 @@ def _read_file(
                     break
             else:
                 inner = [record]
+            read_before = recovery.recovered_bytes
             recovery.recovered_bytes = f.tell()
             for item in inner:
                 if since_ns is not None and isinstance(item, Message) and item.log_time < since_ns:
@@ -239,20 +249,32 @@ def _read_file(
                 if out is not None:
                     recovery.records += 1
                     yield out
+                elif decoder.other_version is not None:
+                    break
+            if decoder.other_version is not None:
+                recovery.stopped_by = decoder.other_version
+                # unreadable when nothing came before it, as with the metadata's version
+                recovery.recovered_bytes = read_before if recovery.records else 0
+                break
             if isinstance(record, Footer):
                 recovery.complete = True
                 recovery.recovered_bytes = recovery.size_bytes
                 break
 
 
-def _first_error(exc: ValidationError, data: bytes) -> str:
-    """The first reason a message failed, naming its schema version when it is not this reader's."""
+def _other_version(data: bytes) -> Optional[str]:
+    """Why a message that failed its model cannot be read, if it names a schema version not this reader's."""
     try:
         version = json.loads(data).get("version")
     except (ValueError, AttributeError, RecursionError):  # not a JSON object
-        version = None
-    if isinstance(version, int) and version != SCHEMA_VERSION:
+        return None
+    if isinstance(version, int) and not isinstance(version, bool) and version != SCHEMA_VERSION:
         return f"schema version {version}; this discern reads version {SCHEMA_VERSION}"
+    return None
+
+
+def _first_error(exc: ValidationError) -> str:
+    """The first reason a message failed its model."""
     error = exc.errors()[0]
     where = ".".join(str(p) for p in error["loc"])
     return f"{where}: {error['msg']}" if where else error["msg"]
@@ -274,6 +296,7 @@ class _ChannelDecoder:
         self.channels: dict[int, Optional[tuple[Optional[str], str, str]]] = {}
         self.elsewhere: set[int] = set()  # channels of vehicles another reader decodes
         self.invalid: set[int] = set()  # channels warned about for a message that failed its schema
+        self.other_version: Optional[str] = None  # set by a message of another schema version: the file's
 
     def feed(self, record) -> Optional[LogRecord]:
         if isinstance(record, Schema):
@@ -321,6 +344,9 @@ class _ChannelDecoder:
         try:
             value = CHANNEL_KINDS[kind][1].model_validate_json(message.data)
         except ValidationError as exc:
+            self.other_version = _other_version(message.data)
+            if self.other_version is not None:  # one writer writes one version: the whole file is of it
+                return None
             self.recovery.skipped += 1
             if message.channel_id not in self.invalid:  # once per channel: the file line counts them all
                 self.invalid.add(message.channel_id)
@@ -328,7 +354,7 @@ class _ChannelDecoder:
                     "%s: skipping %s messages that fail their schema (counted in the file's skipped), first: %s",
                     self.path,
                     topic,
-                    _first_error(exc, message.data),
+                    _first_error(exc),
                 )
             return None
         if kind == "proposal" and "vehicle" not in value.model_fields_set and vehicle:
