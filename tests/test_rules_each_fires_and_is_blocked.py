@@ -185,6 +185,10 @@ CASES = {
     "po.not_edge_lane": (scene(lane=1, lanes=2), scene(lane=2, lanes=2)),
     "po.hazard": (scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",), objects=[obj("pedestrian", 0, 8, lane=2)]),
                   scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",))),
+    "po.in_intersection": (
+        scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",), intersection={"type": "four_way", "stage": "at"}),
+        scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",), intersection={"type": "four_way", "stage": "arriving"}),
+    ),
     "po.kerb_taken": (
         scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",),
               objects=[obj("truck", 3.5, 4, lane=1, kind="shoulder", vy=0)]),
