@@ -234,10 +234,10 @@ def _ordinal(n: int) -> str:
 _LOOSE_SPACE = re.compile(r" +(?=[,.;:)]|$)| (?= )")  # left where an unknown value reads as no words
 # "a" before a value: "an" before a vowel sound; none before a mass noun ("debris can be swerved around")
 _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8|1[18]\b))")
-_PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000), "decel": ("m/s²", 100),
-                "speed_margin": ("m/s", 100)}
-_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ms": "some time", "ahead": "somewhere", "right": "somewhere",
-            "lane": "a lane", "detail": "", "paren": ""}
+_PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000),
+                "decel": ("m/s²", 100), "speed_margin": ("m/s", 100)}
+_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ms": "some time", "ahead": "somewhere",
+            "right": "somewhere", "lane": "a lane", "detail": "", "paren": ""}
 _WRAPPED = {"lane": "lane {}", "detail": ": {}", "paren": " ({})"}  # a value with the words around it, unknown: none
 
 
@@ -255,9 +255,11 @@ class Phrasebook:
             return _UNKNOWN.get(fmt or "", f"some {param}")
         if fmt in _WRAPPED:
             return _WRAPPED[fmt].format(self.value(sym, None, param))
-        if sym.type == SymbolType.Function and sym.arguments and (sym.name, len(sym.arguments)) in self.catalog.templates:
-            return self.sentence(sym.name, list(sym.arguments))
-        if sym.type != SymbolType.Number:
+        kind = sym.type
+        if kind != SymbolType.Number:
+            args = sym.arguments if kind == SymbolType.Function else ()
+            if args and (sym.name, len(args)) in self.catalog.templates:  # a term with words of its own
+                return self.sentence(sym.name, list(args))
             return _words(sym)
         n = sym.number
         if fmt == "m":
@@ -485,8 +487,8 @@ class Prover:
             reason.text = f"it needs {reason.text}"
         if len(worst) > self.alternatives:  # say that the list is cut, not that it is all
             more = len(worst) - self.alternatives
-            reasons.append(JustificationNode(literal=rule.info.id, holds=False, kind="blocked",
-                                             text=f"and {more} other way{'s' if more > 1 else ''} it could apply, each failing as well"))
+            text = f"and {more} other way{'s' if more > 1 else ''} it could apply, each failing as well"
+            reasons.append(JustificationNode(literal=rule.info.id, holds=False, kind="blocked", text=text))
         return JustificationNode(literal=rule.info.id, holds=False, text=f"rule {rule.info.id} does not apply",
                                  rule=rule.info.id, kind="blocked", children=reasons)
 
