@@ -51,7 +51,7 @@ class Request:
     key: str
     vehicle: str
     payload: Optional[bytes]  # None when empty or over the size limit
-    head: bytes  # the payload's first EXCERPT_BYTES, over the size limit too: what the log shows of a refusal
+    head: bytes  # an oversized payload's first EXCERPT_BYTES, all the log shows of it; else empty
     size: int
     arrived: float  # time.monotonic(), the clock the workers share
     arrived_ns: int  # wall clock, for the log
@@ -209,8 +209,8 @@ class MonitorServer:
         vehicle = keys.vehicle_of(key)
         wild = keys.is_wild(key)
         req = Request(
-            next(self._rids), key, vehicle, data, raw[:EXCERPT_BYTES], size, now, time.time_ns(), now + self._budget_s,
-            query,
+            next(self._rids), key, vehicle, data, raw[:EXCERPT_BYTES] if data is None else b"", size, now, time.time_ns(),
+            now + self._budget_s, query,
         )
         if wild:
             # Not a vehicle: no per-vehicle state, and no verdict but a query's reply (a put's would be broadcast).
@@ -458,7 +458,7 @@ class _AnswerLog:
             self._unread.clear()
 
     def rejected(self, req: Request, reason: str) -> None:
-        excerpt = req.head.decode("utf-8", "replace")
+        excerpt = (req.payload or req.head)[:EXCERPT_BYTES].decode("utf-8", "replace")
         rejected = RejectedInput(vehicle=req.vehicle, key=req.key, size=req.size, error=reason, excerpt=excerpt)
         self.writer.write(vehicle_topic(_topic_safe(req.vehicle), "rejected"), "rejected", rejected, req.arrived_ns)
 
