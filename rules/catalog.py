@@ -245,7 +245,7 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[PredTe
         elif key in ("pred", "term"):  # a term's words (hazard(obstacle(3))) are written like a predicate's
             pred = _PRED.match(value)
             if not pred:
-                raise CatalogError(f"{path}:{number}: bad pred annotation {value!r}")
+                raise CatalogError(f"{path}:{number}: bad {key} annotation {value!r}")
             name, params, template = pred.groups()
             args = tuple(p.strip() for p in params.split(",")) if params else ()
             for placeholder in PLACEHOLDER.finditer(template):
