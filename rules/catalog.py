@@ -120,6 +120,7 @@ class Catalog:
     fact_rule: dict[Symbol, str] = field(default_factory=dict, repr=False)
     fact_predicates: set[str] = field(default_factory=set, repr=False)
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
+    words: dict[str, str] = field(default_factory=dict, repr=False)  # a constant's English (`%! term name :: "..."`)
     _slices: dict[frozenset[str], tuple[list[ast.AST], frozenset[str]]] = field(default_factory=dict, repr=False)
     _deriving: dict[tuple[str, int, Optional[Symbol]], list[CompiledRule]] = field(default_factory=dict, repr=False)
 
@@ -225,10 +226,10 @@ def signature_of(head: ast.AST) -> tuple[str, int]:
     raise CatalogError(f"unsupported head {head}")
 
 
-def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[PredTemplate], set[tuple[str, int]]]:
+def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[str, PredTemplate]], set[tuple[str, int]]]:
     """Map each `%! rule` block's first line to its RuleInfo; collect templates and hidden predicates."""
     blocks: dict[int, RuleInfo] = {}
-    templates: list[PredTemplate] = []
+    templates: list[tuple[str, PredTemplate]] = []  # ("pred" or "term", its template)
     hidden: set[tuple[str, int]] = set()
     current: dict[str, str] = {}
     start = 0
@@ -255,7 +256,7 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[PredTe
                 if fmt is not None and fmt not in TEMPLATE_FORMATS:
                     raise CatalogError(f"{path}:{number}: unknown format {fmt!r} in {placeholder.group(0)}"
                                        f" (known: {', '.join(sorted(TEMPLATE_FORMATS))})")
-            templates.append(PredTemplate(name, args, template))
+            templates.append((key, PredTemplate(name, args, template)))
         elif key == "rule":
             current, start = {"rule": value}, number
         else:
@@ -270,8 +271,11 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[PredTe
 def _compile_file(path: str, text: str, catalog: Catalog) -> None:
     blocks, templates, hidden = _annotations(text, path)
     catalog.hidden |= hidden
-    for template in templates:
-        catalog.templates[template.signature] = template
+    for key, template in templates:
+        if key == "term" and not template.params:  # a constant's words: its own, apart from any predicate's
+            catalog.words[template.name] = template.template
+        else:
+            catalog.templates[template.signature] = template
     starts = sorted(blocks)
     for info in blocks.values():
         catalog.rules.append(info)

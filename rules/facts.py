@@ -37,6 +37,8 @@ class Params:
     range_match: float = 3.0  # m, a range reading this close to an object's distance is that object
     lane_width: float = 3.5  # m, places objects reported without a lane; a side reading within it is in the next lane
     speed_margin: float = 2.2352  # m/s (5 mph), how far above the limit the ego may be before it must slow down
+    turn_speed: float = 8.9408  # m/s (20 mph), the fastest the ego turns at an intersection
+    turn_dist: float = 10.0  # m, a turn starts no farther than this before the stop line
 
     def facts(self) -> str:
         values = asdict(self)

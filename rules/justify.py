@@ -235,7 +235,7 @@ _LOOSE_SPACE = re.compile(r" +(?=[,.;:)]|$)| (?= )")  # left where an unknown va
 # "a" before a value: "an" before a vowel sound; none before a mass noun ("debris can be swerved around")
 _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8|1[18]\b))")
 _PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000),
-                "decel": ("m/s²", 100), "speed_margin": ("m/s", 100)}
+                "decel": ("m/s²", 100), "speed_margin": ("m/s", 100), "turn_speed": ("m/s", 100)}
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ms": "some time", "ahead": "somewhere",
             "right": "somewhere", "lane": "a lane", "detail": "", "paren": ""}
 _WRAPPED = {"lane": "lane {}", "detail": ": {}", "paren": " ({})"}  # a value with the words around it, unknown: none
@@ -260,6 +260,8 @@ class Phrasebook:
             args = sym.arguments if kind == SymbolType.Function else ()
             if args and (sym.name, len(args)) in self.catalog.templates:  # a term with words of its own
                 return self.sentence(sym.name, list(args))
+            if kind == SymbolType.Function and not args and sym.name in self.catalog.words:
+                return self.catalog.words[sym.name]
             return _words(sym)
         n = sym.number
         if fmt == "m":
@@ -267,9 +269,9 @@ class Phrasebook:
         if fmt == "mps":
             return f"{n / 100:.1f} m/s"
         if fmt == "ahead":
-            return f"{n / 100:.1f} m ahead" if n >= 0 else f"{-n / 100:.1f} m behind"
+            return "level with the ego" if n == 0 else f"{n / 100:.1f} m ahead" if n > 0 else f"{-n / 100:.1f} m behind"
         if fmt == "right":
-            return f"{n / 100:.1f} m to the right" if n >= 0 else f"{-n / 100:.1f} m to the left"
+            return "in line with the ego" if n == 0 else f"{n / 100:.1f} m to the right" if n > 0 else f"{-n / 100:.1f} m to the left"
         if fmt == "ms":
             return f"{n / 1000:g} s"
         if fmt == "ordinal":

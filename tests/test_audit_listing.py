@@ -8,6 +8,8 @@ from datetime import datetime, timezone
 
 import pytest
 
+from bench.report import pct
+from discern.monitor.audit.aggregate import latency_summary, percentile
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings
 from discern.monitor.example_planner import highway_scene
@@ -103,6 +105,16 @@ def test_aggregates_per_rule_action_pair_scenario_and_time(capsys, tmp_path, all
     assert scenarios["city/open_road"] == (0, CLEAR_FRAMES)
     assert sum(b["veto"] + b["override"] + b["failsafe"] for b in doc["over_time"]) == len(doc["disagreements"])
     assert doc["latency_ms"]["samples"] == doc["frames"] == FRAMES
+
+
+def test_latency_percentiles_take_the_nearest_rank_so_few_samples_do_not_lean_high():
+    two = latency_summary([3.0, 1.0])
+    assert (two["samples"], two["p50_ms"], two["max_ms"]) == (2, 1.0, 3.0)
+    ten = latency_summary([float(v) for v in range(10, 0, -1)])
+    assert (ten["p50_ms"], ten["p90_ms"], ten["p99_ms"], ten["max_ms"]) == (5.0, 9.0, 10.0, 10.0)
+    for n in range(1, 40):  # the benchmarks' definition: the two reports' figures agree
+        values = [float(v) for v in range(n)]
+        assert [percentile(values, q) for q in (50, 90, 99)] == [pct(values, q) for q in (50, 90, 99)], n
 
 
 def test_json_export_counts_every_decision_kind_even_when_none_occurred(capsys, tmp_path, logs):

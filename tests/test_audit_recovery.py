@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import shutil
 from pathlib import Path
 
 import pytest
@@ -50,6 +51,19 @@ def test_a_quiet_replay_still_says_how_much_of_each_file_was_read(capsys, tmp_pa
     code, out, err = audit(capsys, "--replay", str(cut), "--workers", "1", "-q")
     assert code == 0, err
     assert f"{cut}: truncated, " in out and "stopped: " in out and "no decision would change" in out
+
+
+def test_replay_json_reports_recovered_files(capsys, tmp_path, fleet):
+    data = fleet.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    audited = audit_json(capsys, tmp_path, cut, fleet)["files"]
+    assert [f["state"] for f in audited] == ["truncated", "complete"] and all(f["records"] for f in audited)
+    for workers in ("1", "3"):  # with several, each reads its vehicles' share of a file: the shares add up
+        out = tmp_path / f"replay-{workers}.json"
+        code, _, err = audit(capsys, "--replay", str(cut), str(fleet), "--json", str(out), "--workers", workers, "-q")
+        assert code == 0, err
+        assert json.loads(out.read_text())["files"] == audited, workers
 
 
 def test_a_pair_split_by_file_rotation_is_joined(capsys, tmp_path, fleet):
@@ -157,3 +171,18 @@ def test_a_file_given_twice_is_read_once(capsys, tmp_path, fleet):
     twice = audit_json(capsys, tmp_path, fleet.parent, fleet, Path(str(fleet).replace("/fleet/", "/fleet/./")))
     assert [f["path"] for f in twice["files"]] == [f["path"] for f in once["files"]]
     assert twice["frames"] == once["frames"] and twice["disagreements"] == once["disagreements"]
+
+
+def test_a_directory_named_like_a_log_inside_a_log_directory_is_walked_and_an_empty_one_named(capsys, tmp_path, fleet):
+    run = tmp_path / "run"
+    (run / "more.mcap").mkdir(parents=True)
+    shutil.copy(fleet, run / "a.mcap")
+    shutil.copy(fleet, run / "more.mcap" / "b.mcap")
+    doc = audit_json(capsys, tmp_path, run)
+    assert [f["path"] for f in doc["files"]] == [str(run / "a.mcap"), str(run / "more.mcap" / "b.mcap")]
+    assert doc["frames"] == 2 * audit_json(capsys, tmp_path, fleet)["frames"]
+    (run / "none.mcap").mkdir()
+    for mode in ([], ["--replay"]):
+        code, out, err = audit(capsys, str(run), *mode, "--workers", "1")
+        assert code == 2 and out == ""
+        assert err == f"discern audit: {run / 'none.mcap'}: directory holds no *.mcap files\n"

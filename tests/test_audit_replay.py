@@ -284,6 +284,16 @@ def test_compare_rules_finds_frames_citing_other_rules(capsys, tmp_path, logs):
     assert "[acc.at_limit] -> [acc.not_over_limit]" in text
 
 
+def test_a_rules_directory_given_twice_is_loaded_once(capsys, tmp_path, logs, tolerant):
+    code, once, _ = replay(capsys, tmp_path, str(logs["fleet"]), "--rules", str(tolerant), "--workers", "1")
+    assert code == 1
+    again = [str(tolerant), f"{tolerant}/", str(tolerant.parent / "." / tolerant.name)]
+    code, twice, _ = replay(capsys, tmp_path, str(logs["fleet"]), *(f"--rules={d}" for d in again), "--workers", "1")
+    assert code == 1
+    assert twice["catalog"] == once["catalog"] and twice["catalog"][0] == str(tolerant)
+    assert twice["changes"] == once["changes"]
+
+
 def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
     broken = tmp_path / "broken"
     broken.mkdir()

@@ -60,6 +60,28 @@ def test_articles_agree_with_the_word_they_precede(reasoner):
     assert not [text for text in texts if re.search(r"\ba (?:[aeiu]|debris)", text)]
 
 
+def test_intents_lane_kinds_and_zero_offsets_read_as_english(reasoner):
+    turning = scene(speed=5, lanes=2, intent="enter_left_lane", other_lanes=("oncoming",),
+                    intersection={"type": "four_way", "stage": "at"},
+                    objects=[obj("car", 0, 40, lane=1, kind="oncoming", vy=-15), obj("car", 3.5, 0, lane=2)])
+    text = reasoner.decide(turning, "turn_left", explain=True).justification.text
+    assert "the route asks to turn into the road on the left" in text
+    assert "car 1 is in the oncoming lane 1" in text
+    assert "car 1 is 40.0 m ahead and in line with the ego" in text
+    beside = reasoner.decide(scene(lanes=2, objects=[obj("car", 3.5, 0, lane=2, vy=10)]), "change_lane_right", explain=True)
+    assert "car 1 is level with the ego and 3.5 m to the right" in beside.justification.text
+    assert "car 1 is in the same-direction lane 2" in beside.justification.text
+
+
+def test_a_misread_stop_sign_that_is_not_there_reads_without_a_placeholder_speed(reasoner):
+    major_road = scene(limit=None, other_lanes=("cross_left",), intersection={"type": "four_way", "stage": "arriving", "road": "major"},
+                       objects=[obj("car", -20, 12, lane=1, kind="cross_left", velocity={"x": 8.0, "y": 0.0})],
+                       signs=[{"kind": "speed_limit", "value": 20.0, "source": "camera"}])
+    text = reasoner.decide(major_road, "accelerate", explain=True).justification.text
+    assert "the camera reads a speed limit of any value where a stop sign belongs, and there is no evidence of it" in text
+    assert "speed limit of some speed" not in text
+
+
 def test_approval_fast_path_has_summary_and_rules_without_tree(reasoner):
     verdict = reasoner.decide(scene(speed=5, limit=15), "accelerate")
     assert verdict.justification.tree == [] and verdict.rules == ["dec.permitted", "acc.below_limit"]

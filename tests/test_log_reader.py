@@ -16,6 +16,7 @@ from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import (McapLogWriter, RecoveryReport, RejectedInput, first_log_time_ns, read_log,
                                  vehicle_topic)
 from discern.monitor.log.channels import STATUS_TOPIC
+from discern.monitor.log.reader import log_files
 from discern.monitor.protocol import RULE_BAD_INPUT, failsafe_verdict
 from discern.monitor.status import StatusCounters
 from discern.rules.engine import Reasoner
@@ -278,3 +279,11 @@ def test_readers_split_by_vehicle_all_name_a_file_of_another_schema_version_unre
     merged.add_share(theirs)
     assert (merged.recovered_bytes, merged.complete, merged.records, merged.skipped) == (0, False, 0, 0)
     assert merged.stopped_by == "schema version 2; this discern reads version 1"
+
+
+def test_a_directory_named_like_a_log_is_expanded_not_opened_as_a_file(tmp_path):
+    (tmp_path / "a.mcap").write_bytes(b"")
+    nested = tmp_path / "b.mcap"
+    nested.mkdir()
+    (nested / "c.mcap").write_bytes(b"")
+    assert log_files([tmp_path, nested / "c.mcap"]) == [tmp_path / "a.mcap", nested / "c.mcap"]

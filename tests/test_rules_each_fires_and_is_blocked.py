@@ -141,25 +141,47 @@ CASES = {
         scene(intersection=at_stop, path="sp1", objects=[obj("bicycle", 4, 4, predicted_path="op1")], crossings=[("sp1", "op1")]),
         scene(intersection=at_stop, path="sp2", objects=[obj("bicycle", 4, 4, predicted_path="op1")], crossings=[("sp1", "op1")]),
     ),
+    "tl.too_fast": (scene(speed=12, intersection=at_stop), scene(speed=8, intersection=at_stop)),
+    "tr.too_fast": (scene(speed=12, intersection=at_stop), scene(speed=8, intersection=at_stop)),
+    "tl.before_intersection": (
+        scene(speed=5, intersection={"type": "four_way", "stage": "arriving", "distance": 40}),
+        scene(speed=5, intersection={"type": "four_way", "stage": "arriving", "distance": 6}),
+    ),
+    "tr.before_intersection": (
+        scene(speed=5, intersection={"type": "four_way", "stage": "arriving", "distance": 40}),
+        scene(speed=5, intersection={"type": "four_way", "stage": "at", "distance": 40}),
+    ),
+    "brake.slow_for_turn": (
+        scene(speed=20, intent="enter_right_lane", intersection={"type": "four_way", "stage": "arriving", "distance": 50}),
+        scene(speed=20, intent="enter_right_lane", intersection={"type": "four_way", "stage": "arriving", "distance": 120}),
+    ),
+    "cruise.slow_for_turn": (
+        scene(speed=12, intent="enter_left_lane", intersection={"type": "four_way", "stage": "arriving"}),
+        scene(speed=8, intent="enter_left_lane", intersection={"type": "four_way", "stage": "arriving"}),
+    ),
+    "acc.slow_for_turn": (
+        scene(speed=12, intent="enter_left_lane", intersection={"type": "four_way", "stage": "arriving"}),
+        scene(speed=12, intent="continue_in_lane", intersection={"type": "four_way", "stage": "arriving"}),
+    ),
     "tl.not_leftmost": (scene(lane=2, lanes=2, intersection=at_stop), scene(lane=1, lanes=2, intersection=at_stop)),
     "tr.not_rightmost": (scene(lane=1, lanes=2, intersection=at_stop), scene(lane=2, lanes=2, intersection=at_stop)),
     "tl.hazard": (
-        scene(intent="enter_left_lane", sign="stop", intersection={"type": "four_way", "stage": "arriving"}),
-        scene(intent="enter_left_lane", light="red", intersection={"type": "signaled", "stage": "arriving"}),
+        scene(speed=5, intent="enter_left_lane", sign="stop", intersection={"type": "four_way", "stage": "arriving"}),
+        scene(speed=5, intent="enter_left_lane", light="red", intersection={"type": "signaled", "stage": "arriving"}),
     ),
     "tr.hazard": (
-        scene(intent="enter_right_lane", intersection={"type": "unsignaled", "stage": "at", "arrival_rank": 2}),
-        scene(intent="enter_right_lane", light="red", intersection={"type": "signaled", "stage": "arriving"}),
+        scene(speed=5, intent="enter_right_lane", intersection={"type": "unsignaled", "stage": "at", "arrival_rank": 2}),
+        scene(speed=5, intent="enter_right_lane", light="red", intersection={"type": "signaled", "stage": "arriving"}),
     ),
     "tl.yield_cross_traffic": (
-        scene(intersection=at_stop, other_lanes=("cross_left",),
+        scene(speed=5, intersection=at_stop, other_lanes=("cross_left",),
               objects=[obj("car", -30, 5, lane=1, kind="cross_left", velocity={"x": 10.0, "y": 0.0})]),
-        scene(intersection=at_stop, other_lanes=("cross_left",),
+        scene(speed=5, intersection=at_stop, other_lanes=("cross_left",),
               objects=[obj("car", -30, 5, lane=1, kind="cross_left", velocity={"x": -10.0, "y": 0.0})]),
     ),
     "tr.yield_cross_traffic": (
-        scene(intersection=at_stop, other_lanes=("cross_left",), objects=[obj("car", -10, 5, lane=1, kind="cross_left")]),
-        scene(intersection=at_stop, other_lanes=("cross_left",), objects=[obj("car", -40, 5, lane=1, kind="cross_left")]),
+        scene(speed=5, intersection=at_stop, other_lanes=("cross_left",), objects=[obj("car", -10, 5, lane=1, kind="cross_left")]),
+        scene(speed=5, intersection=at_stop, other_lanes=("cross_left",), objects=[obj("car", -40, 5, lane=1, kind="cross_left")]),
     ),
     "tl.red_light": (scene(light="red", intersection=at_stop), scene(light="green", intersection=at_stop)),
     "tr.red_light": (scene(light="red", intersection=at_stop), scene(light="green", intersection=at_stop)),
@@ -285,6 +307,46 @@ def test_an_object_reported_without_a_lane_is_placed_in_the_lane_its_offset_fall
     assert "cll.lane_taken" in beside.rules
     off_the_road = scene(lane=2, lanes=2, objects=[obj("truck", -9, 1, vy=10)])
     assert decide(off_the_road, "change_lane_left").decision.value == "approve"
+
+
+def test_an_object_reported_without_a_lane_just_beyond_the_kerb_side_lane_is_on_the_shoulder():
+    pulling_over = {"lane": 2, "lanes": 2, "intent": "pull_over"}
+    parked = decide(scene(**pulling_over, objects=[obj("truck", 3.5, 4, vy=0)]), "pull_over")
+    assert parked.decision.value == "override" and "po.kerb_taken" in parked.rules
+    beyond_the_shoulder = scene(**pulling_over, objects=[obj("truck", 9, 4, vy=0)])
+    assert decide(beyond_the_shoulder, "pull_over").decision.value == "approve"
+
+
+def test_the_shoulder_is_on_the_kerb_side_of_the_jurisdiction():
+    uk = Reasoner(jurisdiction="uk")
+    on_the_uk_shoulder = scene(lane=1, lanes=2, intent="pull_over", objects=[obj("truck", -3.5, 4, vy=0)])
+    assert "po.kerb_taken" in uk.decide(on_the_uk_shoulder, "pull_over").rules
+    offside = scene(lane=1, lanes=2, intent="pull_over", objects=[obj("truck", 3.5 * 2, 4, vy=0)])
+    assert uk.decide(offside, "pull_over").decision.value == "approve"
+
+
+def test_a_car_on_the_shoulder_signalling_into_the_road_claims_the_lane_next_to_it():
+    pulling_out = obj("car", 7, 6, lane=1, kind="shoulder", vy=8, indicator="left")
+    change = decide(scene(lane=1, lanes=2, other_lanes=("shoulder",), objects=[pulling_out]), "change_lane_right")
+    assert change.decision.value == "override" and "clr.lane_claimed" in change.rules
+    ahead_of_the_ego = obj("car", 3.5, 6, lane=1, kind="shoulder", vy=8, indicator="left")
+    speeding_up = decide(scene(lane=2, lanes=2, other_lanes=("shoulder",), objects=[ahead_of_the_ego]), "accelerate")
+    assert speeding_up.decision.value == "override" and "acc.cut_in" in speeding_up.rules
+    parked = obj("car", 3.5, 6, lane=1, kind="shoulder", vy=0, indicator="right")
+    assert decide(scene(lane=2, lanes=2, other_lanes=("shoulder",), objects=[parked]), "accelerate").decision.value == "approve"
+
+
+def test_a_turn_is_not_made_at_speed_or_before_the_intersection():
+    far_and_fast = scene(speed=27, limit=30, zone="highway", intent="enter_left_lane",
+                         intersection={"type": "signaled", "stage": "arriving", "distance": 120})
+    verdict = decide(far_and_fast, "turn_left")
+    assert verdict.decision.value == "override" and verdict.action.value != "turn_left"
+    assert {"tl.too_fast", "tl.before_intersection"} <= set(verdict.rules)
+    near_and_fast = scene(speed=15, limit=20, intent="enter_left_lane",
+                          intersection={"type": "signaled", "stage": "arriving", "distance": 25})
+    assert decide(near_and_fast, "cruise").action.value == "brake"
+    slow_at_the_line = scene(speed=5, intent="enter_left_lane", intersection={"type": "signaled", "stage": "at", "distance": 2})
+    assert decide(slow_at_the_line, "turn_left").decision.value == "approve"
 
 
 def test_a_car_signalling_into_the_target_lane_blocks_the_change_and_the_merge():

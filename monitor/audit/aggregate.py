@@ -318,15 +318,27 @@ class Aggregates:
         )
 
 
+def percentile(ordered: Sequence[float], q: float) -> float:
+    """The q-th percentile (0-100) of sorted values: the one nearest q% of the way from the least to the greatest.
+
+    A measured value, never interpolated. Indexing at q * n instead leans high with few samples (the
+    p50 of two would be the larger). bench/report.py's `pct` is the same, so the audit's and the
+    benchmarks' figures agree.
+    """
+    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
+
+
 def latency_summary(values: Sequence[float]) -> dict[str, Optional[float]]:
     if not values:
         return {"samples": 0, "p50_ms": None, "p90_ms": None, "p99_ms": None, "max_ms": None}
     ordered = sorted(values)
-
-    def pct(q: float) -> float:
-        return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
-
-    return {"samples": len(ordered), "p50_ms": pct(0.5), "p90_ms": pct(0.9), "p99_ms": pct(0.99), "max_ms": ordered[-1]}
+    return {
+        "samples": len(ordered),
+        "p50_ms": percentile(ordered, 50),
+        "p90_ms": percentile(ordered, 90),
+        "p99_ms": percentile(ordered, 99),
+        "max_ms": ordered[-1],
+    }
 
 
 NICE_WIDTHS_S = (1, 2, 5, 10, 15, 30, 60, 120, 300, 600, 900, 1800, 3600, 7200, 21600, 43200, 86400)

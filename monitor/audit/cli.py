@@ -165,18 +165,37 @@ def _warn_unreadable(files) -> bool:
 
 
 def _log_paths(logs: Sequence[str]) -> list[str]:
-    out = []
-    for log in logs:
-        path = Path(log)
+    """The files to read, each checked before a long audit starts: nothing given is passed over unsaid.
+
+    A directory stands for its *.mcap entries, and a directory among them for its own *.mcap entries,
+    as when the shell expands DIR/*.mcap; anything else that is no regular file is refused, naming it.
+    """
+    files: list[str] = []
+    walked: set[Path] = set()  # a directory reached again (given twice, or linked back up) adds nothing
+
+    def collect(path: Path) -> None:
         if path.is_dir():
-            if not any(path.glob("*.mcap")):
-                raise UsageError(f"{log}: directory holds no *.mcap files")
+            if path.resolve() in walked:
+                return
+            walked.add(path.resolve())
+            try:
+                entries = sorted(e for e in path.iterdir() if e.name.endswith(".mcap"))
+            except OSError as exc:
+                raise UsageError(f"{path}: cannot list the directory: {exc.strerror or exc}") from None
+            if not entries:
+                raise UsageError(f"{path}: directory holds no *.mcap files")
+            for entry in entries:
+                collect(entry)
         elif not path.exists():
-            raise UsageError(f"{log}: no such file or directory")
+            raise UsageError(f"{path}: no such file or directory")
         elif not path.is_file():
-            raise UsageError(f"{log}: not a regular file")
-        out.append(str(path))
-    return out
+            raise UsageError(f"{path}: not a regular file")
+        else:
+            files.append(str(path))
+
+    for log in logs:
+        collect(Path(log))
+    return files
 
 
 def _filters(args: argparse.Namespace) -> Filters:

@@ -342,10 +342,14 @@ class ReplayCatalog:
 
     @classmethod
     def of(cls, rules: Optional[Sequence[str]] = None, jurisdiction: str = "us") -> "ReplayCatalog":
-        shipped = [str(d) for d in catalog_dirs()]
-        dirs = [str(Path(d)) for d in rules] + shipped[1:] if rules else shipped
+        """A directory named twice (`--rules D --rules D/`, or the shipped sanity rules) is loaded once,
+        where it first appears: loading it again would define each of its rules twice."""
+        dirs = [Path(d) for d in rules] + catalog_dirs()[1:] if rules else catalog_dirs()
+        once: dict[Path, str] = {}
+        for d in dirs:
+            once.setdefault(d.resolve(), str(d))
         jurisdiction_pack(jurisdiction)  # an unknown name fails here, naming the known ones
-        return cls(tuple(dirs), jurisdiction)
+        return cls(tuple(once.values()), jurisdiction)
 
     def load(self) -> Catalog:
         return load_catalog([Path(d) for d in self.dirs], extra_files=[jurisdiction_pack(self.jurisdiction)])

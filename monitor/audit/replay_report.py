@@ -8,7 +8,7 @@ import json
 from html import escape
 
 from .replay import Change, ReplayResult
-from .report import files_html, page, plural, recovery_lines, table, verdict_html
+from .report import files_html, files_json, page, plural, recovery_lines, table, verdict_html
 from .timefmt import iso
 
 CSV_FIELDS = [
@@ -120,6 +120,7 @@ def render_csv(result: ReplayResult) -> str:
 def render_json(result: ReplayResult) -> str:
     t = result.tally
     doc = {
+        "files": files_json(t.recovery),
         "catalog": list(result.catalog.dirs),
         "jurisdiction": result.catalog.jurisdiction,
         "frames": t.frames,

@@ -159,8 +159,9 @@ def render_csv(tally: Tally) -> str:
     return out.getvalue()
 
 
-def render_json(tally: Tally, agg: Aggregates, filters: Filters) -> str:
-    files = [
+def files_json(files: list[FileRecovery]) -> list[dict]:
+    """How much of each file was read, for the audit's and the replay's JSON alike."""
+    return [
         {
             "path": str(f.path),
             "state": file_state(f),
@@ -170,10 +171,13 @@ def render_json(tally: Tally, agg: Aggregates, filters: Filters) -> str:
             "skipped": f.skipped,
             "stopped_by": f.stopped_by,
         }
-        for f in tally.recovery
+        for f in files
     ]
+
+
+def render_json(tally: Tally, agg: Aggregates, filters: Filters) -> str:
     doc = {
-        "files": files,
+        "files": files_json(tally.recovery),
         "filters": filters.describe(),
         "frames": tally.frames,
         "decisions": {d: tally.decisions[d] for d in ("approve", *(k.value for k in Kind))},  # zeros too

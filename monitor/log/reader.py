@@ -116,18 +116,27 @@ class RecoveryReport:
 def log_files(paths: Union[PathLike, Iterable[PathLike]]) -> list[Path]:
     """Expand a file, a directory (its *.mcap, by name: rotation names sort in time) or a list of both.
 
-    A file named twice (a directory and one of its files) is read once, where it first appears.
+    A directory among a directory's *.mcap entries is expanded in turn, as `discern audit` does; a file
+    named twice (a directory and one of its files) is read once, where it first appears.
     """
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
     files: list[Path] = []
     seen: set[Path] = set()
+
+    def add(p: Path) -> None:
+        key = p.resolve()
+        if key in seen:
+            return
+        seen.add(key)
+        if p.is_dir():
+            for entry in sorted(p.glob("*.mcap")):
+                add(entry)
+        else:
+            files.append(p)
+
     for p in map(Path, paths):
-        for f in sorted(p.glob("*.mcap")) if p.is_dir() else [p]:
-            key = f.resolve()
-            if key not in seen:
-                seen.add(key)
-                files.append(f)
+        add(p)
     return files
 
 
