@@ -122,6 +122,9 @@ class Catalog:
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
     words: dict[str, str] = field(default_factory=dict, repr=False)  # a constant's English (`%! term name :: "..."`)
     _slices: dict[frozenset[str], tuple[list[ast.AST], frozenset[str]]] = field(default_factory=dict, repr=False)
+    _within: dict[frozenset[str], list[ast.AST]] = field(default_factory=dict, repr=False)
+    _outside: dict[tuple[frozenset[str], Optional[frozenset[str]]], list[tuple[str, int]]] = field(
+        default_factory=dict, repr=False)
     _deriving: dict[tuple[str, int, Optional[Symbol]], list[CompiledRule]] = field(default_factory=dict, repr=False)
 
     @cached_property
@@ -180,6 +183,29 @@ class Catalog:
         saves its grounding cost (about 10 us a rule).
         """
         return self._slice(given)[0]
+
+    def rules_within(self, present: frozenset[str]) -> list[ast.AST]:
+        """The catalog's facts and every rule whose positive body needs only predicates in `present`.
+
+        With `present` the predicates that have atoms in the frame's answer set, this is all that can fire:
+        a rule that needs an absent predicate has a false body. Cut to this, a KITTI frame grounds about
+        150 statements instead of 215 (presence.py says when a guess at `present` may be trusted).
+        """
+        found = self._within.get(present)
+        if found is None:
+            have = present | self.fact_predicates
+            found = self._within[present] = self.facts + [r.statement for r in self.compiled if r.needs <= have]
+        return found
+
+    def derived_outside(self, present: frozenset[str], within: Optional[frozenset[str]] = None) -> list[tuple[str, int]]:
+        """Signatures that `rules_within(within)` (by default `present`) can derive and that are not in `present`."""
+        key = (present, within)
+        found = self._outside.get(key)
+        if found is None:
+            have = (present if within is None else within) | self.fact_predicates
+            found = self._outside[key] = sorted({r.signature for r in self.compiled
+                                                 if r.needs <= have and r.signature[0] not in present})
+        return found
 
     def defined_in(self, given: frozenset[str]) -> frozenset[str]:
         """The predicates that the catalog's facts or the slice's rules for these predicates define.

@@ -1,6 +1,7 @@
 """Clingo Controls made ready in idle time, so that a frame only pays for its own facts.
 
-A frame's Control needs the catalog slice for the predicates its facts use.
+A frame's Control needs the catalog's rules for the predicates its answer set
+is expected to have (presence.py), a set most frames of a vehicle share.
 Making one (a new Control, about 200 statements added), clingo's rewriting of
 those statements, and freeing the Control after the verdict are a third or more
 of a small frame's decision, and none of it depends on the facts themselves. A
@@ -25,7 +26,7 @@ SPENT_HELD = 8  # used Controls held for `prepare` to free; past this, freed at 
 
 class PreparedControls:
     def __init__(self, program_for: Callable[[frozenset[str]], Iterable[ast.AST]], constant: str = ""):
-        """`program_for`: the statements a slice needs; `constant`: text every frame's program has as well."""
+        """`program_for`: the statements for a set of predicates; `constant`: text every frame's program has as well."""
         self._program_for = program_for
         self._constant = constant
         self._recent: OrderedDict[frozenset[str], None] = OrderedDict()
@@ -34,7 +35,7 @@ class PreparedControls:
         self._idle_aware = False  # whether anyone calls `prepare`: until then a used Control is freed at once
 
     def take(self, names: frozenset[str]) -> clingo.Control:
-        """A Control holding the slice for these predicate names: the ready one if there is one."""
+        """A Control holding the statements for these predicate names: the ready one if there is one."""
         self._recent[names] = None
         self._recent.move_to_end(names)
         while len(self._recent) > RECENT_SLICES:

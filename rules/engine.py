@@ -25,6 +25,7 @@ from .controls import PreparedControls
 from .fact_text import FACT_NAME
 from .facts import Params, scene_facts
 from .justify import AnswerSet, Prover, rule_ids, show_statements
+from .presence import PresenceSlicer
 from .render import render_text
 from .scene import Action, Scene
 from .verdict import Decision, Justification, JustificationNode, Verdict
@@ -105,7 +106,8 @@ class Reasoner:
         self.providers = list(providers) if providers is not None else _default_providers()
         self._solve_hook = solve_hook
         self._tagger = FrameTagger(self.catalog, shared={"param"})
-        self._controls = PreparedControls(self.catalog.program_for, self._param_facts)
+        self._controls = PreparedControls(self.catalog.rules_within, self._param_facts)
+        self.slicer = PresenceSlicer(self.catalog, self._controls)
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
         proposed = Action(proposed)
@@ -135,17 +137,19 @@ class Reasoner:
         return [SolvedFrame(FrameAnswers(batch, k), Action(action)) for k, action in enumerate(proposed)]
 
     def _solve_text(self, text: str, proposed: Action) -> SolvedFrame:
-        given = frozenset(FACT_NAME.findall(text))
-        names = self._param_names | given
-        ctl = self._controls.take(names)
-        ctl.add("base", [], text)
-        ctl.ground([("base", [])])
+        names = self.predicates_of(text)
+        given = names - self._param_names  # the frame's own: the parameters are not in its fact text
+        ctl = self.slicer.ground(names, text)
         if self._solve_hook is not None:
             self._solve_hook()
         # A single frame's few permitted and recommended atoms are read one by one: a solve call to read them
         # shown would first prepare the whole ground program (measured: 0.27 against 0.17 ms on KITTI frames,
         # 0.67 against 0.13 ms at 200 objects). A batch reads them shown, all frames in one solve.
         return SolvedFrame(AnswerSet(ctl, text, self.catalog.defined_in(names), given), proposed, owns=ctl)
+
+    def predicates_of(self, text: str) -> frozenset[str]:
+        """The predicates a frame's program uses: its facts' (`frame_facts`) and the parameters'."""
+        return self._param_names.union(FACT_NAME.findall(text))
 
     def frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
         """The frame's own facts: the scene, the proposal, and what the providers read from the history.
