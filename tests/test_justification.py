@@ -71,6 +71,9 @@ def test_intents_lane_kinds_and_zero_offsets_read_as_english(reasoner):
     beside = reasoner.decide(scene(lanes=2, objects=[obj("car", 3.5, 0, lane=2, vy=10)]), "change_lane_right", explain=True)
     assert "car 1 is level with the ego and 3.5 m to the right" in beside.justification.text
     assert "car 1 is in the same-direction lane 2" in beside.justification.text
+    pulling_out = obj("car", 3.5, 6, lane=1, kind="shoulder", vy=8, indicator="left")
+    signalling = reasoner.decide(scene(lane=2, lanes=2, other_lanes=("shoulder",), objects=[pulling_out]), "accelerate")
+    assert "car 1 has its left lights on" in signalling.justification.text
 
 
 def test_a_misread_stop_sign_that_is_not_there_reads_without_a_placeholder_speed(reasoner):

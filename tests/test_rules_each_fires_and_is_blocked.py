@@ -342,6 +342,7 @@ def test_a_turn_is_not_made_at_speed_or_before_the_intersection():
     verdict = decide(far_and_fast, "turn_left")
     assert verdict.decision.value == "override" and verdict.action.value != "turn_left"
     assert {"tl.too_fast", "tl.before_intersection"} <= set(verdict.rules)
+    assert verdict.action.value == "cruise" and "acc.slow_for_turn" in decide(far_and_fast, "accelerate").rules
     near_and_fast = scene(speed=15, limit=20, intent="enter_left_lane",
                           intersection={"type": "signaled", "stage": "arriving", "distance": 25})
     assert decide(near_and_fast, "cruise").action.value == "brake"
