@@ -52,7 +52,15 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
     jurisdiction = jurisdiction or getattr(args, "jurisdiction", "us")
     try:
         if getattr(args, "rules", None):
-            catalog = load_catalog([Path(args.rules)] + catalog_dirs()[1:], extra_files=[jurisdiction_pack(jurisdiction)])
+            directory = Path(args.rules)
+            if directory.is_dir() and not any(directory.glob("*.lp")):
+                raise UserError(f"rules directory {directory} has no *.lp files: there are no rules to judge by")
+            catalog = load_catalog([directory] + catalog_dirs()[1:], extra_files=[jurisdiction_pack(jurisdiction)])
+            # Without driving rules every action is "forbidden by no rule": a verdict that means nothing.
+            if not any(Path(rule.file).parent == directory for rule in catalog.driving_rules()):
+                raise UserError(
+                    f"rules directory {directory} defines no driving rules (no `%! rule` other than def.* and ent.*)"
+                )
             return Reasoner(catalog=catalog, jurisdiction=jurisdiction)
         return reasoner_for(jurisdiction)
     except (CatalogError, ValueError) as exc:
@@ -64,16 +72,16 @@ def cmd_check(args: argparse.Namespace) -> int:
     try:
         if "scene" in data:
             proposal = Proposal.model_validate(data)
-            scene, action = proposal.scene, proposal.action
+            scene, action, vehicle = proposal.scene, proposal.action, proposal.vehicle
             if args.proposed:
                 action = Action(args.proposed)
         else:
             if not args.proposed:
                 raise UserError(f"{args.scene}: a bare scene needs --proposed ACTION")
-            scene, action = Scene.model_validate(data), Action(args.proposed)
+            scene, action, vehicle = Scene.model_validate(data), Action(args.proposed), "ego"
     except ValidationError as exc:
         raise UserError(f"{args.scene}: invalid scene:\n{describe_errors(exc)}") from None
-    verdict = _reasoner(args).decide(scene, action, explain=True, shadow=args.shadow)
+    verdict = _reasoner(args).decide(scene, action, explain=True, shadow=args.shadow, vehicle=vehicle)
     if args.explain == "json":
         output = render_json(verdict)
     elif args.explain == "html":
@@ -83,7 +91,10 @@ def cmd_check(args: argparse.Namespace) -> int:
         if scene.notes:
             output += "\nnotes:\n" + "\n".join(f"  {n}" for n in scene.notes)
     if args.out:
-        Path(args.out).write_text(output, encoding="utf-8")
+        try:
+            Path(args.out).write_text(output, encoding="utf-8")
+        except OSError as exc:
+            raise UserError(f"--out {args.out}: cannot write: {exc.strerror or exc}") from None
         print(f"{verdict.justification.summary}\nwritten to {args.out}")
     else:
         print(output)
@@ -143,7 +154,14 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 def cmd_schema(args: argparse.Namespace) -> int:
     from discern.rules.schema import write_schemas
 
-    for path in write_schemas(Path(args.out)):
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: not a directory (the schemas are written into one)")
+    try:
+        written = write_schemas(out)
+    except OSError as exc:
+        raise UserError(f"--out {out}: cannot write the schemas: {exc.strerror or exc}") from None
+    for path in written:
         print(path)
     return 0
 

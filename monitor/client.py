@@ -5,14 +5,15 @@
         verdict = monitor.check(scene, "change_lane_left", timeout=0.1)
         execute(verdict.action)
 
-`check` never raises for a missing or slow monitor: it returns a fail-safe
-verdict (brake, failsafe=True, `error` saying why), exactly as the monitor
-itself does, so the planner's loop has one code path.
+`check` never raises for a missing or slow monitor, nor for a bad scene: it
+returns a verdict (a fail-safe brake with `error` saying why, if need be),
+exactly as the monitor itself does, so the planner's loop has one code path.
 """
 
 from __future__ import annotations
 
 import atexit
+import json
 import logging
 import threading
 import time
@@ -20,18 +21,34 @@ from pathlib import Path
 from typing import Callable, Iterable, Optional, Union
 
 import zenoh
+from pydantic import ValidationError
 
-from discern.rules.scene import Action, Proposal, Scene
+from discern.rules.scene import SCHEMA_VERSION, Action, Proposal, Scene
 from discern.rules.verdict import Verdict
 
 from . import keys
-from .config import DEFAULT_ENDPOINT, ZenohSettings
-from .protocol import RULE_NO_ANSWER, decode_verdict, encode, failsafe_verdict
+from .config import BUDGET_MAX_MS, DEFAULT_ENDPOINT, ZenohSettings, check_number
+from .protocol import (
+    RULE_BAD_INPUT,
+    RULE_NO_ANSWER,
+    decode_verdict,
+    describe_validation_error,
+    encode,
+    failsafe_verdict,
+    peek_frame,
+)
 
 log = logging.getLogger(__name__)
 JSON = zenoh.Encoding.APPLICATION_JSON
 STYLES = ("query", "pubsub")
 ZENOH_TIMEOUT = "Timeout"  # the error reply zenoh itself gives a query whose timeout expired
+TIMEOUT_MAX_S = 2 * BUDGET_MAX_MS / 1000  # twice the longest budget a monitor may have: no verdict comes later
+
+
+def check_timeout(timeout) -> float:
+    """A wait zenoh and threading can take: finite, positive and bounded (inf or 1e12 overflow them)."""
+    check_number("timeout", timeout, 0, TIMEOUT_MAX_S, unit=" s", above=True)
+    return float(timeout)
 
 
 class Monitor:
@@ -64,7 +81,7 @@ class Monitor:
             raise ValueError(f"style {style!r} is not one of {', '.join(STYLES)}")
         self.vehicle = vehicle
         self.style = style
-        self.timeout = timeout
+        self.timeout = check_timeout(timeout)
         self._on_verdict = on_verdict
         if connect is None and config_file is None:
             connect = [DEFAULT_ENDPOINT]
@@ -92,30 +109,42 @@ class Monitor:
         timeout: Optional[float] = None,
         explain: bool = False,
     ) -> Verdict:
-        """The monitor's verdict on doing `action` in `scene`; a fail-safe one if none arrives in time."""
-        proposal = self._proposal(scene, action, explain)
-        timeout = self.timeout if timeout is None else timeout
+        """The monitor's verdict on doing `action` in `scene`; a fail-safe one if none arrives in time.
+
+        An invalid proposal is sent all the same: the monitor refuses it by name, counts it and logs it.
+        Only one that cannot even be sent, or a bad `timeout`, gets a fail-safe made here, unasked.
+        """
+        try:
+            proposal, payload, problem = self._encode(scene, action, explain)
+        except ValueError as exc:
+            return failsafe_verdict(self.vehicle, str(exc), RULE_BAD_INPUT)
+        if proposal is not None:
+            labels = dict(frame_id=proposal.scene.frame_id, proposed=proposal.action, timestamp=proposal.scene.timestamp)
+        else:  # what a glance at the payload gives, so that a fail-safe still names its frame
+            frame_id, proposed = peek_frame(payload)
+            labels = dict(frame_id=frame_id, proposed=proposed)
+        try:
+            timeout = self.timeout if timeout is None else check_timeout(timeout)
+        except ValueError as exc:
+            return failsafe_verdict(self.vehicle, f"not sent: {exc}", RULE_NO_ANSWER, **labels)
         if self.style == "query":
-            verdict = self._query(proposal, timeout)
+            verdict = self._query(payload, timeout)
             if isinstance(verdict, Verdict) and self._on_verdict is not None:
                 self._on_verdict(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
         else:
-            verdict = self._publish_and_wait(proposal, timeout)
+            verdict = self._publish_and_wait(payload, labels["frame_id"], timeout)
         if isinstance(verdict, Verdict):
             return verdict
-        reason = verdict or f"no verdict from a monitor on {self._key()} within {timeout * 1000:g} ms"
-        return failsafe_verdict(
-            self.vehicle,
-            reason,
-            RULE_NO_ANSWER,
-            proposed=proposal.action,
-            frame_id=proposal.scene.frame_id,
-            timestamp=proposal.scene.timestamp,
-        )
+        if problem is not None:  # the monitor would have refused it: say why first
+            return failsafe_verdict(self.vehicle, f"{problem}; and {verdict}", RULE_BAD_INPUT, **labels)
+        return failsafe_verdict(self.vehicle, verdict, RULE_NO_ANSWER, **labels)
 
     def publish(self, scene: Union[Scene, dict], action: Union[Action, str], *, explain: bool = False) -> None:
-        """Send a proposal without waiting; its verdict goes to `on_verdict`."""
-        self._publisher.put(encode(self._proposal(scene, action, explain)))
+        """Send a proposal without waiting; its verdict (a refusal, if it is invalid) goes to `on_verdict`.
+
+        Raises ValueError only for one that cannot be written as JSON at all.
+        """
+        self._publisher.put(self._encode(scene, action, explain)[1])
 
     def wait_for_monitor(self, timeout: float = 2.0) -> bool:
         """True once a monitor serving this vehicle is reachable; for a planner's start-up check."""
@@ -145,25 +174,37 @@ class Monitor:
 
     # -- internals -------------------------------------------------------------
 
-    def _key(self) -> str:
-        return keys.check_key(self.vehicle) if self.style == "query" else keys.proposal_key(self.vehicle)
+    def _encode(
+        self, scene: Union[Scene, dict], action: Union[Action, str], explain: bool
+    ) -> tuple[Optional[Proposal], bytes, Optional[str]]:
+        """The proposal, its JSON, and why it is invalid (proposal None); ValueError if it cannot be JSON."""
+        try:
+            proposal = Proposal(vehicle=self.vehicle, action=action, scene=scene, explain=explain)
+            return proposal, encode(proposal), None
+        except ValidationError as exc:
+            problem = f"schema violation: {describe_validation_error(exc)}"
+        if isinstance(scene, Scene):
+            scene = scene.model_dump(mode="json", by_alias=True)
+        data = dict(version=SCHEMA_VERSION, vehicle=self.vehicle, action=action, scene=scene, explain=explain)
+        try:
+            return None, json.dumps(data).encode(), problem
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{problem}; not sent: it cannot be written as JSON: {exc}") from None
 
-    def _proposal(self, scene: Union[Scene, dict], action: Union[Action, str], explain: bool) -> Proposal:
-        if isinstance(scene, dict):
-            scene = Scene.model_validate(scene)
-        return Proposal(vehicle=self.vehicle, action=Action(action), scene=scene, explain=explain)
-
-    def _query(self, proposal: Proposal, timeout: float) -> Union[Verdict, str, None]:
-        """The first verdict that arrives, else why none did (None: nothing in time)."""
-        replies = self.session.get(
-            keys.check_key(self.vehicle), payload=encode(proposal), encoding=JSON, timeout=timeout
-        )
+    def _query(self, payload: bytes, timeout: float) -> Union[Verdict, str]:
+        """The first verdict that arrives, else why none did."""
+        key = keys.check_key(self.vehicle)
+        started = time.monotonic()
+        replies = self.session.get(key, payload=payload, encoding=JSON, timeout=timeout)
         problem = None
+        timed_out = False
         try:
             for reply in replies:
                 if reply.ok is None:
                     error = reply.err.payload.to_string()
-                    if error != ZENOH_TIMEOUT:  # zenoh's own reply when `timeout` expires: no answer
+                    if error == ZENOH_TIMEOUT:  # zenoh's own reply when `timeout` expires: no answer
+                        timed_out = True
+                    else:
                         problem = f"the monitor replied with an error: {error[:200]}"
                     continue
                 try:
@@ -172,20 +213,30 @@ class Monitor:
                     problem = f"unreadable verdict from the monitor: {str(exc).splitlines()[0]}"
         except zenoh.ZError:
             pass
-        return problem
+        if problem is not None:
+            return problem
+        if timed_out or time.monotonic() - started >= timeout:
+            return f"no verdict from a monitor on {key} within {timeout * 1000:g} ms"
+        # Zenoh ends a query at once when nothing on its route serves the key.
+        return f"no monitor answered on {key}: none that serves vehicle {self.vehicle!r} is reachable"
 
-    def _publish_and_wait(self, proposal: Proposal, timeout: float) -> Optional[Verdict]:
-        frame = proposal.scene.frame_id
+    def _publish_and_wait(self, payload: bytes, frame: Optional[int], timeout: float) -> Union[Verdict, str]:
+        """The verdict of this frame, else why none came."""
         slot = [threading.Event(), None]
         with self._lock:
             self._waiting[frame] = slot
         try:
-            self._publisher.put(encode(proposal))
+            self._publisher.put(payload)
             slot[0].wait(timeout)
-            return slot[1]
         finally:
             with self._lock:
                 self._waiting.pop(frame, None)
+        if slot[1] is not None:
+            return slot[1]
+        key = keys.proposal_key(self.vehicle)
+        if not self._publisher.matching_status.matching:
+            return f"no monitor answered on {key}: none that serves vehicle {self.vehicle!r} is reachable"
+        return f"no verdict from a monitor on {key} within {timeout * 1000:g} ms"
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         try:

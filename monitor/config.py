@@ -1,8 +1,8 @@
 """Monitor settings and the zenoh session configuration built from them.
 
 Defaults are safe for a single machine: peer mode, listening on loopback
-only, multicast scouting off. Deployments across machines pass a zenoh JSON5
-config file (TLS, access control, routers) and/or --connect endpoints.
+only, multicast and gossip scouting off. Deployments across machines pass a
+zenoh JSON5 config file (TLS, access control, routers) and/or --connect endpoints.
 """
 
 from __future__ import annotations
@@ -54,7 +54,9 @@ class ZenohSettings:
         """The zenoh Config: the file if given, then the explicit settings on top.
 
         Without a file, unset values take Discern's safe defaults (loopback only,
-        no multicast scouting) rather than zenoh's (all interfaces, multicast on).
+        no multicast or gossip scouting) rather than zenoh's (all interfaces, both on).
+        Gossip would let any session connected to two monitors introduce them to each
+        other: they would stay linked and answer each other's vehicles.
         """
         if self.config_file is not None:
             try:
@@ -85,6 +87,8 @@ class ZenohSettings:
             multicast = False
         if multicast is not None:
             config.insert_json5("scouting/multicast/enabled", json.dumps(multicast))
+        if not from_file:
+            config.insert_json5("scouting/gossip/enabled", "false")
         return config
 
 

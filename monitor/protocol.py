@@ -125,18 +125,28 @@ def failsafe_verdict(
     """The conservative answer owed when no proper decision can be made in time.
 
     Bad input always brakes; a late or failed decision takes the most cautious
-    action known to be permitted for this vehicle, else brakes.
+    action known to be permitted for this vehicle, else brakes. In shadow mode the
+    monitor judges and never enforces: the proposed action stands (a veto) and the
+    fail-safe action is only recommended. A proposal that could not be read has no
+    action to keep, so there the fail-safe action stands, and the summary says why.
     """
-    action = Action.brake if rule == RULE_BAD_INPUT else most_cautious(permitted)
-    summary = f"fail-safe {action.value}: {reason}"
+    safe = Action.brake if rule == RULE_BAD_INPUT else most_cautious(permitted)
+    if shadow and proposed is not None:
+        decision, action = Decision.veto, proposed
+        summary = f"fail-safe veto of {proposed.value} (shadow mode, not enforced; would {safe.value}): {reason}"
+    else:
+        decision, action = Decision.override, safe
+        summary = f"fail-safe {safe.value}: {reason}"
+        if shadow:
+            summary += " (shadow mode, but no proposed action could be read to keep)"
     return Verdict(
         vehicle=vehicle[:140],
         frame_id=frame_id,
         timestamp=timestamp,
-        decision=Decision.override,
+        decision=decision,
         proposed=proposed,
         action=action,
-        recommended=action,
+        recommended=safe,
         permitted=list(permitted),
         rules=[rule],
         justification=Justification(summary=summary, text=summary),

@@ -2,8 +2,18 @@
 
 The sanity layer reasons over time (a car that vanished, a speed that jumped),
 so each vehicle keeps a short window of its recent scenes; frame ids must rise
-so the window is never fed a stale or replayed frame. The window lives in the
-vehicle's decision worker; the permitted-action memory in the monitor process.
+within an episode so the window is never fed a stale or replayed frame. The
+window lives in the vehicle's decision worker; the permitted-action memory in
+the monitor process.
+
+A new episode (a restarted planner, a reset simulation) starts the window
+afresh and its frame ids may start again. It is recognised by a frame that goes
+back in both frame id and scene time from past the episode's first frame to
+that first frame or before it: a replayed or late frame of the episode went out
+after its first frame, in both id and time, so it stays refused. (A replay of
+the episode's very first frame cannot be told from a restart that repeats it
+exactly, and is admitted.) Without scene timestamps only a silence longer than
+the window starts afresh.
 """
 
 from __future__ import annotations
@@ -24,15 +34,17 @@ class VehicleState:
         self.window_s = window_s
         self.frames: deque[tuple[float, Scene]] = deque(maxlen=MAX_FRAMES)
         self.last_frame_id: Optional[int] = None
+        self.last_timestamp = 0.0
         self.last_arrival = float("-inf")
+        self.episode_start = (0, 0.0)  # frame id and scene time of the episode's first frame
 
     def admit(self, scene: Scene, now: float) -> tuple[Scene, ...]:
         """Check the frame id, return the history (oldest first) and remember the scene.
 
-        A vehicle silent for longer than the window starts afresh, so a planner
-        that restarts with frame 0 is accepted again after the window.
+        A vehicle silent for longer than the window, or starting a new episode,
+        starts afresh: its frame ids may start again.
         """
-        if now - self.last_arrival > self.window_s:
+        if now - self.last_arrival > self.window_s or self._restarts(scene):
             self.frames.clear()
             self.last_frame_id = None
         last = self.last_frame_id
@@ -42,12 +54,24 @@ class VehicleState:
                 f"frame_id: {what} frame {scene.frame_id}, the last frame judged for this vehicle was {last}",
                 "order",
             )
+        if last is None or 0 < scene.timestamp < self.last_timestamp:  # the clock going back is a new episode too
+            self.episode_start = (scene.frame_id, scene.timestamp)
         self._evict(scene, now)
         history = tuple(s for _, s in self.frames)
         self.frames.append((now, scene))
         self.last_frame_id = scene.frame_id
+        self.last_timestamp = scene.timestamp
         self.last_arrival = now
         return history
+
+    def _restarts(self, scene: Scene) -> bool:
+        """Does the scene begin a new episode? From past the episode's first frame back to it, in id and time."""
+        first_id, first_time = self.episode_start
+        return (
+            self.last_frame_id is not None
+            and scene.frame_id <= first_id < self.last_frame_id
+            and 0 < scene.timestamp <= first_time < self.last_timestamp
+        )
 
     def _evict(self, scene: Scene, now: float) -> None:
         frames = self.frames

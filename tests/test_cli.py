@@ -186,3 +186,39 @@ def test_planner_example_refuses_bad_arguments_in_one_line(capsys, arguments, me
     assert main(["planner-example", "--frames", "1", *arguments]) == 2
     [line] = capsys.readouterr().err.splitlines()
     assert line.startswith(f"discern planner-example: error: {message}") and ".rs:" not in line
+
+
+def test_check_names_the_vehicle_of_a_proposal_file(tmp_path, capsys):
+    data = {"version": 1, "vehicle": "car_7", "action": "cruise", "scene": good_dict()}
+    assert main(["check", write(tmp_path, data), "--explain", "json"]) == 0
+    assert json.loads(capsys.readouterr().out)["vehicle"] == "car_7"
+
+
+@pytest.mark.parametrize("files, message", [
+    ({}, "has no *.lp files: there are no rules to judge by"),
+    ({"notes.txt": "not rules"}, "has no *.lp files: there are no rules to judge by"),
+    ({"empty.lp": "% nothing here\n"}, "defines no driving rules (no `%! rule` other than def.* and ent.*)"),
+    ({"defs.lp": "%! rule def.only\n%! says A definition.\n%! source test\nthing(a).\n"},
+     "defines no driving rules (no `%! rule` other than def.* and ent.*)"),
+])
+def test_a_rules_directory_without_driving_rules_is_refused(tmp_path, capsys, files, message):
+    rules = tmp_path / "emptyrules"
+    rules.mkdir()
+    for name, text in files.items():
+        (rules / name).write_text(text)
+    assert main(["check", write(tmp_path, good_dict()), "--proposed", "cruise", "--rules", str(rules)]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == f"discern: error: rules directory {rules} {message}\n"
+
+
+@pytest.mark.parametrize("command, target, message", [
+    (["check", "{good}", "--proposed", "cruise", "--out", "{target}"], "missing/x.txt", "cannot write: No such file or directory"),
+    (["check", "{good}", "--proposed", "cruise", "--out", "{target}"], "", "cannot write: Is a directory"),
+    (["schema", "--out", "{target}"], "scene.json", "not a directory (the schemas are written into one)"),
+    (["schema", "--out", "{target}"], "scene.json/sub", "cannot write the schemas: Not a directory"),
+])
+def test_an_out_path_that_cannot_be_written_is_one_error_line(tmp_path, capsys, command, target, message):
+    good = write(tmp_path, good_dict())
+    path = tmp_path / target
+    assert main([a.format(good=good, target=path) for a in command]) == 2
+    assert capsys.readouterr().err == f"discern: error: --out {path}: {message}\n"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import logging
 import resource
+import shutil
 import signal
 import time
 
@@ -287,3 +288,28 @@ def test_a_directory_named_like_a_log_is_expanded_not_opened_as_a_file(tmp_path)
     nested.mkdir()
     (nested / "c.mcap").write_bytes(b"")
     assert log_files([tmp_path, nested / "c.mcap"]) == [tmp_path / "a.mcap", nested / "c.mcap"]
+
+
+def test_a_deleted_log_directory_is_noticed_recreated_and_its_lost_records_counted(tmp_path, caplog):
+    """Writes into a deleted file fail silently: the writer must notice at its next flush, not lose the log."""
+    directory = tmp_path / "log"
+    writer = McapLogWriter(LogSettings(directory=directory, flush_seconds=1.0), "gone")
+
+    def write(frames) -> None:
+        for f in frames:
+            writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 4)))
+
+    with caplog.at_level(logging.INFO, logger="discern.monitor.log.writer"):
+        write(range(0, 5))
+        # Just after a flush: the next one, a second away, is the first to see the directory gone.
+        assert wait_until(lambda: len(list(read_log(writer.files))) == 5, step=0.01)
+        shutil.rmtree(directory)
+        write(range(5, 10))  # into the unlinked file
+        assert wait_until(lambda: len(writer.files) == 2 and writer.files[1].exists())
+        write(range(10, 15))
+        writer.close()
+    assert writer.dropped == 5 and writer.records == 10  # the first file's 5, then the new one's
+    assert [r.proposal.scene.frame_id for r in read_log(directory)] == list(range(10, 15))
+    errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR]
+    assert len(errors) == 1 and f"{writer.files[0].name} was deleted or moved away" in errors[0]
+    assert f"logging again, to {writer.files[1]}" in caplog.text

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+import math
 import threading
 
 import pytest
 import zenoh
 
+from discern.monitor.client import Monitor
 from discern.monitor.config import ZenohSettings
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import read_log
@@ -190,6 +192,35 @@ def test_refusals_are_counted_and_good_proposals_still_judged(session, monitor):
     assert report["errors"] >= 3 and report["errors_by_kind"]["json"] >= 1 and report["errors_by_kind"]["schema"] >= 1
     assert report["failsafes"] >= 2 and report["approvals"] >= 1
     assert proc.proc.poll() is None
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_the_client_sends_a_bad_scene_on_so_the_monitor_refuses_counts_and_logs_it(monitor, log_dir, style):
+    ep, _ = monitor
+    vehicle = f"client_bad_{style}"
+    good = json.loads(highway_scene(1, 3).model_dump_json(by_alias=True))
+    cases = [
+        (good | {"ego": good["ego"] | {"speed": math.nan}}, "cruise", "scene.ego.speed: Input should be a finite number"),
+        (good | {"ego": good["ego"] | {"lane": 9}}, "cruise", "ego.lane 9 does not exist"),
+        (good, "fly", "action: unknown value 'fly'"),
+    ]
+    [before] = status(ep, "bad")
+    with Monitor(vehicle, connect=[ep], timeout=5, style=style) as client:
+        assert client.wait_for_monitor(timeout=5)
+        wait_until(lambda: False, timeout=0.3)  # let the verdict subscription reach the monitor
+        verdicts = [client.check(scene, action) for scene, action, _ in cases]
+    for verdict, (_, _, expected) in zip(verdicts, cases):
+        assert verdict.failsafe and verdict.rules == ["monitor.bad_input"] and verdict.action is Action.brake
+        assert expected in verdict.error, verdict.error
+        assert verdict.latency_ms is not None  # timed by the monitor: its answer, not one made up by the client
+    wanted = before["errors_by_kind"].get("schema", 0) + len(cases)
+    assert wait_until(lambda: status(ep, "bad")[0]["errors_by_kind"].get("schema", 0) >= wanted)
+
+    def rejected():  # the log is read while the monitor writes it
+        records = [r.rejected for r in read_log(log_dir) if r.vehicle == vehicle and r.kind == "rejected"]
+        return records if len(records) == len(cases) else None
+
+    assert [expected in r.error for r, (_, _, expected) in zip(wait_until(rejected), cases)] == [True] * len(cases)
 
 
 def test_failsafe_picks_the_most_cautious_permitted_action():

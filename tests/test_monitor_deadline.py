@@ -165,3 +165,25 @@ def test_a_shed_frames_scene_is_in_the_window_of_the_next_decided_frame_and_the_
     replay = json.loads(out.read_text())
     assert code == 0, err
     assert replay["changes"] == [] and replay["frames"] + replay["skipped_failsafe"] == 4
+
+
+def test_a_shadow_monitors_failsafe_keeps_the_proposed_action_where_it_can_read_one():
+    """Shadow mode judges and never enforces: not even a missed deadline or a refused frame brakes the vehicle."""
+    proc, ep = serve("--id", "shadow_slow", "--shadow", "--budget-ms", str(BUDGET_MS),
+                     "--test-only-decision-delay-ms", str(DELAY_MS))
+    session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
+    try:
+        late = answer(ask(session, "shadowed", proposal("shadowed", highway_scene(0, 4), "accelerate")))
+        assert wait_until(lambda: status(ep, "shadow_slow")[0]["late_decisions"] == 1)  # the worker is idle again
+        replayed = answer(ask(session, "shadowed", proposal("shadowed", highway_scene(0, 4), "accelerate")))
+        garbage = answer(ask(session, "shadowed", b"not a proposal"))
+    finally:
+        session.close()
+        assert proc.stop() == 0, proc.output
+    for verdict, rule in ((late, RULE_DEADLINE), (replayed, "monitor.bad_input")):
+        assert verdict.decision is Decision.veto and verdict.action is Action.accelerate and verdict.shadow
+        assert verdict.failsafe and verdict.rules == [rule] and verdict.error and verdict.recommended is Action.brake
+        assert "shadow mode, not enforced; would brake" in verdict.justification.summary
+    assert replayed.error.startswith("frame_id: duplicate frame 0")
+    assert garbage.decision is Decision.override and garbage.action is Action.brake and garbage.proposed is None
+    assert garbage.justification.summary.endswith("(shadow mode, but no proposed action could be read to keep)")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import math
 import subprocess
 import sys
 import threading
@@ -115,13 +117,73 @@ def test_planner_example_drives_against_the_monitor(monitor):
     assert len(lines) == 4 and "approve" in lines[0]
 
 
+def test_the_documented_minimal_proposal_gets_the_documented_verdict(monitor):
+    """docs/protocol.md shows a proposal and its verdict: a real monitor must answer exactly that."""
+    import re
+
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+
+    doc = (REPO / "docs" / "protocol.md").read_text()
+    proposal = re.search(r"A minimal proposal:\n\n```json\n(.*?)```", doc, re.S).group(1)
+    abridged = re.search(r"Its verdict \(abridged.*?```json\n(.*?)```", doc, re.S).group(1)
+    documented = json.loads(abridged.replace("[...]", "[]"))
+    session = zenoh.open(ZenohSettings(listen=[], connect=[monitor]).to_zenoh())
+    try:
+        [reply] = [r.ok for r in session.get("discern/car_7/check", payload=proposal.encode(), timeout=10) if r.ok]
+    finally:
+        session.close()
+    answered = json.loads(reply.payload.to_bytes())
+    for verdict in (documented, answered):  # what the example abridges, and what varies run to run
+        verdict["justification"].pop("text")
+        verdict["justification"].pop("tree")
+        verdict.pop("latency_ms")
+    assert answered == documented
+
+
+def test_a_restarted_planner_is_judged_from_its_first_frame_again(monitor):
+    """Its frame ids and scene time go back: a new episode, not replayed frames."""
+    for run in range(2):
+        result = subprocess.run(
+            [sys.executable, "-m", "discern.monitor.commands", "planner-example", "--connect", monitor,
+             "--vehicle", "restarted", "--frames", "3", "--rate", "20"],
+            cwd=REPO, capture_output=True, text=True, timeout=60,
+        )
+        assert result.returncode == 0, f"run {run}:\n{result.stdout}{result.stderr}"  # 1: a fail-safe came back
+
+
 def test_without_a_monitor_the_client_returns_a_failsafe_in_time():
     with Monitor("lonely", connect=[endpoint(free_port())], timeout=0.2) as monitor:
         started = time.monotonic()
         verdict = monitor.check(highway_scene(0, 4), "accelerate")
         elapsed = time.monotonic() - started
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
-    assert "no verdict" in verdict.error and elapsed < 2.0
+    assert verdict.error == "no monitor answered on discern/lonely/check: none that serves vehicle 'lonely' is reachable"
+    assert elapsed < 2.0
+
+
+@pytest.mark.parametrize("timeout", [math.inf, math.nan, -1, 0, 1e12])
+def test_a_timeout_no_wait_can_take_is_refused_when_the_client_is_made(timeout):
+    with pytest.raises(ValueError, match=rf"^timeout must be a finite number above 0 s and at most 120 s, got {timeout}$"):
+        Monitor("impatient", connect=[endpoint(free_port())], timeout=timeout)
+
+
+def test_a_bad_timeout_given_to_check_gets_a_failsafe_naming_it():
+    with Monitor("impatient", connect=[endpoint(free_port())]) as monitor:
+        verdict = monitor.check(highway_scene(3, 4), "accelerate", timeout=-0.001)
+    assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
+    assert verdict.error == "not sent: timeout must be a finite number above 0 s and at most 120 s, got -0.001"
+    assert verdict.frame_id == 3 and verdict.proposed.value == "accelerate"
+
+
+def test_a_scene_that_cannot_be_sent_at_all_gets_a_local_failsafe_naming_the_problem():
+    scene = json.loads(highway_scene(0, 2).model_dump_json(by_alias=True)) | {"notes": [object()]}
+    with Monitor("sloppy", connect=[endpoint(free_port())]) as monitor:
+        verdict = monitor.check(scene, "cruise")
+    assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.bad_input"]
+    assert verdict.error.startswith("schema violation: scene.notes.0: ")
+    assert verdict.error.endswith("not sent: it cannot be written as JSON: Object of type object is not JSON serializable")
 
 
 def test_an_unreadable_verdict_becomes_a_client_side_failsafe():

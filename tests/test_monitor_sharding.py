@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import time
+
 import pytest
 
 from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
-from tests.monitor_process import DiscernProcess, endpoint, free_port, status, wait_until
+from tests.monitor_process import REPO, DiscernProcess, endpoint, free_port, serve, status, wait_until
 
 
 @pytest.fixture(scope="module")
@@ -61,3 +65,30 @@ def test_a_vehicle_no_monitor_serves_gets_a_client_side_failsafe(fleet):
     with Monitor("fleet_c_1", connect=[fleet], mode="client", timeout=0.3) as monitor:
         verdict = monitor.check(highway_scene(0, 4), "cruise")
     assert verdict.failsafe and verdict.rules == ["monitor.no_answer"]
+
+
+def test_a_peer_mode_planner_reaches_its_shard_through_the_router(fleet):
+    with Monitor("fleet_b_3", connect=[fleet], timeout=5) as monitor:  # peer, the client's default mode
+        verdict = monitor.check(highway_scene(0, 8), "cruise")
+    assert verdict.vehicle == "fleet_b_3" and not verdict.failsafe
+
+
+def test_a_session_connected_to_two_monitors_does_not_link_them():
+    """Gossip scouting would introduce the monitors to each other: both would then answer every vehicle."""
+    first, first_ep = serve("--id", "apart_1", "--budget-ms", "5000")
+    second, second_ep = serve("--id", "apart_2", "--budget-ms", "5000")
+    try:
+        both = subprocess.run(
+            [sys.executable, "-m", "discern.monitor.commands", "status", "--connect", first_ep, "--connect", second_ep],
+            cwd=REPO, capture_output=True, text=True, timeout=60,
+        )
+        assert both.returncode == 0, both.stderr
+        time.sleep(1)  # time enough for a gossiped link to form
+        assert [s["monitor_id"] for s in status(first_ep)] == ["apart_1"]
+        with Monitor("car_1", connect=[first_ep], timeout=5) as monitor:
+            assert not monitor.check(highway_scene(0, 4), "cruise").failsafe
+        assert [s["proposals"] for s in status(first_ep)] == [1]
+        assert [s["proposals"] for s in status(second_ep)] == [0]
+    finally:
+        first.stop()
+        second.stop()

@@ -30,7 +30,7 @@ def make_certificates(directory, names):
 MONITOR_CONFIG = """{
   mode: "peer",
   listen: { endpoints: ["tls/127.0.0.1:%(port)d"] },
-  scouting: { multicast: { enabled: false } },
+  scouting: { multicast: { enabled: false }, gossip: { enabled: false } },
   transport: { link: { tls: {
     root_ca_certificate: "%(dir)s/ca.pem",
     listen_private_key: "%(dir)s/monitor.key",
@@ -56,7 +56,7 @@ PLANNER_CONFIG = """{
   mode: "peer",
   connect: { endpoints: ["tls/localhost:%(port)d"] },
   listen: { endpoints: [] },
-  scouting: { multicast: { enabled: false } },
+  scouting: { multicast: { enabled: false }, gossip: { enabled: false } },
   transport: { link: { tls: {
     root_ca_certificate: "%(dir)s/ca.pem",
     connect_private_key: "%(dir)s/%(name)s.key",

@@ -51,6 +51,39 @@ def test_a_clock_going_back_clears_the_window():
     assert state.admit(frame(2, 0.5), now=0.1) == ()  # new episode, same planner
 
 
+def test_a_new_episode_going_back_in_frame_id_and_time_is_admitted_with_a_fresh_window():
+    state = VehicleState(window_s=2.0)
+    for run in range(2):  # a planner restarted at once: the same frames again
+        histories = [state.admit(frame(i, 1.0 + 0.05 * i), now=run + 0.05 * i) for i in range(3)]
+        assert [[s.frame_id for s in h] for h in histories] == [[], [0], [0, 1]]
+
+
+def test_an_old_frame_of_the_episode_is_refused_though_it_goes_back_in_frame_id_and_time():
+    state = VehicleState(window_s=2.0)
+    for i in range(10, 16):
+        state.admit(frame(i, 2.0 + 0.05 * i), now=0.05 * i)
+    for old in (14, 11):  # later than the episode's first frame (10): a replay, not a restart
+        with pytest.raises(InputError, match=f"out-of-order frame {old}"):
+            state.admit(frame(old, 2.0 + 0.05 * old), now=0.8)
+    assert [s.frame_id for s in state.admit(frame(16, 2.8), now=0.81)] == list(range(10, 16))
+
+
+def test_a_frame_back_in_id_or_time_alone_or_before_the_episode_moved_on_is_no_new_episode():
+    state = VehicleState(window_s=2.0)
+    state.admit(frame(5, 3.0), now=0.0)
+    state.admit(frame(6, 3.05), now=0.05)
+    with pytest.raises(InputError, match="out-of-order frame 0"):
+        state.admit(frame(0, 3.1), now=0.1)  # the id went back, the clock did not
+    with pytest.raises(InputError, match="duplicate frame 6"):
+        state.admit(frame(6, 1.0), now=0.15)  # the clock went back, the id did not
+    single = VehicleState(window_s=2.0)
+    single.admit(frame(5, 1.0), now=0.0)
+    with pytest.raises(InputError, match="duplicate frame 5"):  # indistinguishable from a replay: refused
+        single.admit(frame(5, 1.0), now=0.1)
+    with pytest.raises(InputError, match="out-of-order frame 3"):  # late: the episode had not moved past frame 5
+        single.admit(frame(3, 0.9), now=0.15)
+
+
 def test_the_window_is_bounded_whatever_the_rate():
     state = VehicleState(window_s=1e6)
     for i in range(MAX_FRAMES + 50):

@@ -9,7 +9,10 @@ loses at most that much and the file stays readable up to its last chunk
 A disk error (a full disk, a log directory gone) loses the current file, never
 the monitor: the records it held since the last flush and those written while
 no file can be opened are counted as dropped, the error is logged once, and a
-new file is tried at every flush until one opens.
+new file is tried at once and then at every flush until one opens. A deleted
+file (or directory) raises no error of its own: writes would go on into the
+unlinked file, lost. So every flush first checks that the file is still the one
+at its path, and treats it as a disk error if not; the directory is recreated.
 
 Files are named discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap: the run
 (one writer's life, its id also in the file's `discern` metadata) keeps a
@@ -20,6 +23,7 @@ the run's files from 0000.
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import queue
@@ -101,6 +105,7 @@ class McapLogWriter:
             except queue.Empty:
                 item = None
             if item is _STOP:
+                self._on_disk(self._check_file)
                 self._on_disk(self._finish_file)
                 return
             if item is not None:
@@ -111,10 +116,10 @@ class McapLogWriter:
             now = time.monotonic()
             if now >= next_flush:
                 next_flush = now + flush_every
-                if self._writer is None:  # lost to a disk error: try a new file
-                    self._on_disk(self._open_file)
-                else:
+                if self._writer is not None:
                     self._on_disk(lambda: self._flush_and_maybe_rotate(now))
+                if self._writer is None:  # lost to a disk error, now or earlier: try a new file
+                    self._on_disk(self._open_file)
 
     def _add_one(self, item) -> None:
         try:
@@ -172,7 +177,23 @@ class McapLogWriter:
         self._channels[topic] = channel
         return channel
 
+    def _check_file(self) -> None:
+        """Raise if the file in hand is no longer at its path (deleted, its directory gone): writes to it are lost.
+
+        Checked before each flush, so what went into a deleted file since the last check is counted as dropped.
+        """
+        if self._writer is None:
+            return
+        path = self.files[-1]
+        try:
+            there = os.path.samestat(os.stat(path), os.fstat(self._stream.fileno()))
+        except FileNotFoundError:
+            there = False
+        if not there:
+            raise FileNotFoundError(errno.ENOENT, f"{path.name} was deleted or moved away")
+
     def _flush_and_maybe_rotate(self, now: float) -> None:
+        self._check_file()
         if self._pending:
             self._writer.flush()
             self._pending = 0
@@ -183,6 +204,7 @@ class McapLogWriter:
             self._open_file()
 
     def _open_file(self) -> None:
+        self.directory.mkdir(parents=True, exist_ok=True)  # it may have been deleted since the last file
         stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S")
         path = self.directory / f"discern-{self.monitor_id}-{stamp}-{self.run[:RUN_CHARS]}-{len(self.files):04d}.mcap"
         stream = open(path, "wb")
