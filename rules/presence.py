@@ -8,7 +8,7 @@ whose facts used the same predicates (`Catalog.rules_within`), and its answer se
 if none of the predicates those rules derive outside that set got atoms, every rule left out has a
 false body, and the answer set is the one the whole slice gives (the catalog is stratified: rules
 whose bodies are false in its answer set change nothing). If one did, the frame is grounded again
-with that predicate added, and the predicate is remembered for the next frames.
+with the whole slice, and what got atoms there is remembered for the next frames.
 """
 
 from __future__ import annotations
@@ -26,6 +26,8 @@ class PresenceSlicer:
         self.catalog = catalog
         self._controls = controls
         self._present: dict[frozenset[str], frozenset[str]] = {}  # a frame's fact predicates -> those seen with atoms
+        self._derivable: dict[frozenset[str], frozenset[str]] = {}  # -> those its whole slice can derive
+        self.regrounds = 0  # frames grounded twice: a predicate their kind never had got atoms
 
     def learned(self, names: frozenset[str]) -> Optional[frozenset[str]]:
         """The predicates seen with atoms in frames whose facts use `names` (None before the first such frame)."""
@@ -34,16 +36,20 @@ class PresenceSlicer:
     def ground(self, names: frozenset[str], text: str) -> clingo.Control:
         """A Control with the frame's facts (`text`, using predicates `names`) grounded: its answer set is the slice's."""
         present = self._present.get(names)
-        if present is None:  # the first such frame: the whole slice, then what had atoms
-            derivable = self.catalog.defined_in(names) | names
-            control = self._grounded(derivable, text)
-            self._present[names] = names | self._with_atoms(control, self.catalog.derived_outside(names, derivable))
-            return control
-        control = self._grounded(present, text)
-        while found := self._with_atoms(control, self.catalog.derived_outside(present)):
-            self._controls.retire(control)
-            present = self._present[names] = present | found
+        if present is not None:
             control = self._grounded(present, text)
+            if not self._with_atoms(control, self.catalog.derived_outside(present)):
+                return control
+            self._controls.retire(control)
+            self.regrounds += 1
+        # The first frame of its kind, or one with a predicate its kind never had: the whole slice (whose
+        # Control is kept ready like any other), then remember what had atoms.
+        derivable = self._derivable.get(names)
+        if derivable is None:
+            derivable = self._derivable[names] = self.catalog.defined_in(names) | names
+        control = self._grounded(derivable, text)
+        seen = names if present is None else present
+        self._present[names] = seen | self._with_atoms(control, self.catalog.derived_outside(seen, derivable))
         return control
 
     def _grounded(self, present: frozenset[str], text: str) -> clingo.Control:
