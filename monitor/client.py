@@ -216,9 +216,8 @@ class Monitor:
         if problem is not None:
             return problem
         if timed_out or time.monotonic() - started >= timeout:
-            return f"no verdict from a monitor on {key} within {timeout * 1000:g} ms"
-        # Zenoh ends a query at once when nothing on its route serves the key.
-        return f"no monitor answered on {key}: none that serves vehicle {self.vehicle!r} is reachable"
+            return _too_late(key, timeout)
+        return self._unserved(key)  # zenoh ends a query at once when nothing on its route serves the key
 
     def _publish_and_wait(self, payload: bytes, frame: Optional[int], timeout: float) -> Union[Verdict, str]:
         """The verdict of this frame, else why none came."""
@@ -234,9 +233,10 @@ class Monitor:
         if slot[1] is not None:
             return slot[1]
         key = keys.proposal_key(self.vehicle)
-        if not self._publisher.matching_status.matching:
-            return f"no monitor answered on {key}: none that serves vehicle {self.vehicle!r} is reachable"
-        return f"no verdict from a monitor on {key} within {timeout * 1000:g} ms"
+        return _too_late(key, timeout) if self._publisher.matching_status.matching else self._unserved(key)
+
+    def _unserved(self, key: str) -> str:
+        return f"no monitor answered on {key}: none that serves vehicle {self.vehicle!r} is reachable"
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         try:
@@ -258,3 +258,7 @@ class Monitor:
                 first[0].set()
         if self._on_verdict is not None:
             self._on_verdict(verdict)
+
+
+def _too_late(key: str, timeout: float) -> str:
+    return f"no verdict from a monitor on {key} within {timeout * 1000:g} ms"

@@ -121,7 +121,7 @@ class Catalog:
     fact_predicates: set[str] = field(default_factory=set, repr=False)
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
     words: dict[str, str] = field(default_factory=dict, repr=False)  # a constant's English (`%! term name :: "..."`)
-    _slices: dict[frozenset[str], tuple[list[ast.AST], frozenset[str]]] = field(default_factory=dict, repr=False)
+    _slices: dict[frozenset[str], tuple[frozenset[str], frozenset[str]]] = field(default_factory=dict, repr=False)
     _within: dict[frozenset[str], list[ast.AST]] = field(default_factory=dict, repr=False)
     _outside: dict[tuple[frozenset[str], Optional[frozenset[str]]], list[tuple[str, int]]] = field(
         default_factory=dict, repr=False)
@@ -182,7 +182,7 @@ class Catalog:
         no rule can derive never fires; leaving it out changes no model and
         saves its grounding cost (about 10 us a rule).
         """
-        return self._slice(given)[0]
+        return self.rules_within(self.derivable(given))
 
     def rules_within(self, present: frozenset[str]) -> list[ast.AST]:
         """The catalog's facts and every rule whose positive body needs only predicates in `present`.
@@ -212,13 +212,17 @@ class Catalog:
 
         A frame fact's predicate that is not among them has exactly the frame's facts as its atoms.
         """
+        return self._slice(given)[0]
+
+    def derivable(self, given: frozenset[str]) -> frozenset[str]:
+        """The predicates that may have atoms when the frame's facts use these: those and `defined_in`'s."""
         return self._slice(given)[1]
 
-    def _slice(self, given: frozenset[str]) -> tuple[list[ast.AST], frozenset[str]]:
+    def _slice(self, given: frozenset[str]) -> tuple[frozenset[str], frozenset[str]]:
         found = self._slices.get(given)
         if found is None:
             derivable = set(given | self.fact_predicates)
-            live: list[CompiledRule] = []
+            defined = set(self.fact_predicates)
             pending = list(self.compiled)
             changed = True
             while changed:
@@ -226,15 +230,13 @@ class Catalog:
                 still = []
                 for rule in pending:
                     if rule.needs <= derivable:
-                        live.append(rule)
                         derivable.add(rule.signature[0])
+                        defined.add(rule.signature[0])
                         changed = True
                     else:
                         still.append(rule)
                 pending = still
-            live.sort(key=lambda r: r.index)
-            defined = frozenset(self.fact_predicates).union(r.signature[0] for r in live)
-            found = self._slices[given] = (self.facts + [r.statement for r in live], defined)
+            found = self._slices[given] = (frozenset(defined), frozenset(derivable))
         return found
 
     def driving_rules(self) -> list[RuleInfo]:

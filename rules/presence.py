@@ -26,7 +26,6 @@ class PresenceSlicer:
         self.catalog = catalog
         self._controls = controls
         self._present: dict[frozenset[str], frozenset[str]] = {}  # a frame's fact predicates -> those seen with atoms
-        self._derivable: dict[frozenset[str], frozenset[str]] = {}  # -> those its whole slice can derive
         self.regrounds = 0  # frames grounded twice: a predicate their kind never had got atoms
 
     def learned(self, names: frozenset[str]) -> Optional[frozenset[str]]:
@@ -44,9 +43,7 @@ class PresenceSlicer:
             self.regrounds += 1
         # The first frame of its kind, or one with a predicate its kind never had: the whole slice (whose
         # Control is kept ready like any other), then remember what had atoms.
-        derivable = self._derivable.get(names)
-        if derivable is None:
-            derivable = self._derivable[names] = self.catalog.defined_in(names) | names
+        derivable = self.catalog.derivable(names)
         control = self._grounded(derivable, text)
         seen = names if present is None else present
         self._present[names] = seen | self._with_atoms(control, self.catalog.derived_outside(seen, derivable))
