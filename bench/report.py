@@ -9,17 +9,15 @@ import time
 from pathlib import Path
 
 from discern.monitor.allocator import in_use
+from discern.monitor.status import percentile
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md"
 HEADER = "# Benchmarks\n\nEvery figure below was measured by the command shown with it; none is estimated.\n"
 
 
 def pct(values: list[float], q: float) -> float:
-    """The q-th percentile by nearest rank: no interpolation between measured values."""
-    ordered = sorted(values)
-    if not ordered:
-        return float("nan")
-    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
+    """The q-th percentile by nearest rank, as the monitor's status and the audit report it."""
+    return percentile(sorted(values), q) if values else float("nan")
 
 
 def timed(fn, repeats: int, between=None) -> list[float]:

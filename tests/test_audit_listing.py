@@ -9,7 +9,8 @@ from datetime import datetime, timezone
 import pytest
 
 from bench.report import pct
-from discern.monitor.audit.aggregate import latency_summary, percentile
+from discern.monitor.audit.aggregate import latency_summary
+from discern.monitor.status import StatusCounters
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings
 from discern.monitor.example_planner import highway_scene
@@ -112,9 +113,19 @@ def test_latency_percentiles_take_the_nearest_rank_so_few_samples_do_not_lean_hi
     assert (two["samples"], two["p50_ms"], two["max_ms"]) == (2, 1.0, 3.0)
     ten = latency_summary([float(v) for v in range(10, 0, -1)])
     assert (ten["p50_ms"], ten["p90_ms"], ten["p99_ms"], ten["max_ms"]) == (5.0, 9.0, 10.0, 10.0)
-    for n in range(1, 40):  # the benchmarks' definition: the two reports' figures agree
-        values = [float(v) for v in range(n)]
-        assert [percentile(values, q) for q in (50, 90, 99)] == [pct(values, q) for q in (50, 90, 99)], n
+
+
+def test_the_audit_the_status_key_and_the_benchmarks_report_the_same_percentiles():
+    for n in range(1, 40):
+        values = [float(v) for v in range(n, 0, -1)]
+        status = StatusCounters("unit", "*", 50)
+        for v in values:
+            status.verdict_sent("approve", False, v, None)
+        live = status.snapshot().latency_ms
+        audit = latency_summary(values)
+        assert (live.p50_ms, live.p90_ms, live.p99_ms, live.max_ms) == (
+            audit["p50_ms"], audit["p90_ms"], audit["p99_ms"], audit["max_ms"]), n
+        assert [pct(values, q) for q in (50, 90, 99)] == [audit["p50_ms"], audit["p90_ms"], audit["p99_ms"]], n
 
 
 def test_json_export_counts_every_decision_kind_even_when_none_occurred(capsys, tmp_path, logs):

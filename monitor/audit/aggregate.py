@@ -27,6 +27,7 @@ from typing import Iterable, Optional, Sequence
 
 from discern.monitor.log import FileRecovery, RecoveryReport
 from discern.monitor.protocol import RULE_BAD_INPUT
+from discern.monitor.status import percentile
 from discern.rules.scene import Intent, ObjectClass, Scene
 from discern.rules.verdict import Decision, Verdict
 
@@ -316,16 +317,6 @@ class Aggregates:
             per_km=n / odo.km if odo.km > 0 else None,
             latency=latency_summary(tally.latencies_ms),
         )
-
-
-def percentile(ordered: Sequence[float], q: float) -> float:
-    """The q-th percentile (0-100) of sorted values: the one nearest q% of the way from the least to the greatest.
-
-    A measured value, never interpolated. Indexing at q * n instead leans high with few samples (the
-    p50 of two would be the larger). bench/report.py's `pct` is the same, so the audit's and the
-    benchmarks' figures agree.
-    """
-    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
 
 
 def latency_summary(values: Sequence[float]) -> dict[str, Optional[float]]:
