@@ -177,6 +177,7 @@ def _examples() -> list[Example]:
     lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)])
     walker = obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5, sources=("camera", "lidar"))
     stroller = obj(3, "pedestrian", 5.5, 22.0, vy=1.2, vx=0.0, sources=("camera", "lidar"))
+    pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
     stop_sign = {"kind": "stop", "source": "camera"}
     return [
         # --- speed limits
@@ -226,7 +227,11 @@ def _examples() -> list[Example]:
                 (scene(limit=None, signs=[limit_sign(45)]),)),
         Example("san.stop.map_controlled", "No stop sign is seen, but the map marks the approach stop-controlled.",
                 (scene(limit=11.0, intersection={"type": "four_way", "stage": "arriving", "stop_controlled": True}),),
-                Action.cruise, (scene(limit=11.0, intersection={"type": "four_way", "stage": "at", "stop_controlled": True}),)),
+                Action.cruise, (scene(limit=11.0, intersection={"type": "four_way", "stage": "arriving"}),)),
+        Example("san.stop.line_controlled", "At the stop line of a crossing without lights, no stop sign seen, the ego rolls on at 4 m/s.",
+                (scene(speed=4.0, limit=11.0, intersection={**stop_line, "stage": "at", "distance": 0.0}),),
+                Action.cruise,
+                (scene(speed=4.0, limit=11.0, intersection={**stop_line, "stage": "at", "distance": 0.0, "stop_line": False}),)),
         Example("san.memory.stop_sign", "A stop sign seen two frames ago is hidden by a truck now.",
                 (scene(frame=1, limit=11.0, signs=[stop_sign], intersection=arriving),
                  scene(frame=2, limit=11.0, intersection=arriving)), Action.cruise,
@@ -261,9 +266,9 @@ def _examples() -> list[Example]:
                 Action.cruise,
                 (scene(speed=12.0, limit=15.0, objects=[obj(6, "car", 0.0, 9.0, 1, sources=("camera",), elevation=0.2)]),)),
         Example("san.world.picture_on_object", "A car painted on the back of a truck: only the camera sees it, inside the truck's outline.",
-                (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 24.5, 1, sources=("camera",))]),),
+                (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 30.2, 1, sources=("camera",))]),),
                 Action.accelerate,
-                (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 24.5, 1)]),)),
+                (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 30.2, 1)]),)),
         Example("san.world.size", "A toy-sized car, 0.7 m long, 8 m ahead, that only the camera reports.",
                 (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, sources=("camera",),
                                                             size={"length": 0.7, "width": 0.3})]),),
@@ -284,8 +289,7 @@ def _examples() -> list[Example]:
         Example("san.lights.flashing_not_steady", "The flashing red light is no steady red.",
                 tuple(flashing_red), Action.cruise, steady_red),
         Example("san.lights.flashing_red_stop", "Arriving at an intersection whose light flashes red.",
-                tuple(flashing_red), Action.cruise,
-                tuple(s.model_copy(update={"intersection": scene(intersection=at_stop).intersection}) for s in flashing_red)),
+                tuple(flashing_red), Action.cruise, steady_red),
         Example("san.memory.red_light", "A red light seen a frame ago is dark now (not yet known to be flashing).",
                 red_then_dark, Action.cruise, steady_red),
         Example("san.lights.flashing_yellow_caution", "A yellow light reported flashing.",
@@ -305,6 +309,10 @@ def _examples() -> list[Example]:
         Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",
                 (scene(speed=8.0, limit=11.0, objects=[walker]),), Action.cruise,
                 (scene(speed=8.0, limit=11.0, objects=[stroller]),)),
+        Example("san.track.phantom_crossing_caution",
+                "Only the camera sees a car pulling out from the right, 20 m ahead, while the radar reports the lead car.",
+                (scene(speed=10.0, limit=13.4, objects=[radar_car, pulling_out]),), Action.accelerate,
+                (scene(speed=10.0, limit=13.4, objects=[radar_car, {**pulling_out, "velocity": {"x": 0.0, "y": 0.0}}]),)),
         # --- jurisdictions
         Example("jur.us", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),
         Example("jur.right_hand_traffic", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),

@@ -223,8 +223,9 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
     frames = past + [now]
     out = []
     for colour in (LightColour.red, LightColour.yellow):
-        if any(colour in p.flashing for p in past):  # reported flashing in a recent frame
-            out.append(f"light_flashing_before({colour.value}).")
+        flagged = sum(colour in f.flashing for f in frames)  # perception's flag, in how many frames
+        if flagged:
+            out.append(f"light_flashing_frames({colour.value},{flagged}).")
         if _flashes([colour in f.lights for f in frames], times, config):
             out.append(f"light_flashes({colour.value}).")
     if not now.lights and any(LightColour.red in p.lights for p in past):
@@ -291,8 +292,18 @@ def _world_facts(scene: Scene) -> list[str]:
     for obj in camera_only:
         x, y = obj.position.x, obj.position.y
         out.extend(f"overlaps({obj.id},{oid})." for oid, ox, oy, length, width in outlines
-                   if abs(x - ox) <= width / 2 and abs(y - oy) <= length / 2 + 1.0)
+                   if abs(x - ox) <= width / 2 and _within_length(y, oy, length))
     return out
+
+
+def _within_length(y: float, oy: float, length: float) -> bool:
+    """Whether a nearest face at y lies along an object whose nearest face is at oy, give or take a metre.
+
+    Positions are to nearest faces: an object ahead reaches from oy away from the ego, one behind from oy
+    back, and one alongside (0) both ways.
+    """
+    near, far = (oy, oy + length) if oy > 0 else (oy - length, oy) if oy < 0 else (-length, length)
+    return near - 1.0 <= y <= far + 1.0
 
 
 def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:

@@ -76,13 +76,13 @@ def test_intents_lane_kinds_and_zero_offsets_read_as_english(reasoner):
     assert "car 1 has its left lights on" in signalling.justification.text
 
 
-def test_a_misread_stop_sign_that_is_not_there_reads_without_a_placeholder_speed(reasoner):
+def test_a_stop_control_that_is_not_there_reads_without_a_placeholder(reasoner):
     major_road = scene(limit=None, other_lanes=("cross_left",), intersection={"type": "four_way", "stage": "arriving", "road": "major"},
                        objects=[obj("car", -20, 12, lane=1, kind="cross_left", velocity={"x": 8.0, "y": 0.0})],
                        signs=[{"kind": "speed_limit", "value": 20.0, "source": "camera"}])
     text = reasoner.decide(major_road, "accelerate", explain=True).justification.text
-    assert "the camera reads a speed limit of any value where a stop sign belongs, and there is no evidence of it" in text
-    assert "speed limit of some speed" not in text
+    assert "rule brake.stop_sign needs that the ego's approach is stop-controlled, and there is no evidence of it" in text
+    assert "speed limit of some speed" not in text and "stop-controlled: " not in text
 
 
 def test_approval_fast_path_has_summary_and_rules_without_tree(reasoner):

@@ -87,9 +87,25 @@ def test_an_inferred_flash_does_not_release_the_ego_at_the_stop_line():
     assert verdict.decision is Decision.override and "san.memory.red_light" in verdict.rules
 
 
+FLASHING_RED = [{"colour": "red", "flashing": True}]
+
+
 def test_a_flash_perception_reports_releases_the_ego_after_its_stop():
-    reported = _timed([(0.0, RED), (0.5, [{"colour": "red", "flashing": True}])])
+    reported = _timed([(0.0, RED), (0.5, FLASHING_RED), (1.0, FLASHING_RED)])
     assert _decide(reported, Action.accelerate).decision is Decision.approve
+
+
+def test_one_frame_flagged_flashing_does_not_turn_a_steady_red_into_a_stop_sign():
+    glitch = _timed([(0.0, RED), (0.1, FLASHING_RED), (0.2, RED), (0.3, RED)])
+    verdict = _decide(glitch, Action.accelerate)
+    assert verdict.action is Action.brake and "brake.red_light" in verdict.rules
+    first = _timed([(0.0, RED), (0.1, RED), (0.2, FLASHING_RED)])  # the glitch frame itself
+    assert _decide(first, Action.accelerate).action is Action.brake
+
+
+def test_a_red_reported_steady_now_is_steady_whatever_earlier_frames_flagged():
+    frames = _timed([(0.0, FLASHING_RED), (0.1, FLASHING_RED), (0.2, FLASHING_RED), (0.3, RED)])
+    assert _decide(frames, Action.accelerate).action is Action.brake
 
 
 def test_an_inferred_flashing_red_still_stops_the_arriving_ego():
@@ -183,3 +199,58 @@ def test_traffic_is_no_stop_evidence_for_the_ego_on_the_major_road():
     assert "san.stop.evidence_traffic" in fired(reasoner_for("us"), frames("minor"))
     assert "san.stop.evidence_traffic" not in fired(reasoner_for("us"), frames("major"))
     assert "san.stop.misread_sign" not in _decide(frames("major"), Action.cruise).rules
+
+
+# --- stop control the sanity layer finds holds at the line as a stop sign does
+
+AT_STOP_LINE = {"type": "four_way", "stage": "at", "distance": 0.0}
+ROLLING = 6.0  # m/s at the line: a rolling stop
+LIMIT_45 = {"kind": "speed_limit", "value": 20.1, "source": "camera"}
+
+
+@pytest.mark.parametrize("case, frames", [
+    ("the map", [scene(speed=ROLLING, intersection={**AT_STOP_LINE, "stop_controlled": True})]),
+    ("a stop line and no lights", [scene(speed=ROLLING, intersection={**AT_STOP_LINE, "stop_line": True})]),
+    ("a stop sign read as 45 from a fused source", [scene(speed=ROLLING, signs=[{**LIMIT_45, "source": "fused"}],
+                                                         intersection={**AT_STOP_LINE, "stop_line": True})]),
+    ("a stop sign hidden now", [scene(frame=1, speed=8.0, signs=[{"kind": "stop"}], intersection={**AT_STOP_LINE, "stage": "arriving"}),
+                                scene(frame=2, speed=ROLLING, intersection=AT_STOP_LINE)]),
+    ("a flashing red light", [scene(frame=i, speed=ROLLING, lights=[{"colour": "red", "flashing": True}], intersection=AT_STOP_LINE)
+                              for i in (1, 2)]),
+])
+def test_stop_control_the_sanity_layer_finds_forbids_a_rolling_stop_at_the_line(case, frames):
+    verdict = _decide(tuple(frames), Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake), case
+    assert "brake.stop_sign_full_stop" in verdict.rules, case
+
+
+def test_a_stop_line_without_lights_stops_the_arriving_ego_though_no_sign_is_seen():
+    arriving = {"type": "unsignaled", "stage": "arriving", "distance": 20.0, "stop_line": True}
+    verdict = _decide((scene(speed=8.0, intersection=arriving),), Action.accelerate)
+    assert verdict.action is Action.brake and "san.stop.line_controlled" in verdict.rules
+    signalised = {**arriving, "type": "signaled"}
+    assert _decide((scene(speed=8.0, intersection=signalised),), Action.accelerate).decision is Decision.approve
+
+
+# --- what is set aside as not on the road
+
+
+def test_a_camera_only_car_pulling_out_from_the_side_is_no_roadside_advert():
+    lead = obj(2, "car", -3.5, 40.0, 1, vy=15.0)
+    pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
+    verdict = _decide((scene(speed=10.0, limit=13.4, objects=[lead, pulling_out]),), Action.accelerate)
+    assert verdict.action is Action.brake and "san.world.no_echo_off_lane" not in verdict.rules
+    assert "car 7 is not on the road:" not in verdict.justification.text
+
+
+def test_a_range_confirmed_trailer_above_the_road_is_an_obstacle_and_a_bridge_is_not():
+    def cruise_past(elevation: float, sources: tuple):
+        truck = obj(2, "truck", 0.0, 20.0, 1, vy=0.0, sources=sources, elevation=elevation)
+        return _decide((scene(speed=20.0, zone="highway", limit=29.0, objects=[truck]),), Action.cruise)
+
+    trailer = cruise_past(1.2, ("camera", "radar", "lidar"))
+    assert trailer.action is Action.brake and "brake.obstacle_ahead" in trailer.rules
+    bridge = cruise_past(5.0, ("camera", "radar", "lidar"))
+    assert bridge.decision is Decision.approve and "san.world.elevated" in bridge.rules
+    advert = cruise_past(1.2, ("camera",))
+    assert advert.decision is Decision.approve and "san.world.elevated" in advert.rules

@@ -138,10 +138,10 @@ def test_the_shortest_flash_phase_is_a_window_parameter():
     assert "light_flashes(red)." in facts(frames, WindowProvider(WindowConfig(flash_min_phase_s=0.2)))
 
 
-def test_a_light_reported_flashing_in_an_earlier_frame_is_kept_apart_from_an_inferred_flash():
+def test_the_frames_that_report_a_light_flashing_are_counted_apart_from_an_inferred_flash():
     yellow = [{"colour": "yellow", "flashing": True}]
-    found = facts([at(0.0, lights=yellow), at(0.1, lights=[{"colour": "yellow"}])])
-    assert "light_flashing_before(yellow)." in found and "light_flashes(yellow)." not in found
+    found = facts([at(0.0, lights=yellow), at(0.1, lights=[{"colour": "yellow"}]), at(0.2, lights=yellow)])
+    assert "light_flashing_frames(yellow,2)." in found and "light_flashes(yellow)." not in found
 
 
 def test_a_red_light_out_of_view_is_remembered():
@@ -191,7 +191,18 @@ def test_objects_walking_along_in_the_ego_lane_or_coming_from_behind_get_no_pred
 
 def test_a_camera_only_vehicle_inside_a_confirmed_outline_overlaps_it():
     truck = obj(2, "truck", 0.0, 30.0, 1, size={"length": 12.0, "width": 2.5})
-    picture = obj(5, "car", 0.3, 24.5, 1, sources=("camera",))
-    apart = obj(6, "car", 3.5, 24.5, 2, sources=("camera",))
+    picture = obj(5, "car", 0.3, 30.2, 1, sources=("camera",))
+    apart = obj(6, "car", 3.5, 30.2, 2, sources=("camera",))
     found = facts([scene(lanes=2, objects=[truck, picture, apart])])
     assert "overlaps(5,2)." in found and not any(f.startswith("overlaps(6") for f in found)
+
+
+def test_outlines_reach_away_from_the_ego_from_their_nearest_face():
+    ahead = obj(2, "truck", 0.0, 30.0, 1, size={"length": 15.0, "width": 2.5})
+    behind = obj(3, "truck", 0.0, -30.0, 1, size={"length": 15.0, "width": 2.5}, sources=("radar",))
+    before_it = obj(5, "car", 0.0, 23.0, 1, sources=("camera",))  # 7 m short of the truck's rear: a real car
+    along_it = obj(6, "car", 0.0, 40.0, 1, sources=("camera",))
+    behind_it = obj(7, "car", 0.0, -40.0, 1, sources=("camera",))
+    after_it = obj(8, "car", 0.0, -20.0, 1, sources=("camera",))
+    found = facts([scene(lanes=1, objects=[ahead, behind, before_it, along_it, behind_it, after_it])])
+    assert {f for f in found if f.startswith("overlaps")} == {"overlaps(6,2).", "overlaps(7,3)."}
