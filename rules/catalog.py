@@ -34,6 +34,7 @@ PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
 TEMPLATE_FORMATS = frozenset({
     "m", "mps", "ahead", "right",  # centimetres and cm/s as metres; signed positions as "5.0 m behind"
     "obj", "ordinal", "ms",  # "car 3"; "2nd"; milliseconds as seconds
+    "frames",  # a count of frames: "1 frame", "3 frames"
     "lane", "detail", "paren",  # "lane 2", ": reason", " (kind)": words that go when the value is unknown
 })
 

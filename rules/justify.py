@@ -277,6 +277,8 @@ class Phrasebook:
             return f"{n / 1000:g} s"
         if fmt == "ordinal":
             return _ordinal(n)
+        if fmt == "frames":
+            return "1 frame" if n == 1 else f"{n} frames"
         if fmt == "obj":
             cls = self._classes.get(n)
             if cls is None:
@@ -323,7 +325,7 @@ class Phrasebook:
             by_param = {m.group(1): m.group(2) for m in PLACEHOLDER.finditer(template.template)}
             for param, arg in zip(template.params, term[2]):
                 fmt = by_param.get(param)
-                if arg[0] == "v" and fmt in ("m", "mps", "ahead", "right", "ms"):
+                if arg[0] == "v" and fmt in ("m", "mps", "ahead", "right", "ms", "frames", "ordinal"):
                     formats.setdefault(arg[1], "m" if fmt in ("ahead", "right") else fmt)
         self._formats[rule.index] = formats
         return formats

@@ -239,3 +239,11 @@ def test_a_value_no_fact_gives_reads_as_words_not_as_a_variable(explained):
     assert "rule def.lane_exists needs that a lane is next to the ego on the right, and there is no evidence of it" in said
     assert "rule brake.front_sensor_close needs that the range sensor reads some distance" in said
     assert "needs that there is a hazard, and there is no evidence of it" in said
+
+
+def test_counts_of_frames_in_a_comparison_read_with_their_unit(explained):
+    texts = [verdict.justification.text for verdict in explained] + [SANITY_DOC.read_text(encoding="utf-8")]
+    said = "\n".join(texts)
+    assert "rule def.reading_settled needs 1 frame ≥ 2 frames, which is false" in said
+    bare = re.compile(r"(?<![\w.])\d+ [<>≤≥=≠] \d+(?![\w.])")  # "1 ≥ 2": numbers with nothing to say what they count
+    assert not [line for line in said.splitlines() if bare.search(line)]
