@@ -143,6 +143,14 @@ def _zenoh_settings(args, mode=None) -> ZenohSettings:
     )
 
 
+def _zenoh_refused(args, exc: Exception) -> str:
+    """zenoh's own message names the problem, not the flag that caused it: name the settings it was given."""
+    given = [f"--{flag.replace('_', '-')} {' '.join(value) if isinstance(value, list) else value}"
+             for flag, value in (("listen", args.listen), ("connect", args.connect), ("zenoh_config", args.zenoh_config))
+             if value]
+    return f"zenoh could not open the session{' (' + '; '.join(given) + ')' if given else ''}: {exc}"
+
+
 def _fail(command: str, message: str) -> int:
     """One line for the user; zenoh's errors carry Rust source locations they have no use for."""
     print(f"discern {command}: error: {without_rust_locations(message)}", file=sys.stderr)
@@ -201,7 +209,7 @@ def cmd_serve(args) -> int:
     except (ValueError, OSError, ImportError) as exc:
         return _fail("serve", str(exc))
     except Exception as exc:  # zenoh refuses an endpoint or config: say so, no traceback
-        return _fail("serve", str(exc))
+        return _fail("serve", _zenoh_refused(args, exc))
     try:
         chunk = server.vehicles_chunk
         print(
@@ -235,8 +243,10 @@ def cmd_status(args) -> int:
         selector = keys.status_key(keys.monitor_selector(args.monitor_id))
         check_number("--timeout", args.timeout, 0, unit=" s", above=True)
         session = zenoh.open(_zenoh_settings(args).to_zenoh(default_listen=[]))
-    except Exception as exc:
+    except ValueError as exc:
         return _fail("status", str(exc))
+    except Exception as exc:
+        return _fail("status", _zenoh_refused(args, exc))
     answered = found = 0
     try:
         deadline = time.monotonic() + args.timeout
@@ -298,8 +308,10 @@ def cmd_router(args) -> int:
         config = router_config(_zenoh_settings(args, mode="router"))
         listen = listen_endpoints(config)
         session = zenoh.open(config)
-    except Exception as exc:
+    except ValueError as exc:
         return _fail("router", str(exc))
+    except Exception as exc:
+        return _fail("router", _zenoh_refused(args, exc))
     try:
         print(f"discern router: zenoh router {session.zid()} ready; listening on {', '.join(listen)}", flush=True)
         _wait_for_signal()

@@ -501,7 +501,8 @@ class Prover:
         lit = failure.literal
         if not lit.is_atom:
             text = self.phrases.comparison(rule, lit, failure.env) + ", which is false"
-            return JustificationNode(literal=lit.source, holds=False, text=text, kind="blocked")
+            return JustificationNode(literal=lit.source, holds=False, text=text, kind="blocked",
+                                     children=self._sources_of(rule, lit, failure.env))
         if failure.witness is None:  # a positive literal with nothing to match
             child = self.why_not(lit.atom, failure.env, depth, negative_left)
             child.text = "that " + child.text.removeprefix("there is no evidence that ") + ", and there is no evidence of it"
@@ -515,6 +516,23 @@ class Prover:
             proof = self.why(failure.witness, depth)
             node.children, node.rule = proof.children, proof.rule
         return node
+
+    def _sources_of(self, rule: CompiledRule, comparison: Literal, env: Env) -> list[JustificationNode]:
+        """The facts a failed comparison's numbers came from: '12.0 m < 0.0 m' alone does not say whose
+        distance it is."""
+        wanted = set(comparison.variables)
+        for position in sorted(rule.assignments, reverse=True):  # a computed value comes from its inputs
+            if rule.body[position].variables & wanted:
+                wanted |= rule.body[position].variables
+        sources: list[JustificationNode] = []
+        for lit in rule.body:
+            if not lit.is_atom or lit.negated or self._hidden(lit) or not lit.variables & wanted:
+                continue
+            ground = next(self._matches(lit.atom, env), None)
+            if ground is not None and all(node.literal != str(ground[0]) for node in sources):
+                sources.append(JustificationNode(literal=str(ground[0]), holds=True,
+                                                 text=self.phrases.atom(ground[0]), kind="fact"))
+        return sources
 
     def _solve(self, body: list[Literal], env: Env, done: int,
                failures: Optional[list[_Failure]]) -> Iterator[Env]:

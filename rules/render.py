@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import json
+from typing import Optional
 
 from .verdict import Justification, JustificationNode, Verdict
 
@@ -17,19 +18,33 @@ def _line(node: JustificationNode) -> str:
     return text
 
 
+def _key(node: JustificationNode) -> tuple:
+    return node.kind, node.text, node.rule, node.holds
+
+
 def render_text(justification: Justification) -> str:
+    """Each reason is argued once: where the same conclusion comes up again, the line points back to it
+    instead of repeating its whole subtree, so a proof that leans on one fact five times stays readable."""
     lines = [justification.summary]
+    shown: set[tuple] = set()
     for root in justification.tree:
-        _walk(root, 1, lines)
+        _walk(root, 1, lines, shown)
     return "\n".join(lines)
 
 
-def _walk(node: JustificationNode, depth: int, lines: list[str]) -> None:
+def _walk(node: JustificationNode, depth: int, lines: list[str], shown: set[tuple]) -> None:
     # A module function, not a closure that calls itself: that is a reference cycle per verdict, the only
     # garbage a decision worker left for the full collections it now keeps to a minimum (decision_pool.py).
+    key = _key(node)
+    if node.children and key in shown:
+        rule = f"  [{node.rule}]" if node.rule and node.kind != "blocked" else ""
+        lines.append("  " * depth + "- " + node.text + ", as shown above" + rule)
+        return
+    if node.children:
+        shown.add(key)
     lines.append("  " * depth + "- " + _line(node))
     for child in node.children:
-        _walk(child, depth + 1, lines)
+        _walk(child, depth + 1, lines, shown)
 
 
 def render_json(verdict: Verdict) -> str:
@@ -48,14 +63,24 @@ td{padding:.15rem .8rem .15rem 0}
 """
 
 
-def _html_node(node: JustificationNode) -> str:
+def tree_html(nodes: list[JustificationNode], open_depth: Optional[int] = None) -> str:
+    """Nested <details>, open down to open_depth (all when None); the verdict page and the audit share it."""
+    shown: set[tuple] = set()
+    return "".join(_html_node(node, shown, open_depth, 0) for node in nodes)
+
+
+def _html_node(node: JustificationNode, shown: set[tuple], open_depth: Optional[int], depth: int) -> str:
     cls = "holds" if node.holds else "fails"
-    rule = f'<span class="rule">{html.escape(node.rule)}</span>' if node.rule else ""
+    rule = f'<span class="rule">{html.escape(node.rule)}</span>' if node.rule and node.kind != "blocked" else ""
     label = f'<span class="{cls}">{html.escape(_line(node).split("  [")[0])}</span>{rule}<span class="kind">{node.kind}</span>'
     if not node.children:
         return f'<div class="leaf">{label}</div>'
-    inner = "".join(_html_node(c) for c in node.children)
-    return f"<details open><summary>{label}</summary>{inner}</details>"
+    # A reason argued earlier on the page stays folded where it comes up again: one click opens it.
+    key = _key(node)
+    opened = key not in shown and (open_depth is None or depth < open_depth)
+    shown.add(key)
+    inner = "".join(_html_node(c, shown, open_depth, depth + 1) for c in node.children)
+    return f"<details{' open' if opened else ''}><summary>{label}</summary>{inner}</details>"
 
 
 def render_html(verdict: Verdict) -> str:
@@ -70,7 +95,7 @@ def render_html(verdict: Verdict) -> str:
         ("frame", str(verdict.frame_id)),
     ]
     rows = "".join(f"<tr><td>{k}</td><td>{html.escape(v)}</td></tr>" for k, v in facts)
-    tree = "".join(_html_node(n) for n in j.tree)
+    tree = tree_html(j.tree)
     return (
         "<!doctype html><html><head><meta charset='utf-8'>"
         f"<title>Discern verdict, frame {verdict.frame_id}</title><style>{_CSS}</style></head><body>"

@@ -316,9 +316,7 @@ def describe_errors(exc: ValidationError, root: str = "") -> str:
     """One line per problem, naming the field path, the problem and the offending value."""
     lines = []
     for err in exc.errors():
-        path = ".".join(str(p) for p in err["loc"]) or "(message)"
-        if root:
-            path = f"{root}.{path}"
+        path = ".".join(str(p) for p in (root, *err["loc"]) if p != "")  # a whole-scene check names its fields itself
         message = err["msg"].removeprefix("Value error, ")
         if err["type"] == "value_error":
             pass
@@ -330,5 +328,5 @@ def describe_errors(exc: ValidationError, root: str = "") -> str:
         elif "input" in err and err["type"] not in ("model_type", "dict_type"):
             shown = repr(err["input"])
             message = f"{message} (got {shown[:60]})"
-        lines.append(f"{path}: {message}")
+        lines.append(f"{path}: {message}" if path else message)
     return "\n".join(lines)

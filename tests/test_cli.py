@@ -72,7 +72,7 @@ def mutate(path, value):
         ('{"frame_id": 1, "ego": {"speed": NaN, "lane": 1}}', "ego.speed: Input should be a finite number"),
         (mutate(["ego", "speed"], -4), "ego.speed: Input should be greater than or equal to 0"),
         (mutate(["ego"], KeyError), "ego: is required but missing"),
-        (mutate(["ego", "lane"], 7), "ego.lane 7 does not exist: current lanes are [1, 2, 3]"),
+        (mutate(["ego", "lane"], 7), "invalid scene:\nego.lane 7 does not exist: current lanes are [1, 2, 3]"),
         (mutate(["sensors"], [{"side": "left", "distance": -1}]), "sensors.0.distance: Input should be greater than or equal to 0"),
         (mutate(["objects", 0, "position", "y"], "far"), "objects.0.position.y"),
         (mutate(["ego", "speed"], 500), "ego.speed: Input should be less than or equal to 150"),
@@ -172,6 +172,16 @@ def test_status_skips_an_unreadable_reply_naming_the_replier_and_prints_the_othe
     [warning] = err.splitlines()
     assert warning.startswith("discern status: warning: skipped an unreadable status from discern/monitor/other/status")
     assert "version: Input should be 1" in warning
+
+
+@pytest.mark.parametrize("command, arguments, message", [
+    ("serve", ["--listen", "tcp/127.0.0.1:99999"], "zenoh could not open the session (--listen tcp/127.0.0.1:99999): invalid port value"),
+    ("router", ["--listen", "foo/127.0.0.1:7447"], "zenoh could not open the session (--listen foo/127.0.0.1:7447): Unicast not supported for foo protocol"),
+])
+def test_an_endpoint_zenoh_refuses_is_named_with_its_flag(capsys, command, arguments, message):
+    assert main([command, *arguments]) == 2
+    [line] = capsys.readouterr().err.splitlines()
+    assert line == f"discern {command}: error: {message}"
 
 
 @pytest.mark.parametrize("arguments, message", [

@@ -103,6 +103,28 @@ def test_html_is_self_contained_with_collapsible_nodes(reasoner):
     assert "http://" not in page and "https://" not in page and "<script" not in page
 
 
+def test_a_reason_that_comes_up_again_is_argued_once_and_then_pointed_back_to(reasoner):
+    verdict = reasoner.decide(scene(speed=15, objects=[obj("pedestrian", 0, 12, lane=1)]), "accelerate", explain=True)
+    text = verdict.justification.text
+    assert text.count("pedestrian 1 is in the ego's lane, because  [def.in_ego_lane]") == 1
+    assert "pedestrian 1 is in the ego's lane, as shown above  [def.in_ego_lane]" in text
+    folded = render_html(verdict)
+    assert folded.count("<details><summary>") >= 1 and "<details open><summary>" in folded
+    nodes, whole = list(verdict.justification.tree), 0
+    while nodes:
+        node = nodes.pop()
+        whole += node.text == "pedestrian 1 is in the ego's lane" and bool(node.children)
+        nodes += node.children
+    assert whole > 1  # the tree itself keeps every subtree, for programs
+
+
+def test_a_failed_comparison_says_whose_numbers_it_compares(reasoner):
+    verdict = reasoner.decide(scene(speed=15, objects=[obj("pedestrian", 0, 12, lane=1)]), "brake", explain=True)
+    lines = verdict.justification.text.splitlines()
+    failed = next(i for i, line in enumerate(lines) if "rule def.tailgater needs 12.0 m < 0.0 m, which is false, because" in line)
+    assert "pedestrian 1 is 12.0 m ahead and in line with the ego" in lines[failed + 1]
+
+
 def test_veto_proof_is_compact_unless_an_explanation_is_asked_for(reasoner):
     sc = scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)])
     brief = reasoner.decide(sc, "accelerate").justification.text

@@ -10,6 +10,8 @@ from html import escape
 from typing import Optional
 
 from discern.monitor.log import FileRecovery
+from discern.rules.render import tree_html
+from discern.rules.verdict import JustificationNode
 
 from . import plots
 from .aggregate import Aggregates, Disagreement, Filters, Kind, Tally
@@ -223,24 +225,6 @@ border-radius:3px;padding:0 .3rem;margin-left:.4rem;color:#39485e} .kind{font-si
 """
 
 
-def node_html(node: dict, open_depth: int = 1, depth: int = 0) -> str:
-    """One justification node as nested <details>, collapsible at every level."""
-    text = node["text"]
-    children = node.get("children") or []
-    if children and node.get("kind") in ("derived", "negation", "blocked"):
-        text += ", because"
-    rule = node.get("rule")
-    label = (
-        f"<span class='{'holds' if node['holds'] else 'fails'}'>{escape(text)}</span>"
-        + (f"<span class='rule'>{escape(rule)}</span>" if rule and node.get("kind") != "blocked" else "")
-        + f"<span class='kind'>{escape(node.get('kind', ''))}</span>"
-    )
-    if not children:
-        return f"<div class='leaf'>{label}</div>"
-    inner = "".join(node_html(c, open_depth, depth + 1) for c in children)
-    return f"<details{' open' if depth < open_depth else ''}><summary>{label}</summary>{inner}</details>"
-
-
 def verdict_html(verdict: dict) -> str:
     """A logged verdict: its facts, then its justification tree (or its prose when no tree was logged)."""
     j = verdict.get("justification") or {}
@@ -257,7 +241,7 @@ def verdict_html(verdict: dict) -> str:
         ("error", verdict.get("error")),
     ]
     rows = "".join(f"<tr><th>{k}</th><td>{escape(str(v))}</td></tr>" for k, v in facts if v not in (None, ""))
-    tree = "".join(node_html(n) for n in j.get("tree") or [])
+    tree = tree_html([JustificationNode.model_validate(n) for n in j.get("tree") or []], open_depth=1)
     if not tree:
         tree = f"<pre class='mono'>{escape(j.get('text') or j.get('summary') or '')}</pre>"
     return f"<p><b>{escape(j.get('summary', ''))}</b></p><table>{rows}</table><div class='tree'>{tree}</div>"
