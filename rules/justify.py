@@ -237,8 +237,10 @@ _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8
 _PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000),
                 "decel": ("m/s²", 100), "speed_margin": ("m/s", 100), "turn_speed": ("m/s", 100),
                 "stopped_speed": ("m/s", 100)}
-_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "ms": "some time", "ahead": "somewhere",
+_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "limit": "some speed", "ms": "some time",
+            "ahead": "somewhere",
             "right": "somewhere", "lane": "a lane", "detail": "", "paren": ""}
+_SIGN_UNITS = {"mph": 44.704}  # cm/s per unit a pack's speed_unit/1 may name
 _WRAPPED = {"lane": "lane {}", "detail": ": {}", "paren": " ({})"}  # a value with the words around it, unknown: none
 
 
@@ -250,6 +252,7 @@ class Phrasebook:
         self._answer = answer
         self._classes: dict[int, str] = {}  # object id -> its class in words ("" when it has none)
         self._formats: dict[int, dict[str, str]] = {}
+        self._sign_unit: Optional[str] = None  # read from the answer set when a limit is first shown
 
     def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str) -> str:
         if sym is None:
@@ -269,6 +272,8 @@ class Phrasebook:
             return f"{n / 100:.1f} m"
         if fmt == "mps":
             return f"{n / 100:.1f} m/s"
+        if fmt == "limit":
+            return f"{n / 100:.1f} m/s" + self._in_sign_unit(n)
         if fmt == "ahead":
             return "level with the ego" if n == 0 else f"{n / 100:.1f} m ahead" if n > 0 else f"{-n / 100:.1f} m behind"
         if fmt == "right":
@@ -286,6 +291,16 @@ class Phrasebook:
                 cls = self._classes[n] = _words(found[0].arguments[1]) if found else ""
             return f"{cls} {n}" if cls else f"object {n}"
         return str(n)
+
+    def _in_sign_unit(self, cms: int) -> str:
+        """A limit as its sign shows it, in the unit the jurisdiction pack names: a reader checks '85 mph', not 38.0 m/s."""
+        if self._sign_unit is None:
+            units = [unit.arguments[0].name for unit in self._answer.of("speed_unit", 1)]
+            self._sign_unit = units[0] if units and units[0] in _SIGN_UNITS else ""
+        if not self._sign_unit:
+            return ""
+        shown = round(cms / _SIGN_UNITS[self._sign_unit], 1)
+        return f" ({shown:g} {self._sign_unit})"
 
     def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
         if name == "param" and len(args) == 2 and args[0] is not None and args[1] is not None:
@@ -325,7 +340,7 @@ class Phrasebook:
             by_param = {m.group(1): m.group(2) for m in PLACEHOLDER.finditer(template.template)}
             for param, arg in zip(template.params, term[2]):
                 fmt = by_param.get(param)
-                if arg[0] == "v" and fmt in ("m", "mps", "ahead", "right", "ms", "frames", "ordinal"):
+                if arg[0] == "v" and fmt in ("m", "mps", "limit", "ahead", "right", "ms", "frames", "ordinal"):
                     formats.setdefault(arg[1], "m" if fmt in ("ahead", "right") else fmt)
         self._formats[rule.index] = formats
         return formats

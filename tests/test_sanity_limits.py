@@ -20,7 +20,7 @@ def test_a_taped_85_in_town_cannot_raise_the_limit_past_the_plausible():
     taped = scene(speed=16.0, limit=85 * MPH, signs=[limit_sign(85)])
     verdict = US.decide(taped, "accelerate")
     assert verdict.decision.value == "override" and "san.limit.implausible" in verdict.rules
-    assert "the limit reading of 38.0 m/s is doubted: above any plausible limit for the zone" in verdict.justification.text
+    assert "the limit reading of 38.0 m/s (85 mph) is doubted: above any plausible limit for the zone" in verdict.justification.text
     assert limit_in_force(taped) == 15.65
 
 
