@@ -387,6 +387,9 @@ class Prover:
         self.phrases = Phrasebook(catalog, answer)
         self._replayed: dict[tuple[str, int, Symbol], list[Symbol]] = {}
         self._replays: Optional[bool] = None  # whether this frame is big enough to replay rules (REPLAY_ABOVE_ATOMS)
+        # One atom's proof at one depth, built once: a veto's reasons lean on the same facts (an object's lane,
+        # the gap it needs) again and again. Proof nodes are not changed once built, so sharing them is safe.
+        self._proved: dict[tuple[Symbol, int], JustificationNode] = {}
 
     # -- derivations --
     def derivations(self, sym: Symbol) -> Iterator[tuple[CompiledRule, Env]]:
@@ -410,9 +413,15 @@ class Prover:
 
     # -- holds --
     def why(self, sym: Symbol, depth: int = 0, path: frozenset = frozenset()) -> JustificationNode:
-        text = self.phrases.atom(sym)
         if sym in path:
-            return JustificationNode(literal=str(sym), holds=True, text=text, kind="loop")
+            return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym), kind="loop")
+        proved = self._proved.get((sym, depth))
+        if proved is None:
+            proved = self._proved[(sym, depth)] = self._why(sym, depth, path)
+        return proved
+
+    def _why(self, sym: Symbol, depth: int, path: frozenset) -> JustificationNode:
+        text = self.phrases.atom(sym)
         fact_rule = self.catalog.fact_rule.get(sym)
         derivation = None if fact_rule else next(self.derivations(sym), None)
         if derivation is None:
