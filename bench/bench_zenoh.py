@@ -221,7 +221,8 @@ def main() -> None:
             best = None
             try:
                 time.sleep(0.5)
-                for step, total in enumerate((20, 40, 60, 80, 100, 120, 150, 200, 250, 300)):
+                steps = (20, 40, 60, 80, 100, 120, 150, 200, 250, 300, 400, 500)
+                for step, total in enumerate(steps):
                     per_vehicle = total / 10
                     frames = max(1, int(args.ramp_duration * per_vehicle))
                     loads = {}
@@ -237,7 +238,8 @@ def main() -> None:
             finally:
                 session.close()
                 monitors.close()
-            notes.append(f"max sustained rate, {label}: {best or '< 20'} proposals/s")
+            reached = "" if best != steps[-1] else " (the highest step tried: the limit lies above it)"
+            notes.append(f"max sustained rate, {label}: {best or '< 20'} proposals/s{reached}")
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
 
