@@ -387,9 +387,10 @@ class Prover:
         self.phrases = Phrasebook(catalog, answer)
         self._replayed: dict[tuple[str, int, Symbol], list[Symbol]] = {}
         self._replays: Optional[bool] = None  # whether this frame is big enough to replay rules (REPLAY_ABOVE_ATOMS)
-        # One atom's proof at one depth, built once: a veto's reasons lean on the same facts (an object's lane,
-        # the gap it needs) again and again. Proof nodes are not changed once built, so sharing them is safe.
-        self._proved: dict[tuple[Symbol, int], JustificationNode] = {}
+        # An atom's proof, built once: a veto's reasons, and the recommended action's, lean on the same facts (an
+        # object's lane, the gap it needs, the hazard) again and again. A proof built nearer the root goes deeper,
+        # so it serves a deeper request as well. Proof nodes are not changed once built: sharing them is safe.
+        self._proved: dict[Symbol, tuple[int, JustificationNode]] = {}
 
     # -- derivations --
     def derivations(self, sym: Symbol) -> Iterator[tuple[CompiledRule, Env]]:
@@ -415,10 +416,12 @@ class Prover:
     def why(self, sym: Symbol, depth: int = 0, path: frozenset = frozenset()) -> JustificationNode:
         if sym in path:
             return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym), kind="loop")
-        proved = self._proved.get((sym, depth))
-        if proved is None:
-            proved = self._proved[(sym, depth)] = self._why(sym, depth, path)
-        return proved
+        proved = self._proved.get(sym)
+        if proved is not None and proved[0] <= depth:
+            return proved[1]
+        node = self._why(sym, depth, path)
+        self._proved[sym] = (depth, node)
+        return node
 
     def _why(self, sym: Symbol, depth: int, path: frozenset) -> JustificationNode:
         text = self.phrases.atom(sym)
