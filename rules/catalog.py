@@ -33,7 +33,7 @@ _PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
 PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
 TEMPLATE_FORMATS = frozenset({
     "m", "mps", "ahead", "right",  # centimetres and cm/s as metres; signed positions as "5.0 m behind"
-    "limit",  # a speed limit in cm/s: m/s, and the unit of the pack's signs ("15.6 m/s (35 mph)")
+    "limit",  # a speed limit in cm/s: m/s, and the unit of the pack's signs ("15.7 m/s (35 mph)")
     "obj", "ordinal", "ms",  # "car 3"; "2nd"; milliseconds as seconds
     "frames",  # a count of frames: "1 frame", "3 frames"
     "lane", "detail", "paren",  # "lane 2", ": reason", " (kind)": words that go when the value is unknown

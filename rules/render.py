@@ -9,9 +9,11 @@ from typing import Optional
 from .verdict import Justification, JustificationNode, Verdict
 
 
-def _line(node: JustificationNode) -> str:
+def _line(node: JustificationNode, again: bool = False) -> str:
     text = node.text
-    if node.children and node.kind in ("derived", "negation", "blocked"):
+    if again:
+        text += ", as shown above"
+    elif node.children and node.kind in ("derived", "negation", "blocked"):
         text += ", because"
     if node.rule and node.kind != "blocked":
         text += f"  [{node.rule}]"
@@ -36,13 +38,12 @@ def _walk(node: JustificationNode, depth: int, lines: list[str], shown: set[tupl
     # A module function, not a closure that calls itself: that is a reference cycle per verdict, the only
     # garbage a decision worker left for the full collections it now keeps to a minimum (decision_pool.py).
     key = _key(node)
-    if node.children and key in shown:
-        rule = f"  [{node.rule}]" if node.rule and node.kind != "blocked" else ""
-        lines.append("  " * depth + "- " + node.text + ", as shown above" + rule)
+    again = bool(node.children) and key in shown
+    lines.append("  " * depth + "- " + _line(node, again))
+    if again:
         return
     if node.children:
         shown.add(key)
-    lines.append("  " * depth + "- " + _line(node))
     for child in node.children:
         _walk(child, depth + 1, lines, shown)
 
