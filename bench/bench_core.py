@@ -14,7 +14,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.scenes import random_scene  # noqa: E402
+from bench.scenes import WARM_UP_SCENES, random_scene  # noqa: E402
 from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
@@ -23,7 +23,6 @@ from discern.rules.engine import Reasoner, Request  # noqa: E402
 
 KITTI = Path(__file__).resolve().parents[2] / "shared" / "avcsr" / "kitti"
 SCALING_TARGETS = {10: "-", 50: "p99 ≤ 5 ms", 200: "p99 ≤ 15 ms"}  # objects per random scene: p99 target
-WARM_UP_SCENES = 30
 
 
 def rss_mib() -> float:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.scenes import random_scene  # noqa: E402
+from bench.scenes import WARM_UP_SCENES, random_scene  # noqa: E402
 from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
@@ -107,19 +107,26 @@ def main() -> None:
             scenario_frames += 1
 
     rng = random.Random(2026)
-    scaling: dict[int, tuple[list[float], list[float]]] = {}
+    warm_rng = random.Random(7)  # other scenes of each size: what a worker that has run a while has seen
+    scaling: dict[int, tuple[list[float], ...]] = {}
     for n in (10, 50):
         scenes = [random_scene(rng, n, i, perception=True) for i in range(30)]
         hists = [window_before(sc, args.window) for sc in scenes]
-        for sc, h in zip(scenes[:3], hists[:3]):
+        for sc in [random_scene(warm_rng, n, i, perception=True) for i in range(WARM_UP_SCENES)]:
+            h = window_before(sc, args.window)
             core.decide(sc, "cruise")
             sanity.decide(sc, "cruise", history=h)
-        plain, windowed = [], []
+            core_ready.decide(sc, "cruise")
+            sanity_ready.decide(sc, "cruise", history=h)
+        plain, windowed, plain_ready, windowed_ready = [], [], [], []
         for sc, h in zip(scenes, hists):
             for _ in range(3):
                 plain += timed(lambda: core.decide(sc, "cruise"), 1)
                 windowed += timed(lambda: sanity.decide(sc, "cruise", history=h), 1)
-        scaling[n] = (plain, windowed)
+                plain_ready += timed(lambda: core_ready.decide(sc, "cruise"), 1, between=core_ready.prepare)
+                windowed_ready += timed(lambda: sanity_ready.decide(sc, "cruise", history=h), 1,
+                                        between=sanity_ready.prepare)
+        scaling[n] = (plain, windowed, plain_ready, windowed_ready)
 
     def row(name: str, values: list[float], base: list[float] | None = None) -> str:
         extra = f"{statistics.median(values) - statistics.median(base):+.2f}" if base else "-"
@@ -138,7 +145,8 @@ def main() -> None:
         f"{RATE_HZ:g} Hz ({history_frames} earlier frames, objects moved back along their velocities). "
         f"KITTI agreement with the sanity layer and the window: {agree}/{len(frames)}. "
         "\"Control readied\": the frame's clingo Control made before the timed decision, as a sidecar worker does "
-        "while it waits for the next proposal (`Reasoner.prepare`, rules/controls.py).",
+        "while it waits for the next proposal (`Reasoner.prepare`, rules/controls.py). Random scenes: "
+        f"each reasoner first decides {WARM_UP_SCENES} other scenes of the same size, as in bench_core.py.",
         "",
         "| case | decisions | median ms | p99 ms | max ms | median vs core ms |",
         "|---|---|---|---|---|---|",
@@ -155,6 +163,12 @@ def main() -> None:
         row(f"random scenes, 10 objects, sanity layer, {args.window:g} s window", scaling[10][1], scaling[10][0]),
         row("random scenes, 50 objects, core alone", scaling[50][0]),
         row(f"random scenes, 50 objects, sanity layer, {args.window:g} s window", scaling[50][1], scaling[50][0]),
+        row("random scenes, 10 objects, core alone, Control readied", scaling[10][2]),
+        row(f"random scenes, 10 objects, sanity layer, {args.window:g} s window, Control readied", scaling[10][3],
+            scaling[10][2]),
+        row("random scenes, 50 objects, core alone, Control readied", scaling[50][2]),
+        row(f"random scenes, 50 objects, sanity layer, {args.window:g} s window, Control readied", scaling[50][3],
+            scaling[50][2]),
     ])
     write_section("sanity", body)
     print(body)

@@ -8,6 +8,7 @@ from discern.rules.scene import Scene
 
 CLASSES = ["car", "truck", "bus", "pedestrian", "bicycle", "roadblock", "unknown", "plastic_bag"]
 LANES = 4
+WARM_UP_SCENES = 30  # other scenes decided before the timed ones: a worker that has run a while has seen their kinds
 
 
 def random_scene(rng: random.Random, n: int, frame: int, perception: bool = False) -> Scene:
