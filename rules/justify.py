@@ -551,15 +551,15 @@ class Prover:
         for position in sorted(rule.assignments, reverse=True):  # a computed value comes from its inputs
             if rule.body[position].variables & wanted:
                 wanted |= rule.body[position].variables
-        sources: list[JustificationNode] = []
+        sources: dict[Symbol, JustificationNode] = {}  # one line per fact, however many literals it matched
         for lit in rule.body:
             if not lit.is_atom or lit.negated or self._hidden(lit) or not lit.variables & wanted:
                 continue
             ground = next(self._matches(lit.atom, env), None)
-            if ground is not None and all(node.literal != str(ground[0]) for node in sources):
-                sources.append(JustificationNode(literal=str(ground[0]), holds=True,
-                                                 text=self.phrases.atom(ground[0]), kind="fact"))
-        return sources
+            if ground is not None and ground[0] not in sources:
+                sources[ground[0]] = JustificationNode(literal=str(ground[0]), holds=True,
+                                                       text=self.phrases.atom(ground[0]), kind="fact")
+        return list(sources.values())
 
     def _solve(self, body: list[Literal], env: Env, done: int,
                failures: Optional[list[_Failure]]) -> Iterator[Env]:
