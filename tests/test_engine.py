@@ -1,9 +1,9 @@
 import random
 
 import clingo
-from clingo import ast
 
-from discern.rules.engine import Reasoner
+from discern.rules.catalog import catalog_dirs
+from discern.rules.engine import Reasoner, jurisdiction_pack
 from discern.rules.fact_text import FACT_NAME
 from discern.rules.scene import Action
 from discern.rules.facts import scene_facts
@@ -26,10 +26,10 @@ def random_scene(rng: random.Random):
 
 
 def full_model(reasoner, sc, history=()):
+    """The answer set of the catalog files as written (no slicing, no rewriting), solved by clingo."""
     ctl = clingo.Control(["--warn=none"])
-    with ast.ProgramBuilder(ctl) as b:
-        for stm in reasoner.catalog.facts + [r.statement for r in reasoner.catalog.compiled]:
-            b.add(stm)
+    for path in [p for d in catalog_dirs() for p in sorted(d.glob("*.lp"))] + [jurisdiction_pack(reasoner.jurisdiction)]:
+        ctl.load(str(path))
     provided = "".join(p.facts(sc, history) for p in reasoner.providers)
     ctl.add("base", [], reasoner._param_facts + scene_facts(sc, Action.cruise) + provided)
     ctl.ground([("base", [])])
