@@ -238,8 +238,7 @@ _PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap
                 "decel": ("m/s²", 100), "speed_margin": ("m/s", 100), "turn_speed": ("m/s", 100),
                 "stopped_speed": ("m/s", 100)}
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "limit": "some speed", "ms": "some time",
-            "ahead": "somewhere",
-            "right": "somewhere", "lane": "a lane", "detail": "", "paren": ""}
+            "ahead": "somewhere", "right": "somewhere", "lane": "a lane", "detail": "", "paren": ""}
 _SIGN_UNITS = {"mph": 44.704}  # cm/s per unit a pack's speed_unit/1 may name
 _WRAPPED = {"lane": "lane {}", "detail": ": {}", "paren": " ({})"}  # a value with the words around it, unknown: none
 
