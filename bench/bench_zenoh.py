@@ -206,7 +206,7 @@ def main() -> None:
                 rows.append(row(r, vehicles, rate))
                 print(rows[-1], flush=True)
                 if r.failsafe > 0.02 * r.sent:
-                    notes.append(f"{label}: {r.judged_per_s:.0f} verdicts/s from the rules, the rest fail-safe at the budget")
+                    notes.append(f"{label}: {r.judged_per_s:.0f} verdicts/s from the rules, the rest fail-safe")
             finally:
                 session.close()
                 monitors.close()
@@ -261,7 +261,9 @@ def main() -> None:
             "",
             "Round trip = planner sends the proposal until the verdict is back; in monitor = arrival to answer "
             "(queueing + rules + encoding) as reported in the verdict's latency_ms; transport = round trip minus in monitor. "
-            "A fail-safe is a verdict sent at the 50 ms budget because the rules had not answered yet.",
+            "A fail-safe is a verdict not from the rules: sent at the 50 ms budget because the rules had not answered "
+            "yet, or at once for a proposal its worker shed (too little budget left, or shed under overload so that "
+            "younger ones are decided in time).",
             f"Other load on the machine: 1-minute load average {load_before:.1f} before the run "
             f"({os.cpu_count()} cores); the figures are only as quiet as the machine was.",
             "",

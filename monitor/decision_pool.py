@@ -412,33 +412,20 @@ class _Judge:
         now = time.monotonic()
         while backlog and (backlog[0].answered or not self._in_time(backlog[0], now)):
             # Answered already, or deciding it now would finish after its deadline: say so at once and
-            # move on to a proposal that can still make it, instead of collapsing into all-late under
-            # overload. Either way its scene enters the window first.
+            # move on to a proposal that can still make it. Either way its scene enters the window first.
             job = backlog.popleft()
-            if job.answered:
-                yield self._receipt(job)
-                continue
-            proposal, error = self._remember(job)
-            yield Outcome(
-                job.rid,
-                no_verdict=f"{max(job.deadline - now, 0) * 1000:.1f} ms of the budget left after queueing, "
-                f"a decision takes about {self.time.predict(1) * 1000:.1f} ms",
-                frame_id=proposal.scene.frame_id if proposal else None,
-                action=proposal.action.value if proposal else None,
-                decoded=proposal is not None,
-                error=error,
+            yield self._receipt(job) if job.answered else self._shed(
+                job, f"{max(job.deadline - now, 0) * 1000:.1f} ms of the budget left after queueing, "
+                f"a decision takes about {self.time.predict(1) * 1000:.1f} ms"
             )
         if not backlog:
             return
-        # The oldest proposal has the least time left: the batch grows while it would still make it.
-        left = backlog[0].deadline - now
-        size = 1
-        while (
-            size < min(len(backlog), MAX_BATCH)
-            and self.time.known
-            and DEADLINE_MARGIN * self.time.predict(size + 1) <= left
-        ):
-            size += 1
+        start, size = self._batch_bounds(backlog, now)
+        for _ in range(start):
+            job = backlog.popleft()
+            yield self._receipt(job) if job.answered else self._shed(
+                job, f"shed under overload: {size} younger proposals decided in one batch instead, in time"
+            )
         batch = [backlog.popleft() for _ in range(size)]
         started = time.monotonic()
         admitted = []
@@ -463,6 +450,54 @@ class _Judge:
         self.time.learn(len(batch), done - started)
         for (job, proposal, _), result in zip(admitted, results):
             yield self._outcome(job, proposal, result, done)
+
+    def _batch_bounds(self, backlog: deque, now: float) -> tuple[int, int]:
+        """Where the next batch starts in the backlog and how many proposals it takes.
+
+        A batch grows while its oldest proposal would still make its deadline, and it starts with the
+        oldest waiting proposal while the proposals behind that batch can still be decided after it.
+        Under overload they cannot: the oldest proposal is always close to its deadline, so batches
+        that start with it stay at one proposal, the dearest way to decide (measured, 50-object
+        frames: 4.6 ms alone, 2.6 ms a frame in batches of 8), and the backlog sheds most of the rest.
+        Then the batch starts where it decides the most proposals in time, and the older ones before
+        it are shed at once.
+        """
+        if not self.time.known:
+            return 0, 1
+        first = self._fits(backlog, 0, now)
+        rest = min(len(backlog) - first, MAX_BATCH)
+        if not rest or DEADLINE_MARGIN * (self.time.predict(first) + self.time.predict(rest)) <= (
+            backlog[first].deadline - now
+        ):
+            return 0, first
+        best = (0, first)
+        for start in range(1, len(backlog)):
+            if min(len(backlog) - start, MAX_BATCH) <= best[1]:
+                break  # later starts have fewer proposals behind them
+            size = self._fits(backlog, start, now)
+            if size > best[1]:
+                best = (start, size)
+        return best
+
+    def _fits(self, backlog: deque, start: int, now: float) -> int:
+        """How many proposals from `start` on one batch decides before the first one's deadline (at least one)."""
+        room, left = min(len(backlog) - start, MAX_BATCH), backlog[start].deadline - now
+        size = 1
+        while size < room and DEADLINE_MARGIN * self.time.predict(size + 1) <= left:
+            size += 1
+        return size
+
+    def _shed(self, job: Job, why: str) -> Outcome:
+        """A proposal that gets no decision: its scene enters the window, and the monitor answers it fail-safe."""
+        proposal, error = self._remember(job)
+        return Outcome(
+            job.rid,
+            no_verdict=why,
+            frame_id=proposal.scene.frame_id if proposal else None,
+            action=proposal.action.value if proposal else None,
+            decoded=proposal is not None,
+            error=error,
+        )
 
     def _in_time(self, job: Job, now: float) -> bool:
         """Could a decision started now, alone, finish before the job's deadline?

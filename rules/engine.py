@@ -134,7 +134,11 @@ class Reasoner:
         if self._solve_hook is not None:
             self._solve_hook()
         batch = BatchAnswers(ctl, self._tagger.static, SolvedFrame.READS)
-        return [SolvedFrame(FrameAnswers(batch, k), Action(action)) for k, action in enumerate(proposed)]
+        defined = self.catalog.defined_in(self._param_names.union(facts.names))
+        return [
+            SolvedFrame(FrameAnswers(batch, k, text, defined), Action(action))
+            for k, (text, action) in enumerate(zip(texts, proposed))
+        ]
 
     def _solve_text(self, text: str, proposed: Action) -> SolvedFrame:
         names = self.predicates_of(text)

@@ -2,6 +2,7 @@ import random
 
 import pytest
 
+from bench.scenes import random_scene as dense_scene
 from discern.adapters.avcsr import read_dir
 from discern.rules.batch import FrameTagger, static_predicates
 from discern.rules.engine import Request
@@ -40,6 +41,19 @@ def test_batched_verdicts_equal_one_by_one_verdicts_with_their_proofs(reasoner):
     for request, verdict in zip(requests, batched):
         alone = reasoner.decide(request.scene, request.proposed, request.history, explain=request.explain,
                                 shadow=request.shadow, vehicle=request.vehicle)
+        assert _comparable(verdict) == _comparable(alone)
+
+
+def test_dense_frames_read_from_their_fact_text_in_a_batch_decide_as_alone(reasoner):
+    """A batch's frames read the facts no rule defines from their own fact text, as a solo frame does."""
+    rng = random.Random(13)
+    actions = ["cruise", "accelerate", "change_lane_left", "brake", "turn_right"]
+    requests = [Request(dense_scene(rng, rng.choice([30, 60]), i, perception=i % 2 == 0), actions[i % 5],
+                        explain=i % 3 == 0) for i in range(10)]
+    batched = reasoner.decide_many(requests)
+    assert sum(v.decision.value != "approve" for v in batched) >= 3  # vetoes: proofs that read objects' facts
+    for request, verdict in zip(requests, batched):
+        alone = reasoner.decide(request.scene, request.proposed, explain=request.explain)
         assert _comparable(verdict) == _comparable(alone)
 
 

@@ -6,6 +6,7 @@ import gc
 import itertools
 import time
 from collections import deque
+from dataclasses import replace
 
 import pytest
 import zenoh
@@ -178,6 +179,31 @@ def test_a_batch_holds_only_what_can_be_decided_before_the_oldest_deadline():
     decided = list(judge.next_batch(backlog))
     assert [o.rid for o in decided] == [0, 1, 2] and all(o.verdict is not None for o in decided)
     assert [job.rid for job in backlog] == list(range(3, 10))  # left for the next batch
+
+
+def test_under_overload_the_batch_starts_where_it_decides_the_most_proposals_in_time():
+    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge.time.learn(1, 0.01)
+    judge.time.fixed_s, judge.time.per_proposal_s = 0.0, 0.01  # 10 ms a proposal, 15 ms with the margin
+    backlog = jobs(8, 0.020)  # the two oldest have 20 ms left: from them, one fits
+    for k in range(2, 8):  # the six younger ones have 95 ms: all six fit in one batch
+        backlog[k] = replace(backlog[k], deadline=backlog[k].deadline + 0.075)
+    outcomes = list(judge.next_batch(backlog))
+    shed, decided = outcomes[:2], outcomes[2:]
+    assert [o.rid for o in shed] == [0, 1] and all(o.verdict is None and o.decoded for o in shed)
+    assert all("shed under overload: 6 younger proposals" in o.no_verdict for o in shed)
+    assert [o.rid for o in decided] == list(range(2, 8)) and all(o.verdict is not None for o in decided)
+    assert not backlog
+
+
+def test_without_overload_the_batch_starts_with_the_oldest_proposal():
+    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge.time.learn(1, 0.01)
+    judge.time.fixed_s, judge.time.per_proposal_s = 0.0, 0.01
+    backlog = jobs(4, 0.020)  # the oldest has time for itself only, the rest for more: it still goes first
+    for k in range(1, 4):
+        backlog[k] = replace(backlog[k], deadline=backlog[k].deadline + 0.075)
+    assert [o.rid for o in judge.next_batch(backlog)] == [0]  # alone: a batch from rid 1 would take 3, no more
 
 
 def test_a_worker_decides_one_at_a_time_until_it_has_timed_a_decision():
