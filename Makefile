@@ -39,6 +39,7 @@ bench: $(BIN)/.installed malloc
 	$(BIN)/python bench/bench_core.py
 	$(BIN)/python bench/bench_sanity.py
 	$(BIN)/python bench/bench_zenoh.py
+	$(BIN)/python bench/bench_worker.py
 	$(BIN)/python bench/bench_audit.py
 	-$(BIN)/python bench/bench_allocator.py  # needs jemalloc: where it could not be installed, says so and goes on
 
