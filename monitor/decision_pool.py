@@ -386,6 +386,14 @@ class BatchTime:
     def predict(self, n: int) -> float:
         return self.fixed_s + n * self.per_proposal_s
 
+    def most_within(self, seconds: float) -> int:
+        """The largest batch predicted to take at most `seconds` (0 when not even an empty one would)."""
+        if seconds < self.fixed_s:
+            return 0
+        if self.per_proposal_s <= 0.0:
+            return MAX_BATCH
+        return int((seconds - self.fixed_s) / self.per_proposal_s)
+
     def learn(self, n: int, took_s: float) -> None:
         step = self.STEP if self.known else 1.0  # the first batch timed sets the estimate outright
         error, norm = took_s - self.predict(n), 1 + n * n
@@ -481,11 +489,8 @@ class _Judge:
 
     def _fits(self, backlog: deque, start: int, now: float) -> int:
         """How many proposals from `start` on one batch decides before the first one's deadline (at least one)."""
-        room, left = min(len(backlog) - start, MAX_BATCH), backlog[start].deadline - now
-        size = 1
-        while size < room and DEADLINE_MARGIN * self.time.predict(size + 1) <= left:
-            size += 1
-        return size
+        room = min(len(backlog) - start, MAX_BATCH)
+        return max(1, min(room, self.time.most_within((backlog[start].deadline - now) / DEADLINE_MARGIN)))
 
     def _shed(self, job: Job, why: str) -> Outcome:
         """A proposal that gets no decision: its scene enters the window, and the monitor answers it fail-safe."""

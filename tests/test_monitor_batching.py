@@ -224,6 +224,13 @@ def test_the_batch_time_estimate_learns_a_fixed_part_and_a_part_per_proposal():
     assert estimate.predict(32) < 0.3 * 32 * estimate.predict(1)  # a batch costs far less than its frames alone
 
 
+def test_the_largest_batch_that_fits_a_time_is_read_off_the_estimate():
+    estimate = BatchTime()
+    estimate.fixed_s, estimate.per_proposal_s = 0.003, 0.002
+    assert estimate.most_within(0.0195) == 8 and estimate.most_within(0.0189) == 7
+    assert estimate.most_within(0.002) == 0  # not even the fixed part fits
+
+
 def test_decisions_leave_no_reference_cycles_for_the_full_collections_to_find():
     reasoner = Reasoner()
     frames = [highway_scene(f, 8, seed=4) for f in range(1, 6)]
