@@ -108,6 +108,7 @@ class Reasoner:
         self._tagger = FrameTagger(self.catalog, shared={"param"})
         self._controls = PreparedControls(self.catalog.rules_within, self._param_facts)
         self.slicer = PresenceSlicer(self.catalog, self._controls)
+        self._static_atoms: dict = {}  # shared by the proofs of all its frames (justify.Prover)
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:
         proposed = Action(proposed)
@@ -196,8 +197,8 @@ class Reasoner:
     def _verdict(self, request: Request, solved: SolvedFrame, start: float) -> Verdict:
         scene, proposed, explain, shadow = request.scene, solved.proposed, request.explain, request.shadow
         # A veto always carries its proof; the full depth (every definition down to the facts) on request.
-        prover = Prover(self.catalog, solved.answer) if explain else Prover(
-            self.catalog, solved.answer, max_depth=VETO_DEPTH, negative_depth=1
+        prover = Prover(self.catalog, solved.answer, static_atoms=self._static_atoms) if explain else Prover(
+            self.catalog, solved.answer, max_depth=VETO_DEPTH, negative_depth=1, static_atoms=self._static_atoms
         )
         allowed = proposed in solved.permitted
         recommended = solved.recommended
@@ -225,7 +226,8 @@ class Reasoner:
 
         summary = _summary(decision, proposed, action, recommended, rules)
         notes = solved.answer.of("noted", 1)
-        brief = Prover(self.catalog, solved.answer, negative_depth=0) if notes and explain else prover
+        brief = Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=self._static_atoms) \
+            if notes and explain else prover
         for note in notes:
             # What the sanity layer set aside or doubted (noted/1): its rules with every verdict, its proof on request.
             if explain:

@@ -217,6 +217,7 @@ def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_cli
     with clingo's model atom for atom, or a justification would depend on how it was read."""
     monkeypatch.setattr(justify, "REPLAY_ABOVE_ATOMS", 0)  # replay in every frame, not only in dense ones
     reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    static_atoms: dict[str, dict] = {"us": {}, "uk": {}}  # shared by all frames of a reasoner, as Reasoner does
     frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
     proofs = 0
     for jurisdiction, sc, proposed, history in frames:
@@ -224,11 +225,23 @@ def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_cli
         solved = engine.solve(sc, proposed, history)
         from_clingo = AnswerSet(solved.owns)
         replaying, reading = Prover(engine.catalog, solved.answer), Prover(engine.catalog, from_clingo)
+        sharing = Prover(engine.catalog, solved.answer, static_atoms=static_atoms[jurisdiction])
         for name in ("forbidden", "permitted", "recommended", "noted"):
             for atom in from_clingo.of(name, 1):
-                assert replaying.why(atom) == reading.why(atom), (sc.frame_id, str(atom))
+                assert replaying.why(atom) == reading.why(atom) == sharing.why(atom), (sc.frame_id, str(atom))
                 proofs += 1
-    assert proofs > 500
+    assert proofs > 500 and static_atoms["us"] and static_atoms["uk"]
+
+
+def test_static_atoms_found_in_other_frames_serve_a_proof_only_where_they_hold(reasoner):
+    solved = reasoner.solve(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
+    brake = Function("brake")
+    key = ("ranks_below", 2, brake)
+    stale = {key: [Function("ranks_below", [brake, Function("teleport")])]}  # not an atom of this frame
+    recommended = Function("recommended", [brake])
+    proof = Prover(reasoner.catalog, solved.answer, static_atoms=stale).why(recommended)
+    assert proof == Prover(reasoner.catalog, solved.answer).why(recommended)
+    assert "teleport" not in str(proof) and stale[key] and all(solved.answer.holds(a) for a in stale[key])
 
 
 @pytest.fixture(scope="module")
