@@ -6,6 +6,7 @@ Run: python bench/bench_sanity.py [--repeats 30]   (one process; writes the "San
 from __future__ import annotations
 
 import argparse
+import gc
 import random
 import statistics
 import sys
@@ -122,7 +123,8 @@ def main() -> None:
     warm_rng = random.Random(7)  # other scenes of each size: what a worker that has run a while has seen
     scaling: dict[int, tuple[list[float], ...]] = {}
     for n in (10, 50):
-        scenes = [random_scene(rng, n, i, perception=True) for i in range(30)]
+        gc.collect()  # between cases, where a worker's IdleWork would run, as in bench_core.py
+        scenes = [random_scene(rng, n, i, perception=True) for i in range(60)]  # 180 decisions a case, as there
         hists = [window_before(sc, args.window) for sc in scenes]
         for h in hists:
             seen_before(sanity, h)
