@@ -235,7 +235,7 @@ class Reasoner:
                 tree.append(node)
                 found = rule_ids(node)
             else:
-                found = [rule.info.id for rule, _ in prover.derivations(note.arguments[0])]
+                found = prover.deriving_rules(note.arguments[0])
             rules.extend(r for r in found if r not in rules)
         justification = Justification(summary=summary, tree=tree)
         justification.text = render_text(justification)
@@ -259,9 +259,7 @@ class Reasoner:
         rules = ["dec.permitted"]
         applicable = _atom("applicable", solved.proposed)
         if solved.answer.holds(applicable):
-            fact_rule = self.catalog.fact_rule.get(applicable)
-            found = [fact_rule] if fact_rule else [rule.info.id for rule, _ in prover.derivations(applicable)]
-            rules.extend(r for r in found if r not in rules)
+            rules.extend(r for r in prover.deriving_rules(applicable) if r not in rules)
         return rules
 
 

@@ -159,8 +159,12 @@ class AnswerSet:
 
         Then the prover may find those with a given first argument by replaying the catalog's rules.
         """
+        return self.not_given(name) and (name, arity) not in self._by_first
+
+    def not_given(self, name: str) -> bool:
+        """Whether the frame's fact text gives no atom of the predicate (False when there is no text to tell)."""
         names = self._fact_names()
-        return names is not None and name not in names and (name, arity) not in self._by_first
+        return names is not None and name not in names
 
     def size(self) -> int:
         """How many atoms the grounded program has: what reading a whole predicate costs grows with it."""
@@ -405,6 +409,24 @@ class Prover:
             for solution in self._solve(list(rule.body), env, 0, None):
                 yield rule, solution
                 break
+
+    def deriving_rules(self, sym: Symbol) -> list[str]:
+        """Ids of the rules with an instance that derives `sym`, an atom of the model, as `derivations` finds them.
+
+        An atom that no fact gives, of which one catalog rule's head is capable, was derived by that rule: its
+        body need not be replayed to name it (the sanity notes' rules, named with every verdict: 0.66 against
+        0.09 ms on 50-object frames).
+        """
+        fact_rule = self.catalog.fact_rule.get(sym)
+        if fact_rule:
+            return [fact_rule]
+        _, name, args = self.answer.shape(sym)
+        if name not in self.catalog.fact_predicates and self.answer.not_given(name):
+            capable = [rule for rule in self.catalog.rules_deriving(name, len(args), args[0] if args else None)
+                       if match(rule.head, sym, {}, self.answer.shape) is not None]
+            if len(capable) == 1:
+                return [capable[0].info.id]
+        return [rule.info.id for rule, _ in self.derivations(sym)]
 
     def fired_rules(self) -> set[str]:
         """Ids of the catalog rules with at least one instance whose body holds in the model."""

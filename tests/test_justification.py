@@ -233,6 +233,26 @@ def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_cli
     assert proofs > 500 and static_atoms["us"] and static_atoms["uk"]
 
 
+def test_rules_named_without_replaying_a_body_are_the_rules_whose_body_holds(reasoner, avcsr_dir):
+    """Naming the one rule capable of an atom skips its body; an atom a frame fact gives, or several rules can
+    derive, is still solved: either way the names are those of the rules that derived it."""
+    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
+    named = 0
+    for jurisdiction, sc, proposed, history in frames:
+        engine = reasoners[jurisdiction]
+        answer = engine.solve(sc, proposed, history).answer
+        prover = Prover(engine.catalog, answer)
+        atoms = [n.arguments[0] for n in answer.of("noted", 1)] + answer.of("object", 2)
+        atoms += [atom for name in ("applicable", "forbidden", "hazard") for atom in answer.of(name, 1)]
+        for atom in atoms:
+            fact_rule = engine.catalog.fact_rule.get(atom)  # a catalog fact is its own rule
+            found = [fact_rule] if fact_rule else [rule.info.id for rule, _ in prover.derivations(atom)]
+            assert prover.deriving_rules(atom) == found, (sc.frame_id, str(atom))
+            named += bool(found)
+    assert named > 200
+
+
 def test_static_atoms_found_in_other_frames_serve_a_proof_only_where_they_hold(reasoner):
     solved = reasoner.solve(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
     brake = Function("brake")
