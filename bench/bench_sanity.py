@@ -53,7 +53,8 @@ def seen_before(reasoner: Reasoner, history: tuple[Scene, ...]) -> None:
 
     The window provider summarises a frame once, when it is current, and looks the summary up in the
     twenty later windows it sits in; timing the first decision over a made-up history would charge it
-    for summarising twenty frames at once (about 3 ms at 50 objects), which no worker pays.
+    for summarising twenty frames at once (the provider took 1.9 against 0.5 ms at 50 objects, on the VM at
+    a slow moment), which no worker pays.
     """
     for i, past in enumerate(history):
         for provider in reasoner.providers:

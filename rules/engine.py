@@ -226,8 +226,8 @@ class Reasoner:
 
         summary = _summary(decision, proposed, action, recommended, rules)
         notes = solved.answer.of("noted", 1)
-        brief = Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=self._static_atoms) \
-            if notes and explain else prover
+        brief = (Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=self._static_atoms)
+                 if notes and explain else prover)
         for note in notes:
             # What the sanity layer set aside or doubted (noted/1): its rules with every verdict, its proof on request.
             if explain:
