@@ -5,7 +5,6 @@ from __future__ import annotations
 from discern.rules.scene import Action
 
 LANE_LEFT, IDLE, LANE_RIGHT, FASTER, SLOWER = range(5)
-NAMES = {LANE_LEFT: "LANE_LEFT", IDLE: "IDLE", LANE_RIGHT: "LANE_RIGHT", FASTER: "FASTER", SLOWER: "SLOWER"}
 
 _TO_CATALOG = {
     LANE_LEFT: Action.change_lane_left,

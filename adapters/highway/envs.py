@@ -14,7 +14,6 @@ import numpy as np
 TARGET_SPEEDS = tuple(float(v) for v in np.linspace(10.0, 40.0, 7))
 
 SUPPORTED = ("highway-fast-v0", "highway-v0", "merge-v0")
-POLICY_PERIOD_DEFAULT = 1.0  # s: highway-env's default policy_frequency is 1 Hz
 
 
 def make_env(name: str = "highway-fast-v0", duration: float | None = None) -> gym.Env:

@@ -93,10 +93,6 @@ class RecoveryReport:
     def skipped(self) -> int:
         return sum(f.skipped for f in self.files)
 
-    @property
-    def truncated_files(self) -> list[FileRecovery]:
-        return [f for f in self.files if f.truncated]
-
     def summary(self) -> str:
         lines = []
         for f in self.files:
