@@ -342,7 +342,8 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         if stm.head.ast_type != ast.ASTType.Literal or stm.head.atom.ast_type != ast.ASTType.SymbolicAtom:
             raise CatalogError(f"{path}:{stm.location.begin.line}: {info.id}: only normal rules are supported")
         body = tuple(compile_literal(lit) for lit in stm.body)
-        head = compile_term(stm.head.atom.symbol)
+        head, computed = _computed_head_arguments(stm.head.atom.symbol, body)
+        body += computed
         if any(lit.negated and not lit.is_atom for lit in body):
             raise CatalogError(f"{path}:{stm.location.begin.line}: {info.id}: negated comparisons are not supported")
         catalog.compiled.append(
@@ -357,6 +358,30 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
                 assignments=_assignments(body),
             )
         )
+
+
+def _computed_head_arguments(head: ast.AST, body: tuple[Literal, ...]) -> tuple[Term, tuple[Literal, ...]]:
+    """The head with a fresh variable for each computed argument, and `Fresh = expr` for the body's end.
+
+    `left_lane(L-1)` cannot be matched against `left_lane(2)` to find L; `left_lane(H) :- ..., H = L-1` can, and
+    means the same. The prover replays rules in this form: otherwise what they derive reads as a given fact.
+    """
+    taken = set(term_vars(compile_term(head))).union(*(lit.variables for lit in body))
+    computed: list[Literal] = []
+
+    def bind(node: ast.AST) -> Term:
+        if node.ast_type == ast.ASTType.Function:
+            return ("f", node.name, tuple(bind(arg) for arg in node.arguments))
+        term = compile_term(node)
+        if term[0] in ("v", "s"):
+            return term
+        name = next(f"Head{i}" for i in range(len(taken) + 1) if f"Head{i}" not in taken)
+        taken.add(name)
+        equality = (int(ast.ComparisonOperator.Equal), term)
+        computed.append(Literal(False, None, (("v", name), (equality,)), term_vars(term) | {name}, f"{name} = {node}"))
+        return ("v", name)
+
+    return bind(head), tuple(computed)
 
 
 class _NameAnonymous(ast.Transformer):

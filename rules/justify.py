@@ -420,13 +420,20 @@ class Prover:
         fact_rule = self.catalog.fact_rule.get(sym)
         if fact_rule:
             return [fact_rule]
-        _, name, args = self.answer.shape(sym)
-        if name not in self.catalog.fact_predicates and self.answer.not_given(name):
-            capable = [rule for rule in self.catalog.rules_deriving(name, len(args), args[0] if args else None)
-                       if match(rule.head, sym, {}, self.answer.shape) is not None]
-            if len(capable) == 1:
-                return [capable[0].info.id]
+        sole = self._sole_rule(sym)
+        if sole is not None:
+            return [sole]
         return [rule.info.id for rule, _ in self.derivations(sym)]
+
+    def _sole_rule(self, sym: Symbol) -> Optional[str]:
+        """The rule that derived `sym`, an atom of the model, when no fact gives it and every catalog rule whose head
+        is capable of it has one id (def.safe_gap's two bodies); None where only replaying their bodies can tell."""
+        _, name, args = self.answer.shape(sym)
+        if name in self.catalog.fact_predicates or not self.answer.not_given(name):
+            return None
+        ids = {rule.info.id for rule in self.catalog.rules_deriving(name, len(args), args[0] if args else None)
+               if match(rule.head, sym, {}, self.answer.shape) is not None}
+        return ids.pop() if len(ids) == 1 else None
 
     def fired_rules(self) -> set[str]:
         """Ids of the catalog rules with at least one instance whose body holds in the model."""
@@ -450,6 +457,10 @@ class Prover:
     def _why(self, sym: Symbol, depth: int, path: frozenset) -> JustificationNode:
         text = self.phrases.atom(sym)
         fact_rule = self.catalog.fact_rule.get(sym)
+        if fact_rule is None and depth >= self.max_depth:  # a leaf: its rule named, its body not shown
+            sole = self._sole_rule(sym)
+            if sole is not None:
+                return JustificationNode(literal=str(sym), holds=True, text=text, rule=sole)
         derivation = None if fact_rule else next(self.derivations(sym), None)
         if derivation is None:
             return JustificationNode(literal=str(sym), holds=True, text=text, kind="fact", rule=fact_rule)

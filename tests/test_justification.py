@@ -244,13 +244,48 @@ def test_rules_named_without_replaying_a_body_are_the_rules_whose_body_holds(rea
         answer = engine.solve(sc, proposed, history).answer
         prover = Prover(engine.catalog, answer)
         atoms = [n.arguments[0] for n in answer.of("noted", 1)] + answer.of("object", 2)
-        atoms += [atom for name in ("applicable", "forbidden", "hazard") for atom in answer.of(name, 1)]
+        atoms += [atom for name in ("applicable", "forbidden", "hazard", "left_lane", "right_lane")
+                  for atom in answer.of(name, 1)]
+        atoms += [atom for name in ("closing_speed", "rear_closing", "safe_gap", "signals_into")
+                  for atom in answer.of(name, 2)]
         for atom in atoms:
             fact_rule = engine.catalog.fact_rule.get(atom)  # a catalog fact is its own rule
             found = [fact_rule] if fact_rule else [rule.info.id for rule, _ in prover.derivations(atom)]
             assert prover.deriving_rules(atom) == found, (sc.frame_id, str(atom))
             named += bool(found)
     assert named > 200
+
+
+def test_an_atom_a_rule_computes_in_its_head_is_proved_by_that_rule_not_shown_as_a_fact(reasoner):
+    """`closing_speed(O, V - VY)` and `left_lane(L-1)` compute their head: the proof still finds their rule."""
+    solved = reasoner.solve(scene(speed=15, lane=2, lanes=2, objects=[obj("car", 0, 16, lane=2, vy=5)]), "cruise")
+    prover = Prover(reasoner.catalog, solved.answer)
+    closing = Function("closing_speed", [Number(1), Number(1000)])
+    assert prover.deriving_rules(closing) == ["def.closing_known"]  # not the capable-by-its-head closing_unknown_thing
+    proof = prover.why(closing)
+    assert proof.rule == "def.closing_known"
+    assert [child.text for child in proof.children] == [
+        "car 1 moves at 5.0 m/s along the ego's heading and 0.0 m/s across it",
+        "car 1 is 16.0 m ahead and in line with the ego", "16.0 m ≥ 0.0 m", "the ego drives at 15.0 m/s"]
+    assert prover.why(Function("left_lane", [Number(1)])).rule == "def.adjacent_lanes"
+
+
+def test_a_leaf_at_the_depth_cut_names_the_rule_a_full_proof_finds(reasoner, avcsr_dir):
+    """At the cut a leaf's rule is named without replaying its body where only one rule id can derive it."""
+    frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
+    compared = 0
+    for jurisdiction, sc, proposed, history in frames:
+        if jurisdiction != "us":
+            continue
+        answer = reasoner.solve(sc, proposed, history).answer
+        full, cut = Prover(reasoner.catalog, answer), Prover(reasoner.catalog, answer, max_depth=0)
+        for name, arity in (("gap_needed", 2), ("safe_gap", 2), ("closing_speed", 2), ("braking_distance", 2),
+                            ("in_ego_lane", 1), ("lane_free", 1), ("hazard", 1), ("permitted", 1)):
+            for atom in answer.of(name, arity):
+                leaf = cut.why(atom)
+                assert leaf.rule == full.why(atom).rule and not leaf.children, (sc.frame_id, str(atom))
+                compared += 1
+    assert compared > 500
 
 
 def test_static_atoms_found_in_other_frames_serve_a_proof_only_where_they_hold(reasoner):
