@@ -455,15 +455,15 @@ class Prover:
         return node
 
     def _why(self, sym: Symbol, depth: int, path: frozenset) -> JustificationNode:
-        text = self.phrases.atom(sym)
         fact_rule = self.catalog.fact_rule.get(sym)
         if fact_rule is None and depth >= self.max_depth:  # a leaf: its rule named, its body not shown
             sole = self._sole_rule(sym)
             if sole is not None:
-                return JustificationNode(literal=str(sym), holds=True, text=text, rule=sole)
+                return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym), rule=sole)
         derivation = None if fact_rule else next(self.derivations(sym), None)
         if derivation is None:
-            return JustificationNode(literal=str(sym), holds=True, text=text, kind="fact", rule=fact_rule)
+            return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym), kind="fact",
+                                     rule=fact_rule)
         rule, env = derivation
         return self.node_for(rule, env, sym, depth, path)
 
