@@ -68,8 +68,13 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    if Path(args.scene).suffix == ".pl":
+        raise UserError(f"{args.scene}: AV-CSR frames, not a scene: run them with `discern scenarios run {args.scene}`")
     data = _read_json(args.scene)
     try:
+        if "frames" in data and "scene" not in data:
+            raise UserError(f"{args.scene}: a scenario file, not a scene: `discern scenarios run {args.scene}` "
+                            "decides its frames and checks their expected verdicts")
         if "scene" in data:
             proposal = Proposal.model_validate(data)
             scene, action, vehicle = proposal.scene, proposal.action, proposal.vehicle
@@ -119,36 +124,79 @@ def cmd_catalog(args: argparse.Namespace) -> int:
     return 0
 
 
+def _scenario_inputs(paths: Sequence[str]) -> tuple[list[Path], list[Path]]:
+    """The AV-CSR frame files (.pl) and scenario files (.json) that the given files and directories hold.
+
+    A directory with .pl files is a set of AV-CSR frames (the paper's table); any other is searched for scenarios.
+    """
+    frames: list[Path] = []
+    scenarios: list[Path] = []
+    for name in paths:
+        path = Path(name)
+        if path.is_dir():
+            found = sorted(path.glob("*.pl"))
+            if found:
+                frames += found
+                continue
+            from discern.scenarios.runner import ScenarioError, scenario_files
+
+            try:
+                scenarios += scenario_files(path)
+            except ScenarioError as exc:
+                raise UserError(f"{exc} and no AV-CSR frame files (*.pl)") from None
+        elif not path.exists():
+            raise UserError(f"{path}: no such file or directory")
+        elif path.suffix == ".pl":
+            frames.append(path)
+        elif path.suffix == ".json":
+            scenarios.append(path)
+        else:
+            raise UserError(f"{path}: not a scenario file (.json) or an AV-CSR frame file (.pl)")
+    return frames, scenarios
+
+
+def _indented(text: str) -> str:
+    return "\n".join("        " + line for line in text.splitlines())
+
+
 def cmd_scenarios(args: argparse.Namespace) -> int:
-    directory = Path(args.dir)
-    if not directory.is_dir():
-        raise UserError(f"{directory}: no such directory")
-    if list(directory.glob("*.pl")):
-        from discern.adapters.avcsr import AvcsrError
+    frame_files, scenario_files = _scenario_inputs(args.paths)
+    ok = True
+    if frame_files:
+        from discern.adapters.avcsr import AvcsrError, read_file
         from discern.scenarios import paper_table
 
         try:
-            rows = paper_table.run(directory, _reasoner(args), repeats=args.repeats)
+            frames = [frame for path in frame_files for frame in read_file(path)]
+            rows = paper_table.run(frames, _reasoner(args), repeats=args.repeats)
         except AvcsrError as exc:
             raise UserError(str(exc)) from None
         print(paper_table.format_rows(rows))
         print()
         print(paper_table.format_table(rows))
-        return 0 if all(r.agrees for r in rows) else 1
-    from discern.scenarios import runner
+        for row in rows if args.explain else ():
+            print(f"\n{row.frame.scenario} frame {row.frame.frame}:\n{_indented(row.verdict.justification.text)}")
+        ok = all(r.agrees for r in rows)
+    if scenario_files:
+        from discern.scenarios import runner
 
-    try:
-        outcomes = runner.run_files(runner.scenario_files(directory), lambda j: _reasoner(args, j))
-    except runner.ScenarioError as exc:
-        raise UserError(str(exc)) from None
-    for outcome in outcomes:
-        status = "pass" if outcome.passed else "FAIL"
-        print(f"{status}  {outcome.scenario} #{outcome.index}: {outcome.verdict.justification.summary}")
-        for problem in outcome.problems:
-            print(f"        {problem}")
-    failed = sum(not o.passed for o in outcomes)
-    print(f"{len(outcomes) - failed} passed, {failed} failed")
-    return 0 if failed == 0 else 1
+        if frame_files:
+            print()
+        try:
+            outcomes = runner.run_files(scenario_files, lambda j: _reasoner(args, j))
+        except runner.ScenarioError as exc:
+            raise UserError(str(exc)) from None
+        for outcome in outcomes:
+            status = "pass" if outcome.passed else "FAIL"
+            print(f"{status}  {outcome.scenario} #{outcome.index}: {outcome.verdict.justification.summary}")
+            for problem in outcome.problems:
+                print(f"        {problem}")
+            if args.explain:
+                print(_indented(outcome.verdict.justification.text))
+        failed = sum(not o.passed for o in outcomes)
+        print(f"{len(outcomes) - failed} passed, {failed} failed")
+        ok = ok and failed == 0
+    return 0 if ok else 1
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
@@ -189,8 +237,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     scenarios = sub.add_parser("scenarios", help="run scenario files or the paper's KITTI frames")
     scen_sub = scenarios.add_subparsers(dest="action", required=True, metavar="ACTION")
-    run = scen_sub.add_parser("run", help="run a directory of scenario JSON files or AV-CSR .pl frames")
-    run.add_argument("dir")
+    run = scen_sub.add_parser("run", help="run scenario JSON files or AV-CSR .pl frames, or directories of them")
+    run.add_argument("paths", nargs="+", metavar="PATH", help="a scenario .json, an AV-CSR .pl, or a directory")
+    run.add_argument("--explain", action="store_true", help="print every verdict's justification")
     run.add_argument("--repeats", type=int, default=5, help="timing repeats per KITTI frame (median)")
     run.add_argument("--rules", help="use the driving rules in this directory")
     run.set_defaults(func=cmd_scenarios)

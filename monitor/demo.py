@@ -12,6 +12,7 @@ import sys
 import threading
 from pathlib import Path
 
+from discern.adapters.avcsr import read_dir
 from discern.rules.engine import Reasoner
 from discern.scenarios import paper_table, runner
 
@@ -29,7 +30,7 @@ def paper(reasoner: Reasoner, kitti: Path) -> bool:
     if not kitti.is_dir():
         print(f"skipped: the paper's frames are not at {kitti} (pass --kitti DIR)")
         return True
-    rows = paper_table.run(kitti, reasoner, repeats=5)
+    rows = paper_table.run(read_dir(kitti), reasoner, repeats=5)
     print(paper_table.format_rows(rows))
     print()
     print(paper_table.format_table(rows))

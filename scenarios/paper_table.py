@@ -5,10 +5,11 @@ from __future__ import annotations
 import statistics
 import time
 from dataclasses import dataclass
-from pathlib import Path
+from typing import Iterable
 
-from discern.adapters.avcsr import AvcsrFrame, read_dir
+from discern.adapters.avcsr import AvcsrFrame
 from discern.rules.engine import Reasoner
+from discern.rules.verdict import Verdict
 
 # Table of the paper: s(CASP) on an Intel i7-6500U, ms per frame (avg, max).
 PAPER_MS = {"City": (413, 873), "Road": (285, 635), "Residential": (127, 657), "Campus": (106, 469)}
@@ -21,12 +22,13 @@ class FrameRow:
     decision: str
     agrees: bool
     ms: float
+    verdict: Verdict
 
 
-def run(directory: Path, reasoner: Reasoner, repeats: int = 5) -> list[FrameRow]:
+def run(frames: Iterable[AvcsrFrame], reasoner: Reasoner, repeats: int = 5) -> list[FrameRow]:
     """Decide each frame with its full justification tree; time the median of a few runs."""
     rows = []
-    for frame in read_dir(directory):
+    for frame in frames:
         proposal = frame.expected or "cruise"
         times = []
         for _ in range(repeats):
@@ -35,7 +37,7 @@ def run(directory: Path, reasoner: Reasoner, repeats: int = 5) -> list[FrameRow]
             times.append((time.perf_counter() - start) * 1000.0)
         decision = verdict.recommended.value if verdict.recommended else "none"
         expected = frame.expected.value if frame.expected else None
-        rows.append(FrameRow(frame, decision, decision == expected, statistics.median(times)))
+        rows.append(FrameRow(frame, decision, decision == expected, statistics.median(times), verdict))
     return rows
 
 

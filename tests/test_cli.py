@@ -1,6 +1,7 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -8,6 +9,7 @@ from discern.monitor.cli import main
 from tests.monitor_process import endpoint, free_port
 from tests.scenes import obj, scene
 
+ROOT = Path(__file__).resolve().parents[1]
 GOOD = scene(speed=12, lane=2, lanes=3, limit=20, objects=[obj("car", -3.5, 2, lane=1)])
 
 
@@ -124,6 +126,45 @@ def test_scenarios_run_kitti_prints_the_paper_table(avcsr_dir, capsys):
 def test_scenarios_run_on_an_empty_directory_is_an_error(tmp_path, capsys):
     assert main(["scenarios", "run", str(tmp_path)]) == 2
     assert "no scenario files" in capsys.readouterr().err
+
+
+def test_scenarios_run_takes_single_files_of_either_kind_and_explains_each_verdict(avcsr_dir, capsys):
+    scenario = ROOT / "scenarios" / "rules" / "acc.cut_in.json"
+    frames = sorted(avcsr_dir.glob("*.pl"))[0]
+    assert main(["scenarios", "run", str(scenario), str(frames), "--repeats", "1", "--explain"]) == 0
+    out = capsys.readouterr().out
+    assert "pass  acc.cut_in #0: override accelerate with cruise" in out and "1 passed, 0 failed" in out
+    assert "agreement with expected_action: 3/3 frames" in out
+    # --explain: each verdict's proof under its line, the scenario's and the paper frames' alike
+    assert "            - car 1 signals into lane 2 within the gap it needs, because  [def.lane_claimed]" in out
+    assert f"{frames.stem} frame 1:\n        approve accelerate: permitted" in out
+
+
+def test_scenarios_run_fails_when_any_expectation_fails(tmp_path, capsys):
+    data = json.loads((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
+    data["frames"][0]["expect"]["action"] = "brake"
+    assert main(["scenarios", "run", write(tmp_path, data, "wrong.json")]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL  acc.cut_in #0" in out and "action cruise, expected brake" in out and "0 passed, 1 failed" in out
+
+
+@pytest.mark.parametrize("name, message", [
+    ("missing.json", "no such file or directory"),
+    ("notes.txt", "not a scenario file (.json) or an AV-CSR frame file (.pl)"),
+])
+def test_scenarios_run_names_a_path_it_cannot_run(tmp_path, capsys, name, message):
+    if name.endswith(".txt"):
+        (tmp_path / name).write_text("hello")
+    assert main(["scenarios", "run", str(tmp_path / name)]) == 2
+    assert f"{tmp_path / name}: {message}" in capsys.readouterr().err
+
+
+def test_check_on_a_scenario_or_frame_file_points_to_scenarios_run(avcsr_dir, capsys):
+    scenario = ROOT / "scenarios" / "rules" / "acc.cut_in.json"
+    frames = sorted(avcsr_dir.glob("*.pl"))[0]
+    for path in (scenario, frames):
+        assert main(["check", str(path)]) == 2
+        assert f"`discern scenarios run {path}`" in capsys.readouterr().err
 
 
 def test_console_script_runs_as_a_process(tmp_path):

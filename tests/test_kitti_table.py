@@ -3,14 +3,14 @@ from discern.scenarios import paper_table
 
 
 def test_all_24_paper_frames_agree_with_expected_action(avcsr_dir, reasoner):
-    rows = paper_table.run(avcsr_dir, reasoner, repeats=1)
+    rows = paper_table.run(read_dir(avcsr_dir), reasoner, repeats=1)
     assert len(rows) == 24
     disagreements = [(r.frame.scenario, r.frame.frame, r.decision) for r in rows if not r.agrees]
     assert disagreements == []
 
 
 def test_table_groups_frames_by_the_papers_four_environments(avcsr_dir, reasoner):
-    rows = paper_table.run(avcsr_dir, reasoner, repeats=1)
+    rows = paper_table.run(read_dir(avcsr_dir), reasoner, repeats=1)
     table = paper_table.format_table(rows)
     for env, (avg, worst) in paper_table.PAPER_MS.items():
         line = next(l for l in table.splitlines() if l.startswith(env))
