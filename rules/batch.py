@@ -19,9 +19,9 @@ from typing import Iterable
 
 from clingo import Control, Function, Number, Symbol, ast, parse_term
 
+from .answer_set import AnswerSet, shown_atoms
 from .catalog import Catalog, static_predicates
 from .fact_text import FACT_NAME, is_plain
-from .justify import AnswerSet, shown_atoms
 from .terms import Shape
 
 FRAME_PREDICATE = "discern_frame"  # discern_frame(K): frame K is in the batch
@@ -165,7 +165,7 @@ class BatchAnswers:
     """The grounded batch: each predicate's atoms split by frame once, on first use.
 
     The constants of the frame predicates `shown` (name(F,c), given `#show`
-    statements) are read from one solve (justify.shown_atoms).
+    statements) are read from one solve (answer_set.shown_atoms).
     """
 
     def __init__(self, control: Control, static: frozenset[str], shown: Iterable[str] = ()):

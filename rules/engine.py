@@ -24,7 +24,8 @@ from .catalog import Catalog, load_catalog
 from .controls import PreparedControls
 from .fact_text import FACT_NAME
 from .facts import Params, scene_facts
-from .justify import AnswerSet, Prover, rule_ids, show_statements
+from .answer_set import AnswerSet, show_statements
+from .justify import Prover, rule_ids
 from .presence import PresenceSlicer
 from .render import render_text
 from .scene import Action, Scene

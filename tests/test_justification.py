@@ -12,7 +12,8 @@ from discern.adapters.avcsr import read_dir
 from discern.rules.engine import Reasoner, Request
 from discern.rules.fact_text import facts_of, facts_with_first
 from discern.rules import justify
-from discern.rules.justify import AnswerSet, Prover, first_argument
+from discern.rules.answer_set import AnswerSet, first_argument
+from discern.rules.justify import Prover
 from discern.scenarios.runner import load, scenario_files
 from discern.rules.scene import Action
 from discern.rules.render import render_html, render_json, render_text
