@@ -39,7 +39,7 @@ PAIRED_WITHIN_S = 0.5
 def worker(case: str, core: int, start: float, seconds: float, out: str) -> None:
     """Decide the case's 24 frames again and again, readied as a sidecar worker does; blocks of timings to `out`."""
     from discern.adapters.avcsr import read_dir
-    from discern.monitor.decision_pool import defer_full_collections
+    from discern.monitor.decision_worker import defer_full_collections
     from discern.rules.engine import Reasoner
 
     os.sched_setaffinity(0, {core})

@@ -18,7 +18,7 @@ from bench.scenes import WARM_UP_SCENES, random_scene  # noqa: E402
 from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
-from discern.monitor.decision_pool import defer_full_collections  # noqa: E402
+from discern.monitor.decision_worker import defer_full_collections  # noqa: E402
 from discern.rules.catalog import catalog_dirs, load_catalog  # noqa: E402
 from discern.rules.engine import Reasoner, jurisdiction_pack  # noqa: E402
 from discern.rules.scene import Scene  # noqa: E402

@@ -21,7 +21,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench.bench_zenoh import payloads  # noqa: E402
 from bench.report import machine, pct, write_section  # noqa: E402
 from discern.monitor.allocator import relaunch  # noqa: E402
-from discern.monitor.decision_pool import DecisionPool, Job, Outcome, WorkerSettings  # noqa: E402
+from discern.monitor.decision_pool import DecisionPool  # noqa: E402
+from discern.monitor.decision_worker import Job, Outcome, WorkerSettings  # noqa: E402
 
 BUDGET_S = 0.05  # the monitor's default decision budget
 VEHICLES = 10

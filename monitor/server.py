@@ -2,8 +2,9 @@
 
 Who does what:
 - zenoh callbacks only copy the payload and enqueue it, so they never block;
-- decision worker processes judge proposals (decision_pool.py); the monitor's
-  own process does no reasoning, so nothing holds it up;
+- decision worker processes judge proposals (decision_worker.py, run by
+  decision_pool.py); the monitor's own process does no reasoning, so nothing
+  holds it up;
 - a watchdog thread answers any proposal still unanswered at its deadline with
   a fail-safe verdict, so a slow rule set, a backlog or a dead worker never
   leaves a planner without an answer (a late decision is then discarded);
@@ -30,7 +31,8 @@ from discern.rules.scene import Action
 
 from . import keys
 from .config import DEFAULT_ENDPOINT, MonitorConfig, listen_endpoints
-from .decision_pool import DecisionPool, Job, Outcome, WorkerSettings
+from .decision_pool import DecisionPool
+from .decision_worker import Job, Outcome, WorkerSettings
 from .log import McapLogWriter, RejectedInput, vehicle_topic
 from .log.channels import STATUS_TOPIC
 from .protocol import RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, encode, failsafe_verdict, peek_frame

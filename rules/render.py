@@ -36,7 +36,7 @@ def render_text(justification: Justification) -> str:
 
 def _walk(node: JustificationNode, depth: int, lines: list[str], shown: set[tuple]) -> None:
     # A module function, not a closure that calls itself: that is a reference cycle per verdict, the only
-    # garbage a decision worker left for the full collections it now keeps to a minimum (decision_pool.py).
+    # garbage a decision worker left for the full collections it now keeps to a minimum (decision_worker.py).
     key = _key(node)
     again = bool(node.children) and key in shown
     lines.append("  " * depth + "- " + _line(node, again))

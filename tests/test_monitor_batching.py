@@ -11,9 +11,9 @@ from dataclasses import replace
 import pytest
 import zenoh
 
-from discern.monitor import decision_pool
+from discern.monitor import decision_worker
 from discern.monitor.config import ZenohSettings
-from discern.monitor.decision_pool import BatchTime, Job, WorkerSettings, _Judge
+from discern.monitor.decision_worker import BatchTime, Job, Judge, WorkerSettings
 from discern.monitor.example_planner import highway_scene
 from discern.rules.engine import Reasoner, Request
 from discern.rules.scene import Proposal
@@ -117,7 +117,7 @@ def test_a_batch_that_fails_is_decided_one_by_one_so_only_the_poisoned_frame_fai
         if next(calls) in (0, 2):
             raise RuntimeError("poisoned")
 
-    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
     judge.reasoner = Reasoner(solve_hook=poison)
     judge.time.learn(1, 0.001)  # timed once: it may batch
     backlog = jobs(3, 10.0)
@@ -130,7 +130,7 @@ def test_a_batch_that_fails_is_decided_one_by_one_so_only_the_poisoned_frame_fai
 
 def test_jobs_answered_before_the_worker_took_them_enter_the_window_and_get_no_second_answer():
     """The watchdog answered them at their deadline; their scenes are still the vehicle's history."""
-    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
     now = time.monotonic()
 
     def job(rid: int, data: bytes, answered: bool = False) -> Job:
@@ -154,7 +154,7 @@ def test_jobs_answered_before_the_worker_took_them_enter_the_window_and_get_no_s
 
 
 def test_a_proposal_shed_for_lack_of_time_still_enters_its_vehicles_window():
-    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
     now = time.monotonic()
 
     def job(rid: int, frame: int, lights: bool = True, arrived: float = now, left: float = 10.0) -> Job:
@@ -172,7 +172,7 @@ def test_a_proposal_shed_for_lack_of_time_still_enters_its_vehicles_window():
 
 
 def test_a_batch_holds_only_what_can_be_decided_before_the_oldest_deadline():
-    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
     judge.time.learn(1, 0.01)
     judge.time.fixed_s, judge.time.per_proposal_s = 0.0, 0.01  # 10 ms a proposal
     backlog = jobs(10, 0.055)  # 1.5 x 30 ms fits in 55 ms, 1.5 x 40 ms does not
@@ -182,7 +182,7 @@ def test_a_batch_holds_only_what_can_be_decided_before_the_oldest_deadline():
 
 
 def test_under_overload_the_batch_starts_where_it_decides_the_most_proposals_in_time():
-    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
     judge.time.learn(1, 0.01)
     judge.time.fixed_s, judge.time.per_proposal_s = 0.0, 0.01  # 10 ms a proposal, 15 ms with the margin
     backlog = jobs(8, 0.020)  # the two oldest have 20 ms left: from them, one fits
@@ -197,7 +197,7 @@ def test_under_overload_the_batch_starts_where_it_decides_the_most_proposals_in_
 
 
 def test_without_overload_the_batch_starts_with_the_oldest_proposal():
-    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
     judge.time.learn(1, 0.01)
     judge.time.fixed_s, judge.time.per_proposal_s = 0.0, 0.01
     backlog = jobs(4, 0.020)  # the oldest has time for itself only, the rest for more: it still goes first
@@ -207,7 +207,7 @@ def test_without_overload_the_batch_starts_with_the_oldest_proposal():
 
 
 def test_a_worker_decides_one_at_a_time_until_it_has_timed_a_decision():
-    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
     backlog = jobs(5, 10.0)
     assert [o.rid for o in judge.next_batch(backlog)] == [0]
     assert judge.time.known and len(list(judge.next_batch(backlog))) == 4
@@ -257,7 +257,7 @@ def test_an_idle_worker_readies_controls_for_recent_frames_until_a_proposal_come
     made = []
     prepare = reasoner.prepare
     reasoner.prepare = lambda limit=None: made.append(prepare(limit)) or made[-1]
-    idle = decision_pool.IdleWork(reasoner)
+    idle = decision_worker.IdleWork(reasoner)
     idle.run(busy=lambda: True)
     assert sum(made) == 0
     idle.run(busy=iter([False, True]).__next__)  # one Control made, then a proposal is waiting
@@ -277,7 +277,7 @@ def test_a_worker_whose_idle_work_fails_stops_it_and_still_decides(caplog):
         raise RuntimeError("no memory for a Control")
 
     reasoner.prepare = broken
-    idle = decision_pool.IdleWork(reasoner)
+    idle = decision_worker.IdleWork(reasoner)
     idle.run()
     idle.run()
     assert len(calls) == 1 and "idle time failed" in caplog.text
@@ -292,12 +292,12 @@ def test_an_idle_worker_runs_a_full_collection_at_most_once_an_interval(monkeypa
             full.append(info)
 
     clock = [1000.0]
-    monkeypatch.setattr(decision_pool.time, "monotonic", lambda: clock[0])
-    idle = decision_pool.IdleWork(Reasoner())
+    monkeypatch.setattr(decision_worker.time, "monotonic", lambda: clock[0])
+    idle = decision_worker.IdleWork(Reasoner())
     gc.callbacks.append(count)
     try:
         idle.run()  # just started: too soon
-        clock[0] += decision_pool.FULL_COLLECTION_S
+        clock[0] += decision_worker.FULL_COLLECTION_S
         idle.run()
         idle.run()  # just collected: too soon again
     finally:

@@ -100,10 +100,10 @@ def test_a_worker_that_once_was_slow_still_tries_fresh_proposals():
     import time
     from collections import deque
 
-    from discern.monitor.decision_pool import Job, WorkerSettings, _Judge
+    from discern.monitor.decision_worker import Job, Judge, WorkerSettings
     from discern.rules.scene import Proposal
 
-    judge = _Judge(WorkerSettings(window_s=2.0, shadow=False))
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
     judge.time.learn(1, 10.0)  # after a pathological decision
     payload = Proposal(vehicle="v", action="cruise", scene=highway_scene(0, 4)).model_dump_json().encode()
     now = time.monotonic()
