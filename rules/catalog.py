@@ -263,6 +263,13 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
     hidden: set[tuple[str, int]] = set()
     current: dict[str, str] = {}
     start = 0
+
+    def close() -> None:
+        """A rule block ends: it must have said what it says and where it comes from, or its id would be lost."""
+        missing = [f"'%! {key}'" for key in ("says", "source") if key not in current]
+        if current and missing:
+            raise CatalogError(f"{path}:{start}: rule {current['rule']} has no {' and no '.join(missing)}")
+
     for number, line in enumerate(text.splitlines(), start=1):
         match = _ANNOTATION.match(line.strip())
         if not match:
@@ -288,6 +295,7 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
                                        f" (known: {', '.join(sorted(TEMPLATE_FORMATS))})")
             templates.append((key, PredTemplate(name, args, template)))
         elif key == "rule":
+            close()
             current, start = {"rule": value}, number
         else:
             if not current:
@@ -295,6 +303,7 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
             current[key] = value
             if "says" in current and "source" in current:
                 blocks[start] = RuleInfo(current["rule"], current["says"], current["source"], path, start)
+    close()
     return blocks, templates, hidden
 
 

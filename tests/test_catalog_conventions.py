@@ -27,6 +27,18 @@ def test_rule_without_annotation_is_rejected(tmp_path):
         load_catalog(write_rules(tmp_path, "a :- b.\n"))
 
 
+@pytest.mark.parametrize("annotations, problem", [
+    ("%! source s\n", r"r\.lp:4: rule x\.b has no '%! says'"),
+    ("%! says B.\n", r"r\.lp:4: rule x\.b has no '%! source'"),
+    ("", r"r\.lp:4: rule x\.b has no '%! says' and no '%! source'"),
+])
+def test_a_rule_without_its_english_or_source_is_rejected_not_credited_to_the_rule_before(
+        tmp_path, annotations, problem):
+    text = "%! rule x.a\n%! says A.\n%! source s\n%! rule x.b\n" + annotations + "a :- b.\n"
+    with pytest.raises(CatalogError, match=problem):
+        load_catalog(write_rules(tmp_path, text))
+
+
 def test_duplicate_rule_id_is_rejected(tmp_path):
     text = "%! rule x.a\n%! says A.\n%! source s\na :- b.\n%! rule x.a\n%! says B.\n%! source s\nc :- d.\n"
     with pytest.raises(CatalogError, match="rule id x.a is used twice"):
