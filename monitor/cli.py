@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 from discern.rules.catalog import CatalogError, catalog_dirs, load_catalog
 from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack
+from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import Action, Proposal, Scene, describe_errors
 from discern.sanity.jurisdiction import reasoner_for
@@ -48,8 +49,15 @@ def _read_json(path: str) -> dict:
 
 
 def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> Reasoner:
-    """The shipped catalog, or `--rules DIR` in place of the driving rules; sanity rules and the pack still apply."""
+    """The shipped catalog, or `--rules DIR` in place of the driving rules; sanity rules and the pack still apply.
+
+    `--param NAME=VALUE` sets the reasoning parameters (a vehicle that brakes less firmly, a longer headway).
+    """
     jurisdiction = jurisdiction or getattr(args, "jurisdiction", "us")
+    values, problems = Params.overrides(getattr(args, "param", None) or [])
+    if problems:
+        raise UserError("; ".join(problems))
+    params = Params(**values)
     try:
         if getattr(args, "rules", None):
             directory = Path(args.rules)
@@ -61,8 +69,8 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
                 raise UserError(
                     f"rules directory {directory} defines no driving rules (no `%! rule` other than def.* and ent.*)"
                 )
-            return Reasoner(catalog=catalog, jurisdiction=jurisdiction)
-        return reasoner_for(jurisdiction)
+            return Reasoner(catalog=catalog, params=params, jurisdiction=jurisdiction)
+        return Reasoner(params=params, jurisdiction=jurisdiction) if values else reasoner_for(jurisdiction)
     except (CatalogError, ValueError) as exc:
         raise UserError(str(exc)) from None
 
@@ -226,6 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")
     check.add_argument("--rules", help="use the driving rules in this directory instead of the shipped ones")
     check.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
+    check.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                       help="set a reasoning parameter (discern.rules.facts.Params), e.g. --param decel=4; repeatable")
     check.set_defaults(func=cmd_check)
 
     catalog = sub.add_parser("catalog", help="list the rules with their English and sources")

@@ -6,7 +6,8 @@ cm/s; the predicate templates convert them back for people.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+import math
+from dataclasses import asdict, dataclass, fields
 
 from clingo import String
 
@@ -15,6 +16,9 @@ from .scene import Action, Scene
 
 def cm(metres: float) -> int:
     return int(round(metres * 100))
+
+
+MIN_PARAM = 0.01  # the smallest parameter value the facts (in cm and ms) do not round to 0
 
 
 @dataclass(frozen=True)
@@ -39,6 +43,30 @@ class Params:
     speed_margin: float = 2.2352  # m/s (5 mph), how far above the limit the ego may be before it must slow down
     turn_speed: float = 8.9408  # m/s (20 mph), the fastest the ego turns at an intersection
     turn_dist: float = 10.0  # m, a turn starts no farther than this before the stop line
+
+    @classmethod
+    def overrides(cls, pairs: list[str]) -> tuple[dict[str, float], list[str]]:
+        """`NAME=VALUE` settings as given on a command line: the values, and a problem for each bad one.
+
+        Every parameter is a gap, time, speed or deceleration (decel divides), and the facts carry them in
+        cm and ms: a value below MIN_PARAM would reach the rules as 0 and turn the rules that use it off.
+        """
+        known = {f.name for f in fields(cls)}
+        values: dict[str, float] = {}
+        problems: list[str] = []
+        for pair in pairs:
+            name, _, value = pair.partition("=")
+            try:
+                number = float(value)
+            except ValueError:
+                number = None
+            if name not in known:
+                problems.append(f"unknown --param {name!r} (known: {', '.join(sorted(known))})")
+            elif number is None or not (math.isfinite(number) and number >= MIN_PARAM):
+                problems.append(f"--param {name} needs a finite number of at least {MIN_PARAM:g}, got {value!r}")
+            else:
+                values[name] = number
+        return values, problems
 
     def facts(self) -> str:
         values = asdict(self)

@@ -128,6 +128,20 @@ def test_scenarios_run_on_an_empty_directory_is_an_error(tmp_path, capsys):
     assert "no scenario files" in capsys.readouterr().err
 
 
+def test_check_param_sets_a_reasoning_parameter_and_names_a_bad_one(tmp_path, capsys):
+    """A stalled car 40 m ahead at 15 m/s: outside the stopping gap at 6 m/s² (33.8 m), inside it at 4 (43.1 m)."""
+    path = write(tmp_path, json.loads(scene(speed=15, limit=20, objects=[obj("car", 0, 40, lane=1, vy=0.0)])
+                                      .model_dump_json(by_alias=True)))
+    assert main(["check", path, "--proposed", "cruise"]) == 0
+    assert capsys.readouterr().out.startswith("approve cruise")
+    assert main(["check", path, "--proposed", "cruise", "--param", "decel=4"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("override cruise with brake") and "the decel is 4 m/s²" in out
+    assert main(["check", path, "--proposed", "cruise", "--param", "decel=0", "--param", "brakes=1"]) == 2
+    err = capsys.readouterr().err
+    assert "--param decel needs a finite number of at least 0.01, got '0'" in err and "unknown --param 'brakes'" in err
+
+
 def test_scenarios_run_takes_single_files_of_either_kind_and_explains_each_verdict(avcsr_dir, capsys):
     scenario = ROOT / "scenarios" / "rules" / "acc.cut_in.json"
     frames = sorted(avcsr_dir.glob("*.pl"))[0]

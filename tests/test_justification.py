@@ -360,3 +360,21 @@ def test_counts_of_frames_in_a_comparison_read_with_their_unit(explained):
     assert "rule def.reading_settled needs 1 frame ≥ 2 frames, which is false" in said
     bare = re.compile(r"(?<![\w.])\d+ [<>≤≥=≠] \d+(?![\w.])")  # "1 ≥ 2": numbers with nothing to say what they count
     assert not [line for line in said.splitlines() if bare.search(line)]
+
+
+def test_no_rule_is_said_to_need_exactly_what_it_was_asked_to_explain(explained):
+    """'No evidence that X, because rule R needs that X' explains nothing: the rule's need must read as more."""
+    checked, circular = 0, []
+    for verdict in explained:
+        pending = [(node, None) for node in verdict.justification.tree]
+        while pending:
+            node, parent = pending.pop()
+            if parent is not None and parent.text.startswith("there is no evidence that ") and node.rule:
+                goal = parent.text.removeprefix("there is no evidence that ")
+                checked += 1
+                if node.text.startswith(f"rule {node.rule} needs that {goal}, and"):
+                    circular.append(node.text)
+            pending.extend((child, node) for child in node.children)
+    assert checked > 1000 and not circular
+    said = "\n".join(verdict.justification.text for verdict in explained)
+    assert "rule def.limit_doubted needs that the limit reading of 15.0 m/s (33.6 mph) is doubted for some reason" in said

@@ -8,7 +8,6 @@ import sys
 from pathlib import Path
 
 DEMO_FAULTS = ("none", "signs,missed")
-MIN_PARAM = 0.01  # the facts carry parameters in cm and ms: anything smaller reaches the rules as 0
 MONITOR_WAIT_S = 5.0
 
 
@@ -183,26 +182,11 @@ def _monitor_problems(endpoint: str) -> list[str]:
 
 
 def _params(pairs: list[str], problems: list[str]) -> tuple[tuple[str, float], ...]:
-    from dataclasses import fields
-
     from discern.rules.facts import Params
 
     from .wrapper import VEHICLE_PARAMS
 
-    known = {f.name for f in fields(Params)}
-    parsed = dict(VEHICLE_PARAMS)
-    for pair in pairs:
-        name, _, value = pair.partition("=")
-        try:
-            number = float(value)
-        except ValueError:
-            number = None
-        if name not in known:
-            problems.append(f"unknown --param {name!r} (known: {', '.join(sorted(known))})")
-        elif number is None or not (math.isfinite(number) and number >= MIN_PARAM):
-            # every parameter is a gap, time, speed or deceleration (decel divides): 0 would turn rules off
-            problems.append(f"--param {name} needs a finite number of at least {MIN_PARAM:g}, got {value!r}")
-        else:
-            parsed[name] = number
-    return tuple(sorted(parsed.items()))
+    values, bad = Params.overrides(pairs)
+    problems += bad
+    return tuple(sorted({**VEHICLE_PARAMS, **values}.items()))
 
