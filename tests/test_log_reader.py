@@ -57,7 +57,7 @@ def test_written_records_read_back_as_the_same_models(tmp_path):
     assert records[-1].kind == "status" and records[-1].vehicle is None
     assert all(r.log_time_ns > 0 for r in records)
     [f] = report.files
-    assert f.complete and not f.truncated and f.records == len(records) == 13 and f.recovered_bytes == f.size_bytes
+    assert f.state == "complete" and f.records == len(records) == 13 and f.recovered_bytes == f.size_bytes
 
 
 def test_channels_are_json_with_json_schemas_foxglove_can_open(tmp_path):
@@ -116,7 +116,7 @@ def test_a_cut_file_is_recovered_up_to_its_last_complete_chunk(tmp_path):
         assert len(frames) >= previous  # more file, never fewer records
         previous = len(frames)
         [f] = report.files
-        assert f.truncated and f.records == len(frames) and f.recovered_bytes <= size
+        assert f.state == "truncated" and f.records == len(frames) and f.recovered_bytes <= size
     assert previous >= 5
 
 
@@ -220,10 +220,13 @@ def test_empty_missing_and_foreign_files_yield_nothing_but_are_reported(tmp_path
     records = list(read_log([tmp_path / "empty.mcap", tmp_path / "junk.mcap", tmp_path / "gone.mcap"], report))
     assert records == []
     empty, junk, gone = report.files
-    assert empty.size_bytes == 0 and not empty.truncated and empty.stopped_by is None
-    assert junk.truncated and "magic" in junk.stopped_by
-    assert "cannot open" in gone.stopped_by
-    assert "empty" in report.summary()
+    assert empty.size_bytes == 0 and empty.state == "empty" and empty.stopped_by is None
+    assert junk.state == "unreadable" and "magic" in junk.stopped_by
+    assert gone.state == "unreadable" and "cannot open" in gone.stopped_by
+    lines = report.summary().splitlines()
+    assert lines[0].startswith(f"{tmp_path / 'empty.mcap'}: empty, 0 records")
+    assert lines[1].startswith(f"{tmp_path / 'junk.mcap'}: unreadable, 0 records")
+    assert lines[2].startswith(f"{tmp_path / 'gone.mcap'}: unreadable, 0 records") and "cannot open" in lines[2]
 
 
 def test_a_disk_error_drops_and_counts_records_until_a_new_file_opens(tmp_path, caplog):

@@ -155,9 +155,7 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
 
 def _warn_unreadable(files) -> bool:
     """Name each file nothing could be read from; True when that is every file given (no log at all)."""
-    from .report import file_state
-
-    states = [file_state(f) for f in files]
+    states = [f.state for f in files]
     for f, state in zip(files, states):
         if state == "unreadable":
             print(f"discern audit: warning: nothing could be read from {f.path}: {f.stopped_by}", file=sys.stderr)

@@ -36,19 +36,11 @@ CSV_FIELDS = [
 ]
 
 
-def file_state(f: FileRecovery) -> str:
-    if f.complete:
-        return "complete"
-    if f.size_bytes == 0:
-        return "empty" if f.stopped_by is None else "unreadable"
-    return "unreadable" if f.recovered_bytes == 0 else "truncated"
-
-
 def recovery_lines(files: list[FileRecovery]) -> list[str]:
     """One line per file: how much of it was read, and why reading stopped early."""
     out = []
     for f in files:
-        line = f"{f.path}: {file_state(f)}, {f.records} records"
+        line = f"{f.path}: {f.state}, {f.records} records"
         if f.size_bytes:
             share = 100.0 * f.recovered_bytes / f.size_bytes
             line += f", {f.recovered_bytes}/{f.size_bytes} bytes recovered ({share:.1f}%)"
@@ -166,7 +158,7 @@ def files_json(files: list[FileRecovery]) -> list[dict]:
     return [
         {
             "path": str(f.path),
-            "state": file_state(f),
+            "state": f.state,
             "records": f.records,
             "size_bytes": f.size_bytes,
             "recovered_bytes": f.recovered_bytes,
@@ -273,7 +265,7 @@ def page(title: str, body: str) -> str:
 
 def files_html(files: list[FileRecovery]) -> str:
     rows = [
-        [str(f.path), file_state(f), f.records, f"{f.recovered_bytes}/{f.size_bytes}", f.skipped, f.stopped_by or ""]
+        [str(f.path), f.state, f.records, f"{f.recovered_bytes}/{f.size_bytes}", f.skipped, f.stopped_by or ""]
         for f in files
     ]
     return table(["file", "state", "records", "bytes recovered", "skipped", "stopped by"], rows, {2, 4})

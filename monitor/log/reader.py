@@ -65,8 +65,13 @@ class FileRecovery:
     skipped: int = 0  # messages on unknown channels or that failed validation
 
     @property
-    def truncated(self) -> bool:
-        return not self.complete and self.size_bytes > 0
+    def state(self) -> str:
+        """complete, truncated (cut short, read up to the cut), empty (zero bytes) or unreadable (nothing read)."""
+        if self.complete:
+            return "complete"
+        if self.size_bytes == 0:
+            return "empty" if self.stopped_by is None else "unreadable"
+        return "unreadable" if self.recovered_bytes == 0 else "truncated"
 
     def add_share(self, other: "FileRecovery") -> None:
         """Another reader's share of the same file (read_log's `vehicles`): records and skips add up.
@@ -96,9 +101,8 @@ class RecoveryReport:
     def summary(self) -> str:
         lines = []
         for f in self.files:
-            state = "complete" if f.complete else ("empty" if f.size_bytes == 0 else "truncated")
             line = (
-                f"{f.path}: {state}, {f.records} records, "
+                f"{f.path}: {f.state}, {f.records} records, "
                 f"{f.recovered_bytes}/{f.size_bytes} bytes recovered"
             )
             if f.skipped:
