@@ -32,6 +32,7 @@ from typing import Callable, Iterator, Optional
 
 from discern.rules.engine import Reasoner, Request
 from discern.rules.scene import Proposal
+from discern.sanity import WindowConfig, default_providers
 
 from .protocol import RULE_BAD_INPUT, InputError, decode_proposal, encode, failsafe_verdict
 from .vehicle_state import VehicleState
@@ -209,7 +210,9 @@ class Judge:
 
     def __init__(self, settings: WorkerSettings):
         self.settings = settings
-        self.reasoner = Reasoner(jurisdiction=settings.jurisdiction)
+        # the sanity layer sees the whole window the vehicle's state keeps (`--window-s`), not its own default
+        window = default_providers(WindowConfig(seconds=settings.window_s))
+        self.reasoner = Reasoner(jurisdiction=settings.jurisdiction, providers=window)
         self.vehicles: dict[str, VehicleState] = {}
         self.time = BatchTime()
 

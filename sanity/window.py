@@ -24,6 +24,11 @@ from discern.rules.scene import DetectedObject, LightColour, ObjectClass, Scene,
 CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Source.annotation}
 EGO_LENGTH, EGO_WIDTH = 4.6, 2.0
 HALF_LANE = 1.75  # m: half a lane, the ego's corridor when predicting crossings
+# The classes the catalog calls motor vehicles (def.motor_vehicle: an automobile, not a vulnerable road user): ahead,
+# one of unknown speed keeps pace with the ego; anything else ahead stands; whatever is behind keeps pace
+# (def.closing_unknown_vehicle, def.closing_unknown_thing, def.rear_closing). A test holds this to the catalog.
+MOTOR_VEHICLES = frozenset({ObjectClass.car, ObjectClass.truck, ObjectClass.bus, ObjectClass.bike,
+                            ObjectClass.motorcycle, ObjectClass.emergency_vehicle})
 # Typical footprint (length, width) per class when the detector gives no size.
 FOOTPRINT = {
     ObjectClass.car: (4.5, 1.8),
@@ -46,7 +51,7 @@ class WindowConfig:
     """How much history the sanity layer uses, and how much it asks of it."""
 
     seconds: float = 2.0  # frames older than this are out of the window
-    max_frames: int = 40  # and at most this many of them (timestamps may be missing)
+    max_frames: int = 40  # frames without timestamps, whose age cannot be told: at most this many of them
     confirm_frames: int = 2  # frames in a row a reading needs before it is believed
     track_frames: int = 3  # frames a lost object must have been tracked to be kept
     horizon_s: float = 3.0  # how far ahead tracked courses are followed
@@ -81,7 +86,7 @@ class _Summary:
     lights: frozenset[LightColour]
     flashing: frozenset[LightColour]
     stop_sign: bool
-    stopped: bool
+    speed: int  # the ego's, cm/s
     objects: dict[int, DetectedObject]  # by id
     ids: frozenset[int]
     confirmed: tuple[tuple[int, frozenset[Source]], ...]  # objects a range sensor saw, with those sensors
@@ -96,7 +101,7 @@ class _Summary:
             lights=frozenset(l.colour for l in scene.traffic_lights),
             flashing=frozenset(l.colour for l in scene.traffic_lights if l.flashing),
             stop_sign=any(s.kind is SignKind.stop for s in scene.signs),
-            stopped=scene.ego.speed < 0.5,
+            speed=cm(scene.ego.speed),
             objects={o.id: o for o in scene.objects},
             ids=frozenset(o.id for o in scene.objects),
             confirmed=tuple((oid, sources) for oid, sources in confirming if sources),
@@ -129,8 +134,7 @@ class WindowProvider:
             out.extend(_light_facts(now, past, times, c))
             out.extend(_sign_facts(now, past))
             out.extend(_memory_facts(scene, now, window, past, c))
-            if any(p.stopped for p in past):
-                out.append("ego_stopped_recently.")
+            out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
         return "".join(out)
 
     def _summary(self, scene: Scene) -> _Summary:
@@ -147,11 +151,17 @@ class WindowProvider:
         return summary
 
     def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:
-        """The recent frames, oldest first: newer than `seconds` before this one and not from its future."""
+        """The recent frames, oldest first: newer than `seconds` before this one and not from its future.
+
+        Frames with timestamps are kept for the whole `seconds`, however many: at 50 Hz a cap of 40 frames
+        cut a 2 s window to 0.8 s, too short to see a light flash. Only frames without timestamps are
+        counted against `max_frames`.
+        """
         kept: list[Scene] = []
+        timed = scene.timestamp > 0
         for past in reversed(history):
             age = scene.timestamp - past.timestamp
-            if age < 0 or age > self.config.seconds or len(kept) >= self.config.max_frames:
+            if age < 0 or age > self.config.seconds or (not timed and len(kept) >= self.config.max_frames):
                 break
             kept.append(past)
         kept.reverse()
@@ -271,12 +281,25 @@ def _footprint(obj: DetectedObject) -> tuple[float, float]:
 
 
 def _relative_velocity(obj: DetectedObject, ego_speed: float) -> tuple[float, float]:
-    """Velocity relative to the ego; unknown speeds as the core assumes them (vehicles keep pace, the rest stand)."""
+    """Velocity relative to the ego; an unknown speed as the catalog assumes it (MOTOR_VEHICLES)."""
     if obj.velocity is not None:
         return obj.velocity.x, obj.velocity.y - ego_speed
-    if obj.cls in FOOTPRINT and obj.cls not in (ObjectClass.pedestrian, ObjectClass.animal):
+    if obj.position.y < 0 or obj.cls in MOTOR_VEHICLES:
         return 0.0, 0.0
     return 0.0, -ego_speed
+
+
+def _to_centre(y: float, length: float) -> float:
+    """A position y (the gap from the ego's bumper to the object's nearest face; 0 alongside) as the distance
+    between the two centres, along which positions move at the object's speed."""
+    reach = (EGO_LENGTH + length) / 2
+    return y + reach if y > 0 else y - reach if y < 0 else 0.0
+
+
+def _to_gap(centre: float, length: float) -> float:
+    """The inverse of `_to_centre`: 0 while the two overlap along the road."""
+    reach = (EGO_LENGTH + length) / 2
+    return centre - reach if centre > reach else centre + reach if centre < -reach else 0.0
 
 
 def _world_facts(scene: Scene) -> list[str]:
@@ -319,7 +342,7 @@ def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
         length, width = _footprint(obj)
         reach_x = (EGO_WIDTH + width) / 2 + 0.3
         reach_y = (EGO_LENGTH + length) / 2 + 0.5
-        x, y = obj.position.x, obj.position.y
+        x, y = obj.position.x, _to_centre(obj.position.y, length)
         if abs(x) < reach_x:
             continue
         vx, vy = _relative_velocity(obj, scene.ego.speed)
@@ -331,7 +354,7 @@ def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
         end = min(span_x[1], span_y[1], horizon)
         meet = y + vy * start
         if 0.0 < start < end and meet > 0.0:  # from behind, braking would not help
-            out.append(f"predicted_conflict({obj.id},{int(round(start * 1000))},{cm(meet)}).")
+            out.append(f"predicted_conflict({obj.id},{int(round(start * 1000))},{cm(_to_gap(meet, length))}).")
     return out
 
 
@@ -344,10 +367,11 @@ def _inside(position: float, speed: float, reach: float) -> Optional[tuple[float
 
 
 def _side_of(x: float, y: float) -> SensorSide:
+    """The range sensor that faces a position (y: the gap from the ego's bumper, 0 alongside)."""
     if abs(x) < HALF_LANE:
         return SensorSide.front if y > 0 else SensorSide.rear
     left = x < 0
-    if abs(y) < EGO_LENGTH / 2:
+    if y == 0:
         return SensorSide.left if left else SensorSide.right
     if y > 0:
         return SensorSide.front_left if left else SensorSide.front_right
@@ -381,7 +405,8 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     for oid, (seen, obj) in last.items():
         age = max(scene.timestamp - seen.timestamp, 0.0)
         vx, vy = _relative_velocity(obj, seen.ego.speed)
-        x, y = obj.position.x + vx * age, obj.position.y + vy * age
+        length = _footprint(obj)[0]
+        x, y = obj.position.x + vx * age, _to_gap(_to_centre(obj.position.y, length) + vy * age, length)
         tracked = max(frames[oid], obj.track_age or 0)
         side = _side_of(x, y)
         reach = math.hypot(x, y) + config.sensor_margin

@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from clingo import Function, Number
 
 from discern.rules.scene import Action
 from discern.rules.verdict import Decision
@@ -254,3 +255,16 @@ def test_a_range_confirmed_trailer_above_the_road_is_an_obstacle_and_a_bridge_is
     assert bridge.decision is Decision.approve and "san.world.elevated" in bridge.rules
     advert = cruise_past(1.2, ("camera",))
     assert advert.decision is Decision.approve and "san.world.elevated" in advert.rules
+
+
+def test_a_front_reading_confirms_a_camera_object_within_the_range_match_parameter():
+    """The same tolerance that lets a front reading explain an object lets it confirm one (no phantom then)."""
+    from discern.rules.engine import Reasoner
+    from discern.rules.facts import Params
+
+    car = scene(speed=10.0, objects=[obj(1, "car", 0.0, 20.0, 1, sources=("camera",))],
+                sensors=[{"side": "front", "distance": 24.0, "kind": "radar"}])
+    for range_match, confirmed in [(3.0, False), (5.0, True)]:
+        answer = Reasoner(params=Params(range_match=range_match)).solve(car, Action.cruise).answer
+        assert (Function("confirmed", [Number(1)]) in answer.of("confirmed", 1)) is confirmed
+        assert (Function("doubtful", [Number(1)]) in answer.of("doubtful", 1)) is not confirmed

@@ -5,7 +5,9 @@ from __future__ import annotations
 import weakref
 
 import pytest
+from clingo import Function
 
+from discern.rules.scene import ObjectClass
 from discern.sanity import WindowConfig, WindowProvider, default_providers
 from discern.sanity.examples import MPH, limit_sign, obj, scene, sensor
 
@@ -39,10 +41,24 @@ def test_window_stops_at_a_frame_from_the_future():
     assert [s.timestamp for s in PROVIDER.window(frames[-1], frames[:-1])] == [0.2]
 
 
-def test_window_caps_the_number_of_frames():
+def test_window_caps_the_number_of_frames_without_timestamps():
     provider = WindowProvider(WindowConfig(max_frames=3))
     frames = [at(0.0) for _ in range(10)]
     assert len(provider.window(frames[-1], frames[:-1])) == 3
+
+
+def test_window_keeps_every_timed_frame_of_its_seconds_however_fast_they_come():
+    frames = [at(1.0 + i / 50) for i in range(101)]  # 2 s at 50 Hz
+    assert len(PROVIDER.window(frames[-1], frames[:-1])) == 100
+
+
+@pytest.mark.parametrize("hz", [10, 20, 50])
+def test_a_flashing_light_is_seen_flashing_in_every_frame_at_any_frame_rate(hz):
+    """Lit for 0.5 s and dark for 0.5 s: at 50 Hz a 40-frame cap cut the window to 0.8 s, and the flash was
+    seen in 45 of 150 frames."""
+    frames = [at(1.0 + i / hz, lights=RED if (i / hz) % 1.0 < 0.5 else ()) for i in range(6 * hz)]
+    seen = [("light_flashes(red)." in facts(frames[k - 2 * hz:k + 1])) for k in range(3 * hz, 6 * hz)]
+    assert all(seen)
 
 
 def test_the_provider_keeps_no_frame_alive_once_its_callers_let_it_go():
@@ -206,3 +222,35 @@ def test_outlines_reach_away_from_the_ego_from_their_nearest_face():
     after_it = obj(8, "car", 0.0, -20.0, 1, sources=("camera",))
     found = facts([scene(lanes=1, objects=[ahead, behind, before_it, along_it, behind_it, after_it])])
     assert {f for f in found if f.startswith("overlaps")} == {"overlaps(6,2).", "overlaps(7,3)."}
+
+
+def test_a_lost_vehicle_of_unknown_speed_is_moved_as_the_catalog_assumes_it(reasoner):
+    """Ahead, a motor vehicle keeps pace and anything else stands (a bicycle too); behind, all keep pace."""
+    from discern.sanity.window import MOTOR_VEHICLES
+
+    solved = reasoner.solve(scene(), "cruise")
+    assert MOTOR_VEHICLES == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("motor_vehicle", 1)}
+    for cls, ahead_after in [("car", 2000), ("bicycle", 1900), ("pedestrian", 1900)]:  # lost for 0.1 s at 10 m/s
+        seen = [at(0.1 * i, speed=10.0, objects=[obj(7, cls, 0.0, 20.0, 1)]) for i in range(3)]
+        assert f"remembered_pos(7,0,{ahead_after})." in facts(seen + [at(0.3, speed=10.0)]), cls
+    behind = [at(0.1 * i, speed=10.0, objects=[obj(7, "pedestrian", -3.5, -5.0, 1)]) for i in range(3)]
+    assert "remembered_pos(7,-350,-500)." in facts(behind + [at(0.3, speed=10.0)])
+
+
+def test_a_lost_object_ahead_of_the_bumper_is_read_by_the_sensor_facing_it():
+    """Positions are gaps from the bumper: 1 m ahead on the left is the front-left sensor's, not the left one's."""
+    glimpse = at(0.0, speed=10.0, objects=[obj(7, "car", -3.5, 1.0, 1, vy=10.0)])
+    front = facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("front_left", 3.0)])])
+    beside = facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("left", 1.0)])])
+    assert "sensor_still_reads(7,front_left)." in front and not any("sensor_still_reads" in f for f in beside)
+
+
+def test_whether_the_ego_stopped_in_the_window_is_the_rules_call_with_their_parameter():
+    from discern.rules.engine import Reasoner
+    from discern.rules.facts import Params
+
+    frames = [at(0.1 * i, speed=0.8) for i in range(3)] + [at(0.3, speed=3.0)]
+    assert "slowest_recent_speed(80)." in facts(frames)
+    for stopped_speed, stopped in [(0.5, False), (1.0, True)]:
+        solved = Reasoner(params=Params(stopped_speed=stopped_speed)).solve(frames[-1], "cruise", frames[:-1])
+        assert solved.answer.holds(Function("stopped_recently")) is stopped

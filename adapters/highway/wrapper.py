@@ -20,6 +20,7 @@ from highway_env.envs.merge_env import MergeEnv
 
 from discern.rules.scene import Action, Proposal, Scene
 from discern.rules.verdict import Decision, Justification, Verdict
+from discern.sanity import WindowConfig
 
 from .actions import from_catalog, to_catalog
 from .envs import SUPPORTED, policy_period
@@ -118,7 +119,7 @@ class DiscernWrapper(gym.Wrapper):
         monitor: bool = False,
         monitor_options: dict | None = None,
         timeout: float = 0.5,
-        history_seconds: float = 2.0,
+        history_seconds: float = WindowConfig().seconds,
         explain: bool = False,
         shadow: bool = False,
         passthrough: bool = False,

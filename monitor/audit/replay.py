@@ -42,6 +42,7 @@ from discern.rules.catalog import Catalog, catalog_dirs, load_catalog
 from discern.rules.engine import Reasoner, Request, jurisdiction_pack
 from discern.rules.scene import Action
 from discern.rules.verdict import Verdict
+from discern.sanity import WindowConfig, default_providers
 
 from .aggregate import Filters, scenario_kind
 from .frames import LEAD_IN_SLACK_S, Frame, FrameTask, PairingCounts, plan_tasks, read_frames
@@ -165,9 +166,12 @@ class ReplayJob:
 class _Worker:
     """Per-process state: one Reasoner and the decided frames."""
 
-    def __init__(self, catalog: "ReplayCatalog"):
+    def __init__(self, catalog: "ReplayCatalog", window_s: float):
         self.catalog = catalog
-        self.reasoner = Reasoner(catalog=catalog.load(), jurisdiction=catalog.jurisdiction)
+        self.window_s = window_s
+        # the sanity layer sees the window the frames' histories were rebuilt with, as the monitor's did
+        window = default_providers(WindowConfig(seconds=window_s))
+        self.reasoner = Reasoner(catalog=catalog.load(), jurisdiction=catalog.jurisdiction, providers=window)
         self.solved: OrderedDict[bytes, Solved] = OrderedDict()
         self.explained: OrderedDict[bytes, Verdict] = OrderedDict()  # changed frames, with their full tree
 
@@ -179,13 +183,13 @@ class _Worker:
 _worker: Optional[_Worker] = None
 
 
-def _init_worker(catalog: Optional["ReplayCatalog"]) -> None:
+def _init_worker(catalog: Optional["ReplayCatalog"], window_s: Optional[float] = None) -> None:
     """Load the rules, unless this process already holds them (a forked worker inherits the parent's)."""
     global _worker
     if catalog is None:
         _worker = None
-    elif _worker is None or _worker.catalog != catalog:
-        _worker = _Worker(catalog)
+    elif _worker is None or _worker.catalog != catalog or _worker.window_s != window_s:
+        _worker = _Worker(catalog, window_s)
 
 
 def replay_task(job: ReplayJob) -> ReplayTally:
@@ -371,13 +375,13 @@ def replay_logs(
     catalog = catalog if catalog is not None else ReplayCatalog.of()
     filters = filters if filters is not None else Filters()
     start = time.perf_counter()
-    _init_worker(catalog)  # a broken catalog fails here, once; forked workers inherit the loaded rules
+    _init_worker(catalog, window)  # a broken catalog fails here, once; forked workers inherit the loaded rules
     try:
         tasks = plan_tasks(list(paths), parts=max(1, workers), lead_in_s=window + LEAD_IN_SLACK_S)
         shards = max(1, workers)  # every run of files split by vehicle: even shares, whatever the file sizes
         jobs = [ReplayJob(task, shard, shards, filters, window, compare_rules) for task in tasks for shard in range(shards)]
         total = ReplayTally()
-        for tally in run_jobs(replay_task, jobs, workers, _init_worker, (catalog,)):
+        for tally in run_jobs(replay_task, jobs, workers, _init_worker, (catalog, window)):
             total.merge(tally)
     finally:
         _init_worker(None)  # drop the rules and caches, or a later fork inherits them
