@@ -23,7 +23,7 @@ from typing import Callable, Iterable, Optional, Union
 import zenoh
 from pydantic import ValidationError
 
-from discern.rules.scene import SCHEMA_VERSION, Action, Proposal, Scene
+from discern.rules.scene import ID_RULE, SCHEMA_VERSION, Action, Proposal, Scene, valid_id
 from discern.rules.verdict import Verdict
 
 from . import keys
@@ -75,8 +75,8 @@ class Monitor:
         timeout: float = 0.1,
         on_verdict: Optional[Callable[[Verdict], None]] = None,
     ):
-        if not keys.VEHICLE_PATTERN.match(vehicle):
-            raise ValueError(f"vehicle {vehicle!r} must match [A-Za-z0-9_-]{{1,128}}")
+        if not valid_id(vehicle):
+            raise ValueError(f"vehicle {vehicle!r} must match {ID_RULE}")
         if style not in STYLES:
             raise ValueError(f"style {style!r} is not one of {', '.join(STYLES)}")
         self.vehicle = vehicle

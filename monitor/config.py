@@ -19,6 +19,7 @@ from typing import Optional
 import zenoh
 
 from discern.rules.engine import JURISDICTIONS
+from discern.rules.scene import ID_RULE, valid_id
 
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
@@ -172,8 +173,8 @@ class MonitorConfig:
 
     def validate(self) -> "MonitorConfig":
         """Refuse, by flag, what the monitor cannot run with, before anything starts."""
-        if not re.fullmatch(r"[A-Za-z0-9_\-]{1,128}", self.monitor_id):
-            raise ValueError(f"monitor id {self.monitor_id!r} must match [A-Za-z0-9_-]{{1,128}}")
+        if not valid_id(self.monitor_id):
+            raise ValueError(f"monitor id {self.monitor_id!r} must match {ID_RULE}")
         check_number("--budget-ms", self.budget_ms, 0, BUDGET_MAX_MS, unit=" ms", above=True)
         check_number("--window-s", self.window_s, 0, unit=" s", above=True)
         check_number("--status-period-s", self.status_period_s, STATUS_PERIOD_MIN_S, STATUS_PERIOD_MAX_S, unit=" s")

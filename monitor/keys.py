@@ -8,14 +8,13 @@ when the payload is garbage.
 
 from __future__ import annotations
 
-import re
-
 import zenoh
+
+from discern.rules.scene import valid_id
 
 from .config import without_rust_locations
 
 PREFIX = "discern"
-VEHICLE_PATTERN = re.compile(r"^[A-Za-z0-9_\-]{1,128}$")
 
 
 def proposal_key(vehicle: str) -> str:
@@ -64,6 +63,9 @@ def _chunk_selector(pattern: str, what: str) -> str:
     pattern = pattern.strip()
     if not pattern or "/" in pattern:
         raise ValueError(f"{what} {pattern!r} must be one key chunk (no '/')")
+    if not all(valid_id(part) for part in pattern.replace("$*", "*").split("*") if part):
+        # '?' or '[12]' would be taken literally, and no id holds them: a filter that matches nothing
+        raise ValueError(f"{what} {pattern!r} may hold only letters, digits, '_', '-' and the wildcard '*'")
     if pattern not in ("*", "**") and "$*" not in pattern:
         pattern = pattern.replace("*", "$*")
     try:

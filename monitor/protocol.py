@@ -13,10 +13,9 @@ from typing import Iterable, Optional
 
 from pydantic import BaseModel, ValidationError
 
-from discern.rules.scene import Action, Proposal, describe_errors
+from discern.rules.scene import ID_RULE, Action, Proposal, describe_errors, valid_id
 from discern.rules.verdict import Decision, Justification, Verdict
 
-from .keys import VEHICLE_PATTERN
 
 # Most cautious first: what a fail-safe verdict picks among the permitted actions.
 CAUTION_ORDER = (
@@ -60,9 +59,9 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     The key names the vehicle; a payload that names another one is refused, one
     that names none takes the key's.
     """
-    if not VEHICLE_PATTERN.match(key_vehicle):
+    if not valid_id(key_vehicle):
         raise InputError(
-            f"vehicle {key_vehicle[:140]!r} in the key is not a valid vehicle id ([A-Za-z0-9_-], 1-128 chars)",
+            f"vehicle {key_vehicle[:140]!r} in the key is not a valid vehicle id ({ID_RULE})",
             "vehicle",
         )
     try:

@@ -27,7 +27,7 @@ from typing import Optional
 
 import zenoh
 
-from discern.rules.scene import Action
+from discern.rules.scene import ID_RULE, Action, valid_id
 
 from . import keys
 from .config import DEFAULT_ENDPOINT, MonitorConfig, listen_endpoints
@@ -225,8 +225,8 @@ class MonitorServer:
                     self.answers.rejected(req, reason)
                 return
             refusal = (reason, "vehicle")
-        elif not keys.VEHICLE_PATTERN.match(vehicle):
-            refusal = (f"vehicle {vehicle[:140]!r} in the key is not a valid vehicle id ([A-Za-z0-9_-], 1-128 chars)", "vehicle")
+        elif not valid_id(vehicle):
+            refusal = (f"vehicle {vehicle[:140]!r} in the key is not a valid vehicle id ({ID_RULE})", "vehicle")
         elif data is None:
             refusal = (
                 (f"payload of {size} bytes exceeds the limit of {limit} bytes", "size")
@@ -480,7 +480,7 @@ def _direct(callback):
 
 
 def _topic_safe(vehicle: str) -> str:
-    return vehicle if keys.VEHICLE_PATTERN.match(vehicle) else "_invalid"
+    return vehicle if valid_id(vehicle) else "_invalid"
 
 
 def _quietly(fn) -> None:

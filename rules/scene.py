@@ -7,6 +7,7 @@ positions are relative to the ego: x to the right, y ahead, bumper to nearest fa
 
 from __future__ import annotations
 
+import re
 from enum import Enum
 from typing import Annotated, Literal, Optional
 
@@ -302,11 +303,20 @@ class Scene(Strict):
         return sorted(l.id for l in self.lanes if l.kind is LaneKind.current)
 
 
+ID_RULE = "[A-Za-z0-9_-]{1,128}"  # a vehicle or monitor id: one zenoh key chunk
+_ID = re.compile(ID_RULE)
+
+
+def valid_id(text: str) -> bool:
+    """Whether `text` is a vehicle or monitor id as the protocol's keys and the Proposal's schema take it."""
+    return _ID.fullmatch(text) is not None
+
+
 class Proposal(Strict):
     """What the planner asks the monitor to judge: one message, one frame."""
 
     version: Literal[1] = SCHEMA_VERSION
-    vehicle: str = Field("ego", min_length=1, max_length=128, pattern=r"^[A-Za-z0-9_\-]+$")
+    vehicle: str = Field("ego", min_length=1, max_length=128, pattern=f"^{ID_RULE}$")
     action: Action
     scene: Scene
     explain: bool = Field(False, description="ask for the full justification tree")

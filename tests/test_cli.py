@@ -198,8 +198,10 @@ def test_a_reader_that_leaves_early_gets_no_traceback():
 
 @pytest.mark.parametrize("monitor_id, message", [
     ("a//b", "monitor id 'a//b' must be one key chunk (no '/')"),
-    ("a#b", "monitor id 'a#b' is not a valid key chunk: `#` and `?` are forbidden characters"),
-    ("a$b", "monitor id 'a$b' is not a valid key chunk: `$` is only allowed in `$*`"),
+    ("a#b", "monitor id 'a#b' may hold only letters, digits, '_', '-' and the wildcard '*'"),
+    ("a$b", "monitor id 'a$b' may hold only letters, digits, '_', '-' and the wildcard '*'"),
+    ("shard_[12]", "monitor id 'shard_[12]' may hold only letters, digits, '_', '-' and the wildcard '*'"),
+    ("shard_?", "monitor id 'shard_?' may hold only letters, digits, '_', '-' and the wildcard '*'"),
 ])
 def test_status_refuses_an_id_that_is_not_one_key_chunk(capsys, monitor_id, message):
     assert main(["status", "--id", monitor_id, "--connect", endpoint(free_port())]) == 2

@@ -10,7 +10,7 @@ import math
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from hypothesis_jsonschema import from_schema
 from pydantic import ValidationError
@@ -121,3 +121,30 @@ def test_control_characters_in_path_ids_are_refused_by_name():
     with pytest.raises(ValidationError) as refused:
         Scene.model_validate({"frame_id": 1, "ego": {"speed": 0, "lane": 1, "predicted_path": "a\x00b"}})
     assert describe_errors(refused.value).startswith("ego.predicted_path: String should match pattern")
+
+
+@given(st.text(min_size=1, max_size=130))
+@example("car\n")
+@example("c" * 128)
+def test_a_vehicle_id_is_valid_alike_in_the_key_the_client_and_the_schema(vehicle):
+    """One rule for ids: a key the monitor takes is a vehicle the schema and the client take too ('car\\n' was not)."""
+    from discern.monitor.client import Monitor
+    from discern.rules.scene import Proposal
+
+    scene = Scene.model_validate({"frame_id": 1, "timestamp": 0.0, "ego": {"speed": 1.0, "lane": 1},
+                                  "lanes": [{"kind": "current", "id": 1}]})
+    try:
+        decode_proposal(Proposal(action="cruise", scene=scene).model_dump_json(exclude={"vehicle"}).encode(), vehicle)
+        by_key = True
+    except InputError:
+        by_key = False
+    try:
+        Proposal(vehicle=vehicle, action="cruise", scene=scene)
+        by_schema = True
+    except ValidationError:
+        by_schema = False
+    with pytest.raises(ValueError) as refused:  # the style, checked after the vehicle, stops it from connecting
+        Monitor(vehicle=vehicle, style="nonsense")
+    by_client = str(refused.value).startswith("style")
+    assert by_key == by_schema == by_client, vehicle
+    assert not by_key or vehicle.strip("\n") == vehicle

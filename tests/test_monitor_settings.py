@@ -57,6 +57,7 @@ def test_the_documented_bounds_are_accepted(tmp_path):
         (["--log-flush-s", "0", "--log-rotate-s", "0"], "--log-rotate-s must be a finite number at least 1 s"),
         (["--log-rotate-mb", "nan"], "--log-rotate-mb must be a finite number at least 0.0625 MiB, got nan"),
         (["--connect", "nonsense"], "bad zenoh endpoint 'nonsense': Endpoints must be of the form"),
+        (["--vehicles", "car_[12]"], "vehicle filter 'car_[12]' may hold only letters, digits, '_', '-' and the wildcard '*'"),
     ],
 )
 def test_serve_refuses_bad_settings_in_one_line_with_status_2(tmp_path, flags, message):
