@@ -58,6 +58,26 @@ def test_wrapper_passes_history_of_the_last_two_seconds(checker):
     assert seen[0][1] == [] and seen[3] == (3.0, [1.0, 2.0])
 
 
+@pytest.mark.parametrize("shadow, decision, executed", [(False, Decision.override, "brake"), (True, Decision.veto, None)])
+def test_a_checker_that_fails_gets_the_monitors_fail_safe_verdict_and_the_episode_goes_on(shadow, decision, executed):
+    class Broken:
+        name = "broken"
+
+        def __init__(self):
+            self.shadow = shadow
+
+        def check(self, scene, proposed, history):
+            raise RuntimeError("solver gone")
+
+    env = DiscernWrapper(make_env("highway-fast-v0", duration=3), checker=Broken())
+    env.reset(seed=10_002)
+    _, _, _, _, info = env.step(FASTER)
+    verdict = Verdict.model_validate(info["discern"])
+    assert verdict.failsafe and verdict.rules == ["monitor.internal_error"] and verdict.decision is decision
+    assert verdict.error == "RuntimeError: solver gone" and verdict.proposed.value == "accelerate"
+    assert info["executed_action"] == (from_catalog(executed) if executed else FASTER)
+
+
 def test_short_evaluation_compares_planner_and_discern_on_the_same_episodes():
     setup = Setup(duration=10)
     results = evaluate(

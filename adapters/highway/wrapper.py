@@ -19,7 +19,7 @@ from highway_env.envs.highway_env import HighwayEnv, HighwayEnvFast
 from highway_env.envs.merge_env import MergeEnv
 
 from discern.rules.scene import Action, Proposal, Scene
-from discern.rules.verdict import Decision, Justification, Verdict
+from discern.rules.verdict import Decision, Verdict
 from discern.sanity import WindowConfig
 
 from .actions import from_catalog, to_catalog
@@ -41,21 +41,6 @@ class Checker(Protocol):
     name: str
 
     def check(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> Verdict: ...
-
-
-def failsafe(scene: Scene, proposed: Action, error: str) -> Verdict:
-    """The conservative answer when a checker cannot give one: brake, and say why."""
-    return Verdict(
-        frame_id=scene.frame_id,
-        timestamp=scene.timestamp,
-        decision=Decision.override if proposed is not Action.brake else Decision.approve,
-        proposed=proposed,
-        action=Action.brake,
-        rules=["failsafe"],
-        justification=Justification(summary=f"failsafe brake: {error}"),
-        failsafe=True,
-        error=error,
-    )
 
 
 class ReasonerChecker:
@@ -183,7 +168,11 @@ class DiscernWrapper(gym.Wrapper):
         try:
             verdict = self.checker.check(self.scene, proposed, tuple(self.history))
         except Exception as exc:  # a checker failure must never take the vehicle down with it
-            verdict = failsafe(self.scene, proposed, f"{type(exc).__name__}: {exc}")
+            from discern.monitor.protocol import RULE_INTERNAL_ERROR, failsafe_verdict
+
+            verdict = failsafe_verdict(self.vehicle, f"{type(exc).__name__}: {exc}", RULE_INTERNAL_ERROR,
+                                       proposed=proposed, frame_id=self.scene.frame_id, timestamp=self.scene.timestamp,
+                                       shadow=getattr(self.checker, "shadow", False))
         if self.recorder is not None:
             self._record(proposed, verdict)
         return verdict
