@@ -41,10 +41,11 @@ class MonitorStatus(BaseModel):
     uptime_s: float
     budget_ms: float
     proposals: int = 0
-    approvals: int = 0
-    vetoes: int = 0
-    overrides: int = 0
-    failsafes: int = Field(0, description="verdicts flagged failsafe, bad input included")
+    approvals: int = Field(0, description="approvals by the rules")
+    vetoes: int = Field(0, description="vetoes by the rules (shadow mode)")
+    overrides: int = Field(0, description="overrides by the rules")
+    failsafes: int = Field(0, description="verdicts flagged failsafe, bad input included; with the three above, "
+                                          "they add up to the proposals")
     errors: int = Field(0, description="proposals refused as bad input")
     errors_by_kind: dict[str, int] = Field(default_factory=dict)
     deadline_misses: int = 0
@@ -73,9 +74,9 @@ class StatusCounters:
         with self._lock:
             c = self._counts
             c["proposals"] += 1
-            c[_DECISION_COUNTER[decision]] += 1
-            if failsafe:
-                c["failsafes"] += 1
+            # a fail-safe is counted as one, not also as the override or veto it is dressed as: the counts add up
+            # to the proposals, as the audit's do
+            c["failsafes" if failsafe else _DECISION_COUNTER[decision]] += 1
             if error_kind is not None:
                 c["errors"] += 1
                 self._errors[error_kind] += 1

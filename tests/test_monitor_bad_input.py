@@ -191,6 +191,8 @@ def test_refusals_are_counted_and_good_proposals_still_judged(session, monitor):
     [report] = report
     assert report["errors"] >= 3 and report["errors_by_kind"]["json"] >= 1 and report["errors_by_kind"]["schema"] >= 1
     assert report["failsafes"] >= 2 and report["approvals"] >= 1
+    # a refusal's fail-safe override is a fail-safe, not also an override: the counts add up, as the audit's do
+    assert report["proposals"] == sum(report[k] for k in ("approvals", "vetoes", "overrides", "failsafes"))
     assert proc.proc.poll() is None
 
 
