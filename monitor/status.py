@@ -10,6 +10,7 @@ from typing import Literal, Optional, Sequence
 import numpy as np
 from pydantic import BaseModel, Field
 
+from discern.rules.scene import SCHEMA_VERSION
 from discern.rules.verdict import Decision
 
 LATENCY_SAMPLES = 8192  # percentiles cover the most recent decisions
@@ -35,7 +36,7 @@ class LatencySummary(BaseModel):
 
 
 class MonitorStatus(BaseModel):
-    version: Literal[1] = 1
+    version: Literal[1] = SCHEMA_VERSION
     monitor_id: str
     vehicles_filter: str = Field(description="key chunk of the vehicles this monitor serves")
     uptime_s: float

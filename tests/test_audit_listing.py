@@ -108,6 +108,19 @@ def test_aggregates_per_rule_action_pair_scenario_and_time(capsys, tmp_path, all
     assert doc["latency_ms"]["samples"] == doc["frames"] == FRAMES
 
 
+def test_the_audit_calls_vulnerable_the_road_users_the_catalog_does(reasoner):
+    from discern.monitor.audit.aggregate import VULNERABLE, scenario_kind
+    from discern.rules.scene import ObjectClass, Scene
+
+    solved = reasoner.solve(Scene.model_validate({"frame_id": 1, "timestamp": 0.0, "ego": {"speed": 5.0, "lane": 1},
+                                                  "lanes": [{"kind": "current", "id": 1}]}), "cruise")
+    assert VULNERABLE == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("vulnerable", 1)}
+    motorbike = Scene.model_validate({"frame_id": 1, "timestamp": 0.0, "ego": {"speed": 5.0, "lane": 1, "zone": "city"},
+                                      "lanes": [{"kind": "current", "id": 1}],
+                                      "objects": [{"id": 1, "class": "bike", "position": {"x": 3.5, "y": 10.0}}]})
+    assert scenario_kind(motorbike) != "city/vulnerable_road_user"
+
+
 def test_latency_percentiles_take_the_nearest_rank_so_few_samples_do_not_lean_high():
     two = latency_summary([3.0, 1.0])
     assert (two["samples"], two["p50_ms"], two["max_ms"]) == (2, 1.0, 3.0)
