@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Callable, Optional, Sequence
 
 from discern.monitor.config import check_number
+from discern.monitor.log import log_files
 from discern.rules.catalog import CatalogError, load_catalog
 from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
 
@@ -163,37 +164,11 @@ def _warn_unreadable(files) -> bool:
 
 
 def _log_paths(logs: Sequence[str]) -> list[str]:
-    """The files to read, each checked before a long audit starts: nothing given is passed over unsaid.
-
-    A directory stands for its *.mcap entries, and a directory among them for its own *.mcap entries,
-    as when the shell expands DIR/*.mcap; anything else that is no regular file is refused, naming it.
-    """
-    files: list[str] = []
-    walked: set[Path] = set()  # a directory reached again (given twice, or linked back up) adds nothing
-
-    def collect(path: Path) -> None:
-        if path.is_dir():
-            if path.resolve() in walked:
-                return
-            walked.add(path.resolve())
-            try:
-                entries = sorted(e for e in path.iterdir() if e.name.endswith(".mcap"))
-            except OSError as exc:
-                raise UsageError(f"{path}: cannot list the directory: {exc.strerror or exc}") from None
-            if not entries:
-                raise UsageError(f"{path}: directory holds no *.mcap files")
-            for entry in entries:
-                collect(entry)
-        elif not path.exists():
-            raise UsageError(f"{path}: no such file or directory")
-        elif not path.is_file():
-            raise UsageError(f"{path}: not a regular file")
-        else:
-            files.append(str(path))
-
-    for log in logs:
-        collect(Path(log))
-    return files
+    """The files to read, each checked before a long audit starts: nothing given is passed over unsaid."""
+    try:
+        return [str(path) for path in log_files(logs, strict=True)]
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _filters(args: argparse.Namespace) -> Filters:

@@ -113,11 +113,14 @@ class RecoveryReport:
         return "\n".join(lines)
 
 
-def log_files(paths: Union[PathLike, Iterable[PathLike]]) -> list[Path]:
+def log_files(paths: Union[PathLike, Iterable[PathLike]], strict: bool = False) -> list[Path]:
     """Expand a file, a directory (its *.mcap, by name: rotation names sort in time) or a list of both.
 
-    A directory among a directory's *.mcap entries is expanded in turn, as `discern audit` does; a file
-    named twice (a directory and one of its files) is read once, where it first appears.
+    A directory among a directory's *.mcap entries is expanded in turn, as when the shell expands
+    DIR/*.mcap; a file or directory named twice (or linked back up) is read once, where it first appears.
+    `strict`: a path that is missing, no regular file, or a directory with no *.mcap raises ValueError
+    naming it, so that a long audit does not pass over what it was given; otherwise such a file is
+    reported unreadable when it is read.
     """
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
@@ -130,8 +133,20 @@ def log_files(paths: Union[PathLike, Iterable[PathLike]]) -> list[Path]:
             return
         seen.add(key)
         if p.is_dir():
-            for entry in sorted(p.glob("*.mcap")):
+            try:
+                entries = sorted(e for e in p.iterdir() if e.name.endswith(".mcap"))
+            except OSError as exc:
+                if strict:
+                    raise ValueError(f"{p}: cannot list the directory: {exc.strerror or exc}") from None
+                entries = []
+            if strict and not entries:
+                raise ValueError(f"{p}: directory holds no *.mcap files")
+            for entry in entries:
                 add(entry)
+        elif strict and not p.exists():
+            raise ValueError(f"{p}: no such file or directory")
+        elif strict and not p.is_file():
+            raise ValueError(f"{p}: not a regular file")
         else:
             files.append(p)
 
