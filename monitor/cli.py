@@ -12,7 +12,7 @@ from typing import Optional, Sequence
 
 from pydantic import ValidationError
 
-from discern.rules.catalog import CatalogError, catalog_dirs, load_catalog
+from discern.rules.catalog import CatalogError, load_driving_rules
 from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack
 from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
@@ -60,15 +60,7 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
     params = Params(**values)
     try:
         if getattr(args, "rules", None):
-            directory = Path(args.rules)
-            if directory.is_dir() and not any(directory.glob("*.lp")):
-                raise UserError(f"rules directory {directory} has no *.lp files: there are no rules to judge by")
-            catalog = load_catalog([directory] + catalog_dirs()[1:], extra_files=[jurisdiction_pack(jurisdiction)])
-            # Without driving rules every action is "forbidden by no rule": a verdict that means nothing.
-            if not any(Path(rule.file).parent == directory for rule in catalog.driving_rules()):
-                raise UserError(
-                    f"rules directory {directory} defines no driving rules (no `%! rule` other than def.* and ent.*)"
-                )
+            catalog = load_driving_rules([Path(args.rules)], extra_files=[jurisdiction_pack(jurisdiction)])
             return Reasoner(catalog=catalog, params=params, jurisdiction=jurisdiction)
         return Reasoner(params=params, jurisdiction=jurisdiction) if values else reasoner_for(jurisdiction)
     except (CatalogError, ValueError) as exc:

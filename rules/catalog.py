@@ -543,6 +543,30 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
     return catalog
 
 
+def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] = ()) -> Catalog:
+    """A catalog with these driving-rules directories in place of rules/catalog; the sanity rules stay.
+
+    Each directory must hold *.lp files that define driving rules: without any, no action is ever forbidden,
+    a verdict that means nothing. A directory named twice is loaded once.
+    """
+    once: dict[Path, Path] = {}
+    for directory in map(Path, directories):
+        if not directory.is_dir():
+            raise CatalogError(f"rules directory {directory} is not a directory")
+        if not any(directory.glob("*.lp")):
+            raise CatalogError(f"rules directory {directory} has no *.lp files: there are no rules to judge by")
+        once.setdefault(directory.resolve(), directory)
+    given = list(once.values())
+    shipped = [d for d in catalog_dirs()[1:] if d.resolve() not in once]
+    catalog = load_catalog(given + shipped, extra_files=extra_files)
+    for directory in given:
+        if not any(Path(rule.file).parent == directory for rule in catalog.driving_rules()):
+            raise CatalogError(
+                f"rules directory {directory} defines no driving rules (no `%! rule` other than def.* and ent.*)"
+            )
+    return catalog
+
+
 def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset[str]:
     """Predicates whose atoms are the same in every frame: defined by the catalog from such predicates alone.
 

@@ -294,6 +294,16 @@ def test_a_rules_directory_given_twice_is_loaded_once(capsys, tmp_path, logs, to
     assert twice["changes"] == once["changes"]
 
 
+def test_a_rules_directory_without_driving_rules_is_refused_as_check_refuses_it(capsys, tmp_path, logs):
+    defs = tmp_path / "defs"
+    defs.mkdir()
+    (defs / "10_defs.lp").write_text("%! rule def.only\n%! says A definition.\n%! source test\nthing(a).\n")
+    code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(defs), "--workers", "1")
+    assert code == 2 and out == ""
+    assert err == (f"discern audit: rules catalog: rules directory {defs} defines no driving rules "
+                   "(no `%! rule` other than def.* and ent.*)\n")
+
+
 def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
     broken = tmp_path / "broken"
     broken.mkdir()

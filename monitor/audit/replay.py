@@ -38,7 +38,7 @@ from typing import Optional, Sequence
 
 from discern.monitor.config import MonitorConfig
 from discern.monitor.log import FileRecovery, RecoveryReport
-from discern.rules.catalog import Catalog, catalog_dirs, load_catalog
+from discern.rules.catalog import Catalog, catalog_dirs, load_catalog, load_driving_rules
 from discern.rules.engine import Reasoner, Request, jurisdiction_pack
 from discern.rules.scene import Action
 from discern.rules.verdict import Verdict
@@ -341,22 +341,32 @@ class ReplayCatalog:
     is compared on equal terms.
     """
 
-    dirs: tuple[str, ...]
+    rules: tuple[str, ...] = ()  # driving-rules directories in place of rules/catalog; none: the shipped ones
     jurisdiction: str = "us"
 
     @classmethod
     def of(cls, rules: Optional[Sequence[str]] = None, jurisdiction: str = "us") -> "ReplayCatalog":
-        """A directory named twice (`--rules D --rules D/`, or the shipped sanity rules) is loaded once,
-        where it first appears: loading it again would define each of its rules twice."""
-        dirs = [Path(d) for d in rules] + catalog_dirs()[1:] if rules else catalog_dirs()
+        """A directory named twice (`--rules D --rules D/`) is loaded once, where it first appears."""
         once: dict[Path, str] = {}
-        for d in dirs:
-            once.setdefault(d.resolve(), str(d))
+        for d in rules or ():
+            once.setdefault(Path(d).resolve(), str(d))
         jurisdiction_pack(jurisdiction)  # an unknown name fails here, naming the known ones
         return cls(tuple(once.values()), jurisdiction)
 
+    @property
+    def dirs(self) -> tuple[str, ...]:
+        """Every rules directory loaded: the driving rules given (or the shipped ones), then the sanity rules."""
+        if not self.rules:
+            return tuple(map(str, catalog_dirs()))
+        given = {Path(d).resolve() for d in self.rules}
+        return self.rules + tuple(str(d) for d in catalog_dirs()[1:] if d.resolve() not in given)
+
     def load(self) -> Catalog:
-        return load_catalog([Path(d) for d in self.dirs], extra_files=[jurisdiction_pack(self.jurisdiction)])
+        """Raises CatalogError naming a directory that is missing, unreadable or defines no driving rules."""
+        pack = [jurisdiction_pack(self.jurisdiction)]
+        if self.rules:
+            return load_driving_rules([Path(d) for d in self.rules], extra_files=pack)
+        return load_catalog(extra_files=pack)
 
     def describe(self) -> str:
         return f"{', '.join(self.dirs)} ({self.jurisdiction} rules)"
