@@ -40,6 +40,9 @@ TEMPLATE_FORMATS = frozenset({
 })
 
 
+DEFINITION_PREFIXES = ("def.", "ent.")  # ids of definitions and entities: they decide nothing themselves
+
+
 class CatalogError(ValueError):
     """A catalog file breaks the catalog's own conventions."""
 
@@ -243,7 +246,7 @@ class Catalog:
 
     def driving_rules(self) -> list[RuleInfo]:
         """Rules that decide something, as opposed to definitions (def.*) and data (ent.*)."""
-        return [r for r in self.rules if not r.id.startswith(("def.", "ent."))]
+        return [r for r in self.rules if not r.id.startswith(DEFINITION_PREFIXES)]
 
 
 def signature_of(head: ast.AST) -> tuple[str, int]:

@@ -16,7 +16,7 @@ from typing import Iterator, Optional
 from clingo import Symbol
 
 from .answer_set import AnswerSet
-from .catalog import Catalog, CompiledRule
+from .catalog import DEFINITION_PREFIXES, Catalog, CompiledRule
 from .phrases import Phrasebook
 from .terms import Env, Literal, Term, Unbound, check_comparison, evaluate, is_assignment, match
 from .verdict import JustificationNode
@@ -381,7 +381,7 @@ def _next_ready(body: list[Literal], env: Env) -> int:
     return 0
 
 
-def rule_ids(node: JustificationNode, skip_prefixes: tuple[str, ...] = ("def.", "ent.")) -> list[str]:
+def rule_ids(node: JustificationNode) -> list[str]:
     """Decision-level rules used in a proof, first use first; rules that did not fire are not counted."""
     seen: list[str] = []
     pending = [node]  # depth first, children in order; no recursive closure, which would be a reference cycle
@@ -389,7 +389,7 @@ def rule_ids(node: JustificationNode, skip_prefixes: tuple[str, ...] = ("def.", 
         n = pending.pop()
         if n.kind in ("negation", "blocked", "absent"):
             continue
-        if n.rule and not n.rule.startswith(skip_prefixes) and n.rule not in seen:
+        if n.rule and not n.rule.startswith(DEFINITION_PREFIXES) and n.rule not in seen:
             seen.append(n.rule)
         pending.extend(reversed(n.children))
     return seen

@@ -20,7 +20,7 @@ from discern.monitor.status import percentile
 from discern.rules.verdict import Decision
 
 from .envs import make_env, policy_period
-from .oracle import proposal_was_safe
+from .oracle import SPEED_TOLERANCE, proposal_was_safe
 from .perception import Faults
 from .planner import Planner
 from .wrapper import VEHICLE_PARAMS, DiscernWrapper
@@ -150,7 +150,7 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
         result.time_s += period
         result.distance_m += max(after.ego.road_position - before, 0.0)
         limit = after.lane_limit(after.ego.lane)
-        if limit is not None and after.ego.speed > limit + 0.5:
+        if limit is not None and after.ego.speed > limit + SPEED_TOLERANCE:
             result.speeding_s += period
         if perceived.sign.misread:
             result.misread_s += period
