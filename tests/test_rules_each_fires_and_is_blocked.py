@@ -71,7 +71,7 @@ CASES = {
     ),
     "brake.minor_road_yield": (
         scene(intersection={"type": "t_intersect", "stage": "at", "road": "minor"}, other_lanes=("cross_left",),
-              objects=[obj("car", -20, 12, lane=1, kind="cross_left")]),
+              objects=[obj("car", -20, 12, lane=1, kind="cross_left", velocity={"x": 10.0, "y": 0.0})]),
         scene(intersection={"type": "t_intersect", "stage": "at", "road": "major"}, other_lanes=("cross_left",),
               objects=[obj("car", -20, 12, lane=1, kind="cross_left")]),
     ),
@@ -205,6 +205,10 @@ CASES = {
     "jur.right_hand_traffic": (scene(), None),
     "po.intent": (scene(intent="pull_over"), scene()),
     "po.not_edge_lane": (scene(lane=1, lanes=2), scene(lane=2, lanes=2)),
+    "cll.hazard": (scene(lane=2, lanes=2, intent="merge_into_left_lane", light="red"),
+                   scene(lane=2, lanes=2, intent="merge_into_left_lane", objects=[obj("roadblock", 0, 8, lane=2)])),
+    "clr.hazard": (scene(lane=1, lanes=2, intent="merge_into_right_lane", light="red"),
+                   scene(lane=1, lanes=2, intent="merge_into_right_lane", objects=[obj("roadblock", 0, 8, lane=1)])),
     "po.hazard": (scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",), objects=[obj("pedestrian", 0, 8, lane=2)]),
                   scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",))),
     "po.in_intersection": (
@@ -397,3 +401,48 @@ def test_fallback_brake_is_recommended_when_no_rule_calls_for_anything(tmp_path:
     verdict = reasoner.decide(scene(speed=15, limit=15), "cruise")
     assert verdict.recommended.value == "brake"
     assert "dec.fallback_brake" in Prover(reasoner.catalog, reasoner.solve(scene(speed=15, limit=15), "cruise").answer).fired_rules()
+
+
+def test_on_the_minor_road_cross_traffic_far_off_or_driving_away_does_not_hold_the_ego():
+    minor = {"speed": 0, "intent": "enter_right_lane", "intersection": {"type": "t_intersect", "stage": "at", "road": "minor"},
+             "other_lanes": ("cross_left", "cross_right")}
+    away = scene(**minor, objects=[obj("car", -150, 5, lane=1, kind="cross_left", velocity={"x": -10.0, "y": 0.0})])
+    coming = scene(**minor, objects=[obj("car", -30, 5, lane=1, kind="cross_left", velocity={"x": 12.0, "y": 0.0})])
+    assert decide(away, "turn_right").decision.value == "approve"
+    verdict = decide(coming, "turn_right")
+    assert verdict.action.value == "brake" and "brake.minor_road_yield" in verdict.rules
+
+
+@pytest.mark.parametrize("hazard", [
+    {"light": "red", "intersection": {"type": "signaled", "stage": "arriving", "distance": 40}},
+    {"sign": "stop", "intersection": {"type": "four_way", "stage": "arriving", "distance": 40}},
+    {"path": "sp1", "objects": [obj("pedestrian", 5, 25, predicted_path="op1", velocity={"x": -1.4, "y": 0.0})],
+     "crossings": [("sp1", "op1")]},
+])
+def test_a_routine_lane_change_does_not_answer_a_hazard_only_braking_does(hazard):
+    """An overtake or a merge wins over braking only where it answers the hazard (an obstacle, the lane's end)."""
+    merging = scene(speed=12, lane=2, lanes=2, limit=20, intent="merge_into_left_lane", **hazard)
+    verdict = decide(merging, "cruise")
+    assert verdict.action.value == "brake" and verdict.recommended.value == "brake"
+    assert "cll.hazard" in decide(merging, "change_lane_left").rules
+
+
+def test_a_lane_change_still_answers_an_obstacle_in_the_lane_and_the_lanes_end():
+    swerve = scene(speed=10, lane=2, lanes=2, limit=20, objects=[obj("roadblock", 0, 12, lane=2)])
+    assert decide(swerve, "cruise").action.value == "change_lane_left"
+    ending = scene(speed=10, lane=1, lanes=2, limit=20, lane_ends={1: 15.0})  # inside the stopping distance
+    verdict = decide(ending, "cruise")
+    assert verdict.action.value == "change_lane_right" and "brake.lane_end_reached" in verdict.rules
+
+
+@pytest.mark.parametrize("cls", ["car", "pedestrian"])
+def test_something_standing_in_a_crossing_lane_straight_ahead_is_an_obstacle(cls):
+    """Going straight through an intersection the ego crosses the crossing lanes: what stands in them in front of it
+    blocks it whatever lane perception gives it; what is off to the side does not."""
+    through = {"speed": 10, "light": "green", "intersection": {"type": "signaled", "stage": "enter"},
+               "other_lanes": ("cross_left", "cross_right")}
+    ahead = scene(**through, objects=[obj(cls, 1.0, 6, lane=1, kind="cross_right", vy=0.0)])
+    verdict = decide(ahead, "accelerate")
+    assert verdict.action.value == "brake" and "brake.obstacle_ahead" in verdict.rules
+    aside = scene(**through, objects=[obj(cls, -12.0, 6, lane=1, kind="cross_left", vy=0.0)])
+    assert decide(aside, "accelerate").decision.value == "approve"
