@@ -75,6 +75,12 @@ CASES = {
         scene(intersection={"type": "t_intersect", "stage": "at", "road": "major"}, other_lanes=("cross_left",),
               objects=[obj("car", -20, 12, lane=1, kind="cross_left")]),
     ),
+    "brake.yield_sign": (
+        scene(sign="yield", intersection={"type": "unsignaled", "stage": "arriving", "distance": 10}, other_lanes=("cross_left",),
+              objects=[obj("car", -30, 12, lane=1, kind="cross_left", velocity={"x": 12.0, "y": 0.0})]),
+        scene(sign="yield", intersection={"type": "unsignaled", "stage": "arriving", "distance": 10}, other_lanes=("cross_left",),
+              objects=[obj("car", -30, 12, lane=1, kind="cross_left", velocity={"x": -12.0, "y": 0.0})]),
+    ),
     "brake.merge_blocked": (
         scene(lane=2, lanes=2, intent="merge_into_left_lane", objects=[obj("car", -3.5, 3, lane=1)]),
         scene(lane=2, lanes=2, intent="merge_into_left_lane", objects=[obj("car", -3.5, 30, lane=1)]),
@@ -446,3 +452,10 @@ def test_something_standing_in_a_crossing_lane_straight_ahead_is_an_obstacle(cls
     assert verdict.action.value == "brake" and "brake.obstacle_ahead" in verdict.rules
     aside = scene(**through, objects=[obj(cls, -12.0, 6, lane=1, kind="cross_left", vy=0.0)])
     assert decide(aside, "accelerate").decision.value == "approve"
+
+
+def test_a_school_zone_sign_bounds_the_speed_by_the_school_zones_usual_limit():
+    signed = scene(speed=10, limit=15.6, zone="city", sign="school_zone")
+    verdict = REASONER.decide(signed, "accelerate", explain=True)
+    assert verdict.action.value == "cruise" and "the speed limit in force is 8.9 m/s (20 mph)" in verdict.justification.text
+    assert decide(scene(speed=10, limit=15.6, zone="city"), "accelerate").decision.value == "approve"
