@@ -230,13 +230,18 @@ class Reasoner:
         brief = (Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=self._static_atoms)
                  if notes and explain else prover)
         for note in notes:
-            # What the sanity layer set aside or doubted (noted/1): its rules with every verdict, its proof on request.
+            # What the sanity layer set aside or doubted (noted/1): its rules with every verdict, its proof on request;
+            # a veto's tree states it as a leaf, so that every rule the verdict cites is in its justification.
+            atom = note.arguments[0]
             if explain:
-                node = brief.why(note.arguments[0])
+                node = brief.why(atom)
                 tree.append(node)
                 found = rule_ids(node)
             else:
-                found = prover.deriving_rules(note.arguments[0])
+                found = prover.deriving_rules(atom)
+                if tree:
+                    tree.append(JustificationNode(literal=str(atom), holds=True, text=prover.phrases.atom(atom),
+                                                  rule=found[0] if found else None))
             rules.extend(r for r in found if r not in rules)
         justification = Justification(summary=summary, tree=tree)
         justification.text = render_text(justification)

@@ -238,8 +238,8 @@ class Prover:
         return node
 
     def _sources_of(self, rule: CompiledRule, comparison: Literal, env: Env) -> list[JustificationNode]:
-        """The facts a failed comparison's numbers came from: '12.0 m < 0.0 m' alone does not say whose
-        distance it is."""
+        """The atoms a failed comparison's numbers came from: '12.0 m < 0.0 m' alone does not say whose
+        distance it is. Each is a leaf: a fact, or a derived atom with the rule that derived it."""
         wanted = set(comparison.variables)
         for position in sorted(rule.assignments, reverse=True):  # a computed value comes from its inputs
             if rule.body[position].variables & wanted:
@@ -249,9 +249,14 @@ class Prover:
             if not lit.is_atom or lit.negated or self._hidden(lit) or not lit.variables & wanted:
                 continue
             ground = next(self._matches(lit.atom, env), None)
-            if ground is not None and ground[0] not in sources:
-                sources[ground[0]] = JustificationNode(literal=str(ground[0]), holds=True,
-                                                       text=self.phrases.atom(ground[0]), kind="fact")
+            if ground is None or ground[0] in sources:
+                continue
+            sym = ground[0]
+            fact_rule = self.catalog.fact_rule.get(sym)
+            derived = [] if fact_rule else self.deriving_rules(sym)  # none: the frame gives it
+            sources[sym] = JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym),
+                                             kind="derived" if derived else "fact",
+                                             rule=derived[0] if derived else fact_rule)
         return list(sources.values())
 
     def _solve(self, body: list[Literal], env: Env, done: int,

@@ -55,17 +55,23 @@ def render_json(verdict: Verdict) -> str:
 _CSS = """
 body{font-family:system-ui,sans-serif;margin:2rem;max-width:70rem;color:#1d2330}
 h1{font-size:1.3rem} .summary{font-weight:600;margin:.5rem 0 1rem}
+.decision{display:inline-block;font-weight:700;font-size:1.1rem;padding:.3rem .8rem;border-radius:4px;color:#fff}
+.approve{background:#1f6f3f} .override{background:#b45309} .veto{background:#a3262a} .failsafe{background:#6b3fa0}
 details{margin-left:1.2rem;border-left:1px solid #d5d9e0;padding-left:.6rem}
 summary{cursor:pointer;padding:.1rem 0} .leaf{margin-left:1.2rem;padding:.1rem .6rem}
-.holds{color:#1f6f3f} .fails{color:#a3262a} .rule{font-family:monospace;font-size:.85em;
+.holds{color:#1d2330} .fails{color:#5f6b7d} .again{font-style:italic} .rule{font-family:monospace;font-size:.85em;
 background:#eef1f6;border-radius:3px;padding:0 .3rem;margin-left:.4rem;color:#39485e}
-.kind{font-size:.75em;color:#7a8496;margin-left:.3rem} table{border-collapse:collapse;margin:.5rem 0}
-td{padding:.15rem .8rem .15rem 0}
+.kind{font-size:.75em;color:#5f6b7d;margin-left:.3rem} table{border-collapse:collapse;margin:.5rem 0}
+td{padding:.15rem .8rem .15rem 0} .legend{font-size:.85em;color:#39485e;margin:.3rem 0 1rem}
 """
+
+# Why something did not happen: shown folded, one click away, so that what did happen reads first.
+_FOLDED_KINDS = ("negation", "blocked")
 
 
 def tree_html(nodes: list[JustificationNode], open_depth: Optional[int] = None) -> str:
-    """Nested <details>, open down to open_depth (all when None); the verdict page and the audit share it."""
+    """Nested <details>, open down to open_depth (all when None) except the reasons why something did not
+    happen; the verdict page and the audit share it."""
     shown: set[tuple] = set()
     return "".join(_html_node(node, shown, open_depth, 0) for node in nodes)
 
@@ -73,33 +79,51 @@ def tree_html(nodes: list[JustificationNode], open_depth: Optional[int] = None) 
 def _html_node(node: JustificationNode, shown: set[tuple], open_depth: Optional[int], depth: int) -> str:
     cls = "holds" if node.holds else "fails"
     rule = f'<span class="rule">{html.escape(node.rule)}</span>' if node.rule and node.kind != "blocked" else ""
-    label = f'<span class="{cls}">{html.escape(_line(node).split("  [")[0])}</span>{rule}<span class="kind">{node.kind}</span>'
+    key = _key(node)
+    again = bool(node.children) and key in shown
+    text = html.escape(_line(node, again).split("  [")[0])
+    label = f'<span class="{cls}{" again" if again else ""}">{text}</span>{rule}<span class="kind">{node.kind}</span>'
     if not node.children:
         return f'<div class="leaf">{label}</div>'
     # A reason argued earlier on the page stays folded where it comes up again: one click opens it.
-    key = _key(node)
-    opened = key not in shown and (open_depth is None or depth < open_depth)
+    opened = not again and node.kind not in _FOLDED_KINDS and (open_depth is None or depth < open_depth)
     shown.add(key)
     inner = "".join(_html_node(c, shown, open_depth, depth + 1) for c in node.children)
     return f"<details{' open' if opened else ''}><summary>{label}</summary>{inner}</details>"
 
 
+_LEGEND = (
+    "Each line holds in this frame and is followed by its reasons; the chip names the catalog rule that "
+    "derives it. Tags: <b>derived</b> proved by a rule, <b>fact</b> given by the scene or the catalog, "
+    "<b>builtin</b> a comparison of numbers, <b>negation</b> there is no evidence of it, <b>blocked</b> why a "
+    "rule did not apply (grey). Reasons why something did not happen, and reasons given above, start folded."
+)
+
+
 def render_html(verdict: Verdict) -> str:
     j = verdict.justification
+    kind = "failsafe" if verdict.failsafe else verdict.decision.value
+    headline = f"{verdict.decision.value}: {verdict.action.value}" + (" (fail-safe)" if verdict.failsafe else "")
     facts = [
-        ("decision", verdict.decision.value),
+        ("vehicle", verdict.vehicle),
+        ("frame", str(verdict.frame_id)),
+        ("timestamp", "-" if verdict.timestamp is None else f"{verdict.timestamp:g} s"),
+        ("decision", verdict.decision.value + (" (shadow mode: judged, not enforced)" if verdict.shadow else "")),
         ("proposed", verdict.proposed.value if verdict.proposed else "-"),
         ("action", verdict.action.value),
         ("recommended", verdict.recommended.value if verdict.recommended else "-"),
         ("permitted", ", ".join(a.value for a in verdict.permitted)),
         ("rules", ", ".join(verdict.rules)),
-        ("frame", str(verdict.frame_id)),
+        ("latency", "-" if verdict.latency_ms is None else f"{verdict.latency_ms:.2f} ms"),
     ]
+    if verdict.error:
+        facts.append(("error", verdict.error))
     rows = "".join(f"<tr><td>{k}</td><td>{html.escape(v)}</td></tr>" for k, v in facts)
     tree = tree_html(j.tree)
     return (
-        "<!doctype html><html><head><meta charset='utf-8'>"
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'>"
         f"<title>Discern verdict, frame {verdict.frame_id}</title><style>{_CSS}</style></head><body>"
-        f"<h1>Discern verdict</h1><div class='summary'>{html.escape(j.summary)}</div>"
-        f"<table>{rows}</table><h2>Justification</h2>{tree}</body></html>"
+        f"<h1>Discern verdict</h1><div class='decision {kind}'>{html.escape(headline.upper())}</div>"
+        f"<div class='summary'>{html.escape(j.summary)}</div>"
+        f"<table>{rows}</table><h2>Justification</h2><div class='legend'>{_LEGEND}</div>{tree}</body></html>"
     )

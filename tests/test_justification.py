@@ -5,7 +5,7 @@ from pathlib import Path
 
 import clingo
 import pytest
-from clingo import Function, Number, String
+from clingo import Function, Number, String, parse_term
 
 from bench.scenes import random_scene
 from discern.adapters.avcsr import read_dir
@@ -102,6 +102,16 @@ def test_html_is_self_contained_with_collapsible_nodes(reasoner):
     page = render_html(reasoner.decide(scene(lane=1, lanes=2), "change_lane_left"))
     assert "<details open><summary>" in page and "cll.no_lane" in page
     assert "http://" not in page and "https://" not in page and "<script" not in page
+
+
+def test_the_html_page_leads_with_the_decision_and_folds_what_did_not_happen(reasoner):
+    page = render_html(reasoner.decide(scene(lane=1, lanes=2), "change_lane_left", explain=True))
+    assert "<div class='decision override'>OVERRIDE: ACCELERATE</div>" in page
+    assert "<details><summary><span class=\"holds\">there is no evidence that" in page  # folded: one click away
+    assert "<details open><summary><span class=\"holds\">change lane left is forbidden" in page
+    assert "<td>vehicle</td><td>ego</td>" in page and "<td>latency</td>" in page and "<html lang='en'>" in page
+    shadow = render_html(reasoner.decide(scene(lane=1, lanes=2), "change_lane_left", shadow=True))
+    assert "<div class='decision veto'>VETO: CHANGE_LANE_LEFT</div>" in shadow and "shadow mode" in shadow
 
 
 def test_a_reason_that_comes_up_again_is_argued_once_and_then_pointed_back_to(reasoner):
@@ -378,3 +388,24 @@ def test_no_rule_is_said_to_need_exactly_what_it_was_asked_to_explain(explained)
     assert checked > 1000 and not circular
     said = "\n".join(verdict.justification.text for verdict in explained)
     assert "rule def.limit_doubted needs that the limit reading of 15.0 m/s (33.6 mph) is doubted for some reason" in said
+
+
+def test_a_node_shown_as_a_fact_is_one_the_frame_or_the_catalog_gives(reasoner, explained):
+    """The numbers behind a failed comparison included derived atoms ('the speed limit in force'), labelled
+    facts: a reader took a fallback limit for one perceived."""
+    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    crossing = scene(path="p1", objects=[obj("pedestrian", 30, 60, predicted_path="q1")], crossings=[("p1", "q1")])
+    frames = [*_frames(), ("us", crossing, "cruise", ())]
+    facts_shown, wrong = 0, []
+    for (jurisdiction, sc, proposed, history), verdict in zip(frames, explained, strict=True):
+        engine = reasoners[jurisdiction]
+        given = set(engine.frame_facts(sc, Action(proposed), history).split(".")) | set(engine._param_facts.split("."))
+        pending = list(verdict.justification.tree)
+        while pending:
+            node = pending.pop()
+            pending.extend(node.children)
+            if node.kind == "fact":
+                facts_shown += 1
+                if node.literal not in given and parse_term(node.literal) not in engine.catalog.fact_rule:
+                    wrong.append(node.literal)
+    assert facts_shown > 1000 and not wrong, sorted(set(wrong))[:10]
