@@ -33,6 +33,16 @@ RULE_BAD_INPUT = "monitor.bad_input"
 RULE_DEADLINE = "monitor.deadline"
 RULE_INTERNAL_ERROR = "monitor.internal_error"
 RULE_NO_ANSWER = "monitor.no_answer"
+# What each fail-safe rule says, as the catalog's rules say it: the audit's per-rule table shows them alike.
+FAILSAFE_RULES = {
+    RULE_BAD_INPUT: "A proposal the monitor cannot read or refuses (malformed, out of order, too large) gets a "
+                    "fail-safe brake, with the problem named.",
+    RULE_DEADLINE: "A proposal the rules did not decide within the budget gets the most cautious permitted "
+                   "action, else brake.",
+    RULE_INTERNAL_ERROR: "A proposal whose decision failed inside Discern gets the most cautious permitted action, "
+                         "else brake.",
+    RULE_NO_ANSWER: "A planner that gets no readable verdict in time (no monitor, a lost reply) brakes.",
+}
 
 MAX_ERRORS_NAMED = 5
 

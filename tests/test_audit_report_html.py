@@ -89,6 +89,11 @@ def test_audit_report_renders_in_a_browser_with_plots_and_every_tree(capsys, tmp
     for premise in ("the ego drives at 31.0 m/s", "the speed limit in force is 30.0 m/s", "31.0 m/s ≥ 30.0 m/s"):
         assert f'<span class="holds">{premise}' in car_a, premise
     assert car_a.count("<details") >= 3  # nested, each level collapsible
+    # the fail-safe rules say what they are in the per-rule table, as the catalog's do
+    assert "A proposal the rules did not decide within the budget gets the most cautious permitted" in dom
+    # a few seconds of driving: its rates are shown, and said to be rough
+    assert "disagreements per hour (short run: rough)" in dom
+    assert "width=\"100%\"" in dom and "2.5<" not in dom  # plots shrink with the window; count axes whole
 
 
 @needs_chromium
@@ -107,3 +112,7 @@ def test_replay_report_shows_both_justifications_side_by_side(capsys, tmp_path, 
     recorded, replayed = side.split("<h3>replayed</h3>", 1)
     assert "<h3>recorded</h3>" in recorded and "veto accelerate: forbidden by acc.at_limit" in recorded
     assert "approve accelerate: permitted" in replayed and "accelerate is permitted" in replayed
+    # what the replay decides differently is marked on both sides
+    for side in (recorded, replayed):
+        assert '<tr class="changed"><th>decision</th>' in side and '<tr class="changed"><th>rules</th>' in side
+        assert '<tr class="changed"><th>proposed</th>' not in side

@@ -214,5 +214,7 @@ def _write(path: Optional[str], render: Callable[[], str]) -> None:
 
 def _rule_text() -> dict[str, str]:
     """What each shipped rule says (with the monitor's default rule pack), for the report's per-rule table."""
-    return {r.id: r.says for r in load_catalog(extra_files=[jurisdiction_pack("us")]).rules}
+    from discern.monitor.protocol import FAILSAFE_RULES
+
+    return {**FAILSAFE_RULES, **{r.id: r.says for r in load_catalog(extra_files=[jurisdiction_pack("us")]).rules}}
 

@@ -16,7 +16,7 @@ FONT = "font-family='system-ui,sans-serif' font-size='11'"
 
 def _svg(width: int, height: int, label: str, body: list[str]) -> str:
     return (
-        f"<svg xmlns='http://www.w3.org/2000/svg' width='{width}' height='{height}' "
+        f"<svg xmlns='http://www.w3.org/2000/svg' width='100%' style='max-width:{width}px;height:auto' "
         f"viewBox='0 0 {width} {height}' role='img' aria-label='{escape(label)}'>"
         f"<title>{escape(label)}</title>{''.join(body)}</svg>"
     )
@@ -159,8 +159,9 @@ def _y_axis(left: float, top: float, plot_h: float, peak: float) -> list[str]:
     out = [f"<line x1='{left}' y1='{top}' x2='{left}' y2='{top + plot_h}' stroke='{AXIS}'/>"]
     for frac in (0.0, 0.5, 1.0):
         value = peak * frac
-        text = f"{value:g}" if value != int(value) else str(int(value))
-        out.append(_text(left - 4, top + plot_h * (1 - frac) + 4, text, "end", AXIS))
+        if value != int(value):  # the axes count frames and verdicts: no tick between two whole numbers
+            continue
+        out.append(_text(left - 4, top + plot_h * (1 - frac) + 4, str(int(value)), "end", AXIS))
     return out
 
 

@@ -153,15 +153,29 @@ def render_html(result: ReplayResult) -> str:
         + table(["proposed: recorded -> replayed", "frames"], [list(x) for x in t.transitions.most_common()], {1})
     )
     parts.append(f"<h2>Changed decisions ({len(t.changes)})</h2>")
+    parts.append("<p class='meta'>Marked rows differ. The recorded proof is the one the monitor logged (a veto's "
+                 "to 4 levels, an approval's only when the planner asked for it); the replayed one is in full.</p>")
     for i, c in enumerate(t.changes):
         head = (
             f"<span class='mono'>{escape(iso(c.time_ns))}</span> {escape(c.vehicle)} frame {c.frame_id} "
             f"&mdash; {escape(c.transition)}"
         )
+        changed = _changed_fields(c.recorded, c.replayed)
         sides = (
-            f"<div class='side'><div><h3>recorded</h3>{verdict_html(c.recorded)}</div>"
-            f"<div><h3>replayed</h3>{verdict_html(c.replayed)}</div></div>"
+            f"<div class='side'><div><h3>recorded</h3>{verdict_html(c.recorded, changed)}</div>"
+            f"<div><h3>replayed</h3>{verdict_html(c.replayed, changed)}</div></div>"
         )
         where = f"<p class='meta'>scenario {escape(c.scenario)} &middot; {escape(c.file)}</p>"
         parts.append(f"<details class='dis' id='c{i}' open><summary>{head}</summary>{where}{sides}</details>")
     return page("Discern replay", "".join(parts))
+
+
+# the verdict fields a rule edit can change, by the labels verdict_html gives them
+_COMPARED = {"decision": "decision", "action": "executed", "recommended": "recommended", "permitted": "permitted",
+             "rules": "rules"}
+
+
+def _changed_fields(recorded: dict, replayed: dict) -> frozenset[str]:
+    """The rows to mark on both sides: what the replay decides differently. The trees are not compared: the
+    monitor logs a veto's proof to a few levels and the replay proves in full."""
+    return frozenset(label for key, label in _COMPARED.items() if recorded.get(key) != replayed.get(key))

@@ -52,8 +52,16 @@ def recovery_lines(files: list[FileRecovery]) -> list[str]:
     return out
 
 
+# Below this much driving, a rate per hour or km is a handful of events scaled up: reported, and said to be rough.
+SHORT_RUN_H = 0.1
+
+
 def _rate(value: Optional[float], unit: str) -> str:
     return f"{value:.2f} per {unit}" if value is not None else f"n/a per {unit}"
+
+
+def _short_run(agg: Aggregates) -> bool:
+    return agg.hours < SHORT_RUN_H
 
 
 def plural(n: int, noun: str) -> str:
@@ -82,6 +90,7 @@ def totals_lines(tally: Tally, agg: Aggregates) -> list[str]:
         lines.append(
             f"odometry: {agg.km:.2f} km in {agg.hours:.3f} h of driving; disagreements "
             f"{_rate(agg.per_hour, 'hour')}, {_rate(agg.per_km, 'km')}"
+            + (f" (under {SHORT_RUN_H:g} h of driving: rough rates)" if _short_run(agg) else "")
         )
     else:
         lines.append("odometry: none (no consecutive scenes of a vehicle); no rates per hour or km")
@@ -210,15 +219,17 @@ td.n{text-align:right;font-variant-numeric:tabular-nums}
 details.dis{border-bottom:1px solid #eef1f6;padding:.2rem 0} details.dis>summary{cursor:pointer;font-size:.9rem}
 .tree details{margin-left:1.1rem;border-left:1px solid #d5d9e0;padding-left:.6rem}
 .tree summary{cursor:pointer} .leaf{margin-left:1.1rem;padding:.05rem .6rem}
-.holds{color:#1f6f3f} .fails{color:#a3262a} .rule{font-family:monospace;font-size:.85em;background:#eef1f6;
-border-radius:3px;padding:0 .3rem;margin-left:.4rem;color:#39485e} .kind{font-size:.75em;color:#7a8496;margin-left:.3rem}
+.holds{color:#1d2330} .fails{color:#5f6b7d} .again{font-style:italic} .rule{font-family:monospace;font-size:.85em;
+background:#eef1f6;border-radius:3px;padding:0 .3rem;margin-left:.4rem;color:#39485e}
+.kind{font-size:.75em;color:#5f6b7d;margin-left:.3rem} tr.changed td{background:#fff3cd;font-weight:600}
 .mono{font-family:monospace;font-size:.85em} .side{display:grid;grid-template-columns:1fr 1fr;gap:1rem}
 .side>div{border:1px solid #d5d9e0;border-radius:6px;padding:.4rem .8rem;overflow-x:auto}
 """
 
 
-def verdict_html(verdict: dict) -> str:
-    """A logged verdict: its facts, then its justification tree (or its prose when no tree was logged)."""
+def verdict_html(verdict: dict, changed: frozenset[str] = frozenset()) -> str:
+    """A logged verdict: its facts (those in `changed` marked), then its justification tree (or its prose when
+    no tree was logged)."""
     j = verdict.get("justification") or {}
     facts = [
         ("decision", verdict.get("decision")),
@@ -232,7 +243,8 @@ def verdict_html(verdict: dict) -> str:
         ("shadow", "yes" if verdict.get("shadow") else None),
         ("error", verdict.get("error")),
     ]
-    rows = "".join(f"<tr><th>{k}</th><td>{escape(str(v))}</td></tr>" for k, v in facts if v not in (None, ""))
+    rows = "".join(f"<tr{' class=changed' if k in changed else ''}><th>{k}</th><td>{escape(str(v))}</td></tr>"
+                   for k, v in facts if v not in (None, ""))
     tree = tree_html([JustificationNode.model_validate(n) for n in j.get("tree") or []], open_depth=1)
     if not tree:
         tree = f"<pre class='mono'>{escape(j.get('text') or j.get('summary') or '')}</pre>"
@@ -282,8 +294,10 @@ def render_html(tally: Tally, agg: Aggregates, filters: Filters, rule_text: dict
         _card(str(d["failsafe"]), "fail-safes"),
         _card(f"{agg.km:.2f} km", "distance (from scene speeds)"),
         _card(f"{agg.hours:.3f} h", "driving time"),
-        _card(f"{agg.per_hour:.2f}" if agg.per_hour is not None else "n/a", "disagreements per hour"),
-        _card(f"{agg.per_km:.2f}" if agg.per_km is not None else "n/a", "disagreements per km"),
+        _card(f"{agg.per_hour:.2f}" if agg.per_hour is not None else "n/a",
+              "disagreements per hour" + (" (short run: rough)" if _short_run(agg) else "")),
+        _card(f"{agg.per_km:.2f}" if agg.per_km is not None else "n/a",
+              "disagreements per km" + (" (short run: rough)" if _short_run(agg) else "")),
         _card(f"{lat['p99_ms']:.2f} ms" if lat["samples"] else "n/a", "latency p99"),
     ]
     parts = [f"<h2>Logs</h2>{files_html(tally.recovery)}"]
