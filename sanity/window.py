@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Iterable, Optional, Sequence
 
 from discern.rules.facts import cm
-from discern.rules.scene import DetectedObject, LightColour, ObjectClass, Scene, SensorSide, SignKind, Source
+from discern.rules.scene import DetectedObject, LaneKind, LightColour, ObjectClass, Scene, SensorSide, SignKind, Source
 
 CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Source.annotation}
 EGO_LENGTH, EGO_WIDTH = 4.6, 2.0
@@ -220,6 +220,8 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int) -> list[str]
         settled_runs = [(value, length) for value, length in runs if length >= confirm]
         if settled_runs:
             value, length = settled_runs[-1]
+            if runs[-1][0] < value:  # a lower limit read since holds at once, as it did while in view
+                value, length = runs[-1]
             out.append(f"remembered_limit({value}).reading_run({value},{length}).")
     return out
 
@@ -238,8 +240,9 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
             out.append(f"light_flashing_frames({colour.value},{flagged}).")
         if _flashes([colour in f.lights for f in frames], times, config):
             out.append(f"light_flashes({colour.value}).")
-    if not now.lights and any(LightColour.red in p.lights for p in past):
-        out.append("light_seen_recently(red).")
+    last_seen = next((p.lights for p in reversed(past) if p.lights), frozenset())
+    if not now.lights and LightColour.red in last_seen and LightColour.green not in last_seen:
+        out.append("light_seen_recently(red).")  # red when last seen: a green hidden for a frame is no red
     return out
 
 
@@ -335,8 +338,12 @@ def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
     Objects already in the corridor are the lane rules' business; this looks
     for those that will come into it ahead of the ego (crossing, cutting in).
     """
+    return _predicted_conflicts_of(scene.objects, scene.ego.speed, horizon)
+
+
+def _predicted_conflicts_of(objects: Iterable[DetectedObject], ego_speed: float, horizon: float) -> list[str]:
     out = []
-    for obj in scene.objects:
+    for obj in objects:
         if obj.velocity is None:
             continue
         length, width = _footprint(obj)
@@ -345,7 +352,7 @@ def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
         x, y = obj.position.x, _to_centre(obj.position.y, length)
         if abs(x) < reach_x:
             continue
-        vx, vy = _relative_velocity(obj, scene.ego.speed)
+        vx, vy = _relative_velocity(obj, ego_speed)
         span_x = _inside(x, vx, reach_x)
         span_y = _inside(y, vy, reach_y)
         if span_x is None or span_y is None:
@@ -416,13 +423,21 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         kept.add(oid)
         out.append(f"remembered({oid},{int(round(age * 1000))}).remembered_object({oid},{obj.cls.value}).")
         out.append(f"remembered_pos({oid},{cm(x)},{cm(y)}).track_frames({oid},{tracked}).")
-        if obj.lane is not None:
+        if obj.lane is not None and obj.lane.kind is not LaneKind.current:
+            # the ego's road's lanes: placed by its tracked offset (the rules), as a car cutting in moves across
             out.append(f"remembered_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")
         if obj.velocity is not None:
             out.append(f"remembered_velocity({oid},{cm(obj.velocity.x)},{cm(obj.velocity.y)}).")
         out.extend(f"remembered_source({oid},{source.value})." for source in obj.sources)
         if reads:
             out.append(f"sensor_still_reads({oid},{reads[0].side.value}).")
+        past_it = [r for r in scene.sensors if r.side is side and r.kind in CONFIRMING and r.distance > reach]
+        if past_it and not reads:
+            out.append(f"sensor_reads_past({oid},{past_it[0].side.value}).")
+        if obj.velocity is not None:
+            moved = obj.model_copy(update={"position": obj.position.model_copy(update={"x": x, "y": y})})
+            out.extend(fact.replace("predicted_conflict(", "remembered_conflict(")
+                       for fact in _predicted_conflicts_of([moved], scene.ego.speed, config.horizon_s))
     for oid, count in lights.items():
         if oid in present or oid in kept:
             now = 1 if oid in present and present[oid].emergency_lights else 0

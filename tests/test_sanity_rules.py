@@ -268,3 +268,22 @@ def test_a_front_reading_confirms_a_camera_object_within_the_range_match_paramet
         answer = Reasoner(params=Params(range_match=range_match)).solve(car, Action.cruise).answer
         assert (Function("confirmed", [Number(1)]) in answer.of("confirmed", 1)) is confirmed
         assert (Function("doubtful", [Number(1)]) in answer.of("doubtful", 1)) is not confirmed
+
+
+@pytest.mark.parametrize("length", [0.6, 3.3])
+def test_a_cyclist_only_the_camera_sees_is_never_set_aside_for_its_size(length):
+    """A child's bicycle or one with a trailer: its size does not fit a bicycle, and it is still a cyclist."""
+    cyclist = obj(3, "bicycle", 0.0, 9.0, 1, vy=2.0, size={"length": length, "width": 0.7}, sources=("camera",))
+    verdict = _decide((scene(speed=10.0, limit=13.4, objects=[cyclist]),), Action.accelerate)
+    assert verdict.action is Action.brake and "san.world.size" not in verdict.rules
+
+
+def test_a_lead_car_braking_at_speed_is_no_sign_that_the_ego_must_stop():
+    """Brake lights at 14 m/s, 40 m short of a junction, are a car slowing, not a car stopping at a stop line."""
+    def lead(vy: float):
+        return scene(speed=18.0, zone="rural", limit=20.1, signs=[{"kind": "speed_limit", "value": 20.1}],
+                     intersection={"type": "four_way", "stage": "arriving", "distance": 60.0},
+                     objects=[obj(3, "car", 0.0, 40.0, 1, vy=vy, indicator="brake_light")])
+    assert _decide((lead(14.0),), Action.cruise).decision is Decision.approve
+    stopping = _decide((lead(2.0),), Action.cruise)
+    assert stopping.action is Action.brake and "san.stop.evidence_traffic" in stopping.rules

@@ -168,7 +168,12 @@ def test_a_lost_object_is_remembered_where_its_track_puts_it():
     seen = [at(0.1 * i, speed=10.0, objects=[obj(7, "car", -3.5, -10.0, 1, vy=20.0)]) for i in range(3)]
     found = facts(seen + [at(0.4, speed=10.0)])
     assert {"remembered(7,200).", "remembered_object(7,car).", "remembered_pos(7,-350,-800).",
-            "remembered_lane(7,current,1).", "track_frames(7,3)."} <= found
+            "track_frames(7,3)."} <= found
+    # a lane of the ego's road is the one its tracked offset falls in (the rules place it); another kind stays
+    assert not any(f.startswith("remembered_lane(7,") for f in found)
+    oncoming = [at(0.1 * i, speed=10.0, objects=[obj(8, "car", -3.5, 30.0, 1, kind="oncoming", vy=-10.0)])
+                for i in range(3)]
+    assert "remembered_lane(8,oncoming,1)." in facts(oncoming + [at(0.4, speed=10.0)])
 
 
 def test_a_lost_object_a_range_sensor_still_reads_is_kept():
