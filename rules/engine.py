@@ -19,12 +19,12 @@ import clingo
 from clingo import Function
 from clingo import ast
 
+from .answer_set import AnswerSet, show_statements
 from .batch import BatchAnswers, FrameAnswers, FrameTagger
 from .catalog import Catalog, load_catalog
 from .controls import PreparedControls
 from .fact_text import FACT_NAME
 from .facts import Params, scene_facts
-from .answer_set import AnswerSet, show_statements
 from .justify import Prover, rule_ids
 from .presence import PresenceSlicer
 from .render import render_text
