@@ -294,22 +294,24 @@ def test_a_rules_directory_given_twice_is_loaded_once(capsys, tmp_path, logs, to
     assert twice["changes"] == once["changes"]
 
 
-def test_a_rules_directory_without_driving_rules_is_refused_as_check_refuses_it(capsys, tmp_path, logs):
-    defs = tmp_path / "defs"
-    defs.mkdir()
-    (defs / "10_defs.lp").write_text("%! rule def.only\n%! says A definition.\n%! source test\nthing(a).\n")
-    code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(defs), "--workers", "1")
+def refused_rules(capsys, tmp_path, logs, text: str) -> tuple[Path, str]:
+    """Replay with a rules directory holding one file of `text`; it must be refused: (the file, stderr)."""
+    rules = tmp_path / "rules"
+    rules.mkdir()
+    (rules / "10_rules.lp").write_text(text)
+    code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(rules), "--workers", "1")
     assert code == 2 and out == ""
-    assert err == (f"discern audit: rules catalog: rules directory {defs} defines no driving rules "
+    return rules / "10_rules.lp", err
+
+
+def test_a_rules_directory_without_driving_rules_is_refused_as_check_refuses_it(capsys, tmp_path, logs):
+    lp, err = refused_rules(capsys, tmp_path, logs, "%! rule def.only\n%! says A definition.\n%! source test\nthing(a).\n")
+    assert err == (f"discern audit: rules catalog: rules directory {lp.parent} defines no driving rules "
                    "(no `%! rule` other than def.* and ent.*)\n")
 
 
 def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
-    broken = tmp_path / "broken"
-    broken.mkdir()
-    (broken / "10_bad.lp").write_text("%! rule x.bad\n%! says Nothing.\n%! source none\nforbidden(A) :- action(A\n")
-    code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(broken), "--workers", "1")
-    assert code == 2 and out == ""
-    assert err.startswith(f"discern audit: rules catalog: {broken / '10_bad.lp'}: cannot parse: ")
-    assert f"{broken / '10_bad.lp'}:5:1" in err and "syntax error" in err
+    lp, err = refused_rules(capsys, tmp_path, logs, "%! rule x.bad\n%! says Nothing.\n%! source none\nforbidden(A) :- action(A\n")
+    assert err.startswith(f"discern audit: rules catalog: {lp}: cannot parse: ")
+    assert f"{lp}:5:1" in err and "syntax error" in err
     assert "Traceback" not in err
