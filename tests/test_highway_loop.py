@@ -223,3 +223,20 @@ def test_evaluation_records_every_proposal_and_verdict_to_mcap(tmp_path):
     assert len(proposals) == len(verdicts) == shielded.steps  # the unshielded run has no verdicts to log
     assert {r.vehicle for r in verdicts} == {"discern_none_10000"}
     assert [v.verdict.frame_id for v in verdicts] == [p.proposal.scene.frame_id for p in proposals]
+
+
+def test_the_judge_counts_holding_a_speed_above_the_limit_as_speeding_and_slowing_down_as_not():
+    """A veto of keeping 35 m/s on a 30 m/s road is no false veto; one of slowing down from it would be."""
+    from discern.adapters.highway.actions import IDLE, SLOWER
+    from discern.adapters.highway.oracle import proposal_was_safe
+
+    env = make_env("highway-fast-v0", duration=10)
+    env.reset(seed=10_001)
+    ego = env.unwrapped.vehicle
+    ego.target_speed = 35.0
+    for _ in range(2):
+        env.step(IDLE)
+    assert not ego.crashed and ego.speed > 31.0
+    assert not proposal_was_safe(env, IDLE, 30.0)
+    assert proposal_was_safe(env, SLOWER, 30.0)
+    assert proposal_was_safe(env, IDLE, 40.0)  # below a higher limit, holding the speed is fine
