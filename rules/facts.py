@@ -126,8 +126,7 @@ def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
     for light in scene.traffic_lights:
         if light.colour.value != "none":
             out.append(f"traffic_light({light.colour.value}).")
-            if light.flashing:
-                out.append(f"light_flashing({light.colour.value}).")
+            out.append(f"light_{'flashing' if light.flashing else 'steady'}({light.colour.value}).")
     for sign in scene.signs:
         out.append(f"traffic_sign({sign.kind.value}).")
         if sign.value is not None:
