@@ -52,16 +52,20 @@ def render_json(verdict: Verdict) -> str:
     return json.dumps(verdict.model_dump(mode="json"), indent=2)
 
 
-_CSS = """
+TREE_CSS = """
+.holds{color:#1d2330} .fails{color:#5f6b7d} .again{font-style:italic} .rule{font-family:monospace;font-size:.85em;
+background:#eef1f6;border-radius:3px;padding:0 .3rem;margin-left:.4rem;color:#39485e}
+.kind{font-size:.75em;color:#5f6b7d;margin-left:.3rem}
+"""  # a proof tree's lines (tree_html), on the verdict page and in the audit's reports alike
+
+_CSS = TREE_CSS + """
 body{font-family:system-ui,sans-serif;margin:2rem;max-width:70rem;color:#1d2330}
 h1{font-size:1.3rem} .summary{font-weight:600;margin:.5rem 0 1rem}
 .decision{display:inline-block;font-weight:700;font-size:1.1rem;padding:.3rem .8rem;border-radius:4px;color:#fff}
 .approve{background:#1f6f3f} .override{background:#b45309} .veto{background:#a3262a} .failsafe{background:#6b3fa0}
 details{margin-left:1.2rem;border-left:1px solid #d5d9e0;padding-left:.6rem}
 summary{cursor:pointer;padding:.1rem 0} .leaf{margin-left:1.2rem;padding:.1rem .6rem}
-.holds{color:#1d2330} .fails{color:#5f6b7d} .again{font-style:italic} .rule{font-family:monospace;font-size:.85em;
-background:#eef1f6;border-radius:3px;padding:0 .3rem;margin-left:.4rem;color:#39485e}
-.kind{font-size:.75em;color:#5f6b7d;margin-left:.3rem} table{border-collapse:collapse;margin:.5rem 0}
+table{border-collapse:collapse;margin:.5rem 0}
 td{padding:.15rem .8rem .15rem 0} .legend{font-size:.85em;color:#39485e;margin:.3rem 0 1rem}
 """
 

@@ -338,31 +338,36 @@ def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
     Objects already in the corridor are the lane rules' business; this looks
     for those that will come into it ahead of the ego (crossing, cutting in).
     """
-    return _predicted_conflicts_of(scene.objects, scene.ego.speed, horizon)
-
-
-def _predicted_conflicts_of(objects: Iterable[DetectedObject], ego_speed: float, horizon: float) -> list[str]:
     out = []
-    for obj in objects:
-        if obj.velocity is None:
-            continue
-        length, width = _footprint(obj)
-        reach_x = (EGO_WIDTH + width) / 2 + 0.3
-        reach_y = (EGO_LENGTH + length) / 2 + 0.5
-        x, y = obj.position.x, _to_centre(obj.position.y, length)
-        if abs(x) < reach_x:
-            continue
-        vx, vy = _relative_velocity(obj, ego_speed)
-        span_x = _inside(x, vx, reach_x)
-        span_y = _inside(y, vy, reach_y)
-        if span_x is None or span_y is None:
-            continue
-        start = max(span_x[0], span_y[0], 0.0)
-        end = min(span_x[1], span_y[1], horizon)
-        meet = y + vy * start
-        if 0.0 < start < end and meet > 0.0:  # from behind, braking would not help
-            out.append(f"predicted_conflict({obj.id},{int(round(start * 1000))},{cm(_to_gap(meet, length))}).")
+    for obj in scene.objects:
+        found = _conflict(obj, obj.position.x, obj.position.y, scene.ego.speed, horizon)
+        if found is not None:
+            out.append(f"predicted_conflict({obj.id},{found[0]},{found[1]}).")
     return out
+
+
+def _conflict(obj: DetectedObject, x: float, y: float, ego_speed: float, horizon: float) -> Optional[tuple[int, int]]:
+    """When (ms) and how far ahead (cm) the course of `obj`, now at (x, y), enters the ego's corridor; None if
+    it does not within the horizon, is in it already, or its velocity is unknown."""
+    if obj.velocity is None:
+        return None
+    length, width = _footprint(obj)
+    reach_x = (EGO_WIDTH + width) / 2 + 0.3
+    reach_y = (EGO_LENGTH + length) / 2 + 0.5
+    y = _to_centre(y, length)
+    if abs(x) < reach_x:
+        return None
+    vx, vy = _relative_velocity(obj, ego_speed)
+    span_x = _inside(x, vx, reach_x)
+    span_y = _inside(y, vy, reach_y)
+    if span_x is None or span_y is None:
+        return None
+    start = max(span_x[0], span_y[0], 0.0)
+    end = min(span_x[1], span_y[1], horizon)
+    meet = y + vy * start
+    if not (0.0 < start < end and meet > 0.0):  # from behind, braking would not help
+        return None
+    return int(round(start * 1000)), cm(_to_gap(meet, length))
 
 
 def _inside(position: float, speed: float, reach: float) -> Optional[tuple[float, float]]:
@@ -417,7 +422,8 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         tracked = max(frames[oid], obj.track_age or 0)
         side = _side_of(x, y)
         reach = math.hypot(x, y) + config.sensor_margin
-        reads = [r for r in scene.sensors if r.side is side and r.kind in CONFIRMING and r.distance <= reach]
+        facing = [r for r in scene.sensors if r.side is side and r.kind in CONFIRMING]
+        reads = [r for r in facing if r.distance <= reach]
         if tracked < config.track_frames and not reads:
             continue
         kept.add(oid)
@@ -431,13 +437,11 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         out.extend(f"remembered_source({oid},{source.value})." for source in obj.sources)
         if reads:
             out.append(f"sensor_still_reads({oid},{reads[0].side.value}).")
-        past_it = [r for r in scene.sensors if r.side is side and r.kind in CONFIRMING and r.distance > reach]
-        if past_it and not reads:
-            out.append(f"sensor_reads_past({oid},{past_it[0].side.value}).")
-        if obj.velocity is not None:
-            moved = obj.model_copy(update={"position": obj.position.model_copy(update={"x": x, "y": y})})
-            out.extend(fact.replace("predicted_conflict(", "remembered_conflict(")
-                       for fact in _predicted_conflicts_of([moved], scene.ego.speed, config.horizon_s))
+        elif facing:  # it reads clear road past where the object should be
+            out.append(f"sensor_reads_past({oid},{side.value}).")
+        found = _conflict(obj, x, y, scene.ego.speed, config.horizon_s)
+        if found is not None:
+            out.append(f"remembered_conflict({oid},{found[0]},{found[1]}).")
     for oid, count in lights.items():
         if oid in present or oid in kept:
             now = 1 if oid in present and present[oid].emergency_lights else 0

@@ -10,7 +10,7 @@ from html import escape
 from typing import Optional
 
 from discern.monitor.log import FileRecovery
-from discern.rules.render import tree_html
+from discern.rules.render import TREE_CSS, tree_html
 from discern.rules.verdict import JustificationNode
 
 from . import plots
@@ -207,7 +207,7 @@ def render_json(tally: Tally, agg: Aggregates, filters: Filters) -> str:
 
 # -- HTML ----------------------------------------------------------------------
 
-CSS = """
+CSS = TREE_CSS + """
 body{font-family:system-ui,sans-serif;margin:1.5rem 2rem;color:#1d2330;max-width:80rem}
 h1{font-size:1.4rem;margin-bottom:.2rem} h2{font-size:1.1rem;margin-top:1.8rem;border-bottom:1px solid #d5d9e0}
 .meta{color:#5b6577;font-size:.9rem} table{border-collapse:collapse;margin:.4rem 0;font-size:.9rem}
@@ -219,9 +219,7 @@ td.n{text-align:right;font-variant-numeric:tabular-nums}
 details.dis{border-bottom:1px solid #eef1f6;padding:.2rem 0} details.dis>summary{cursor:pointer;font-size:.9rem}
 .tree details{margin-left:1.1rem;border-left:1px solid #d5d9e0;padding-left:.6rem}
 .tree summary{cursor:pointer} .leaf{margin-left:1.1rem;padding:.05rem .6rem}
-.holds{color:#1d2330} .fails{color:#5f6b7d} .again{font-style:italic} .rule{font-family:monospace;font-size:.85em;
-background:#eef1f6;border-radius:3px;padding:0 .3rem;margin-left:.4rem;color:#39485e}
-.kind{font-size:.75em;color:#5f6b7d;margin-left:.3rem} tr.changed td{background:#fff3cd;font-weight:600}
+tr.changed td{background:#fff3cd;font-weight:600}
 .mono{font-family:monospace;font-size:.85em} .side{display:grid;grid-template-columns:1fr 1fr;gap:1rem}
 .side>div{border:1px solid #d5d9e0;border-radius:6px;padding:.4rem .8rem;overflow-x:auto}
 """
