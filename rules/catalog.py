@@ -33,6 +33,7 @@ _PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
 PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
 TEMPLATE_FORMATS = frozenset({
     "m", "mps", "ahead", "right",  # centimetres and cm/s as metres; signed positions as "5.0 m behind"
+    "along", "across", "closing",  # signed speeds: "12.0 m/s against the ego's heading", "3.0 m/s to the left"
     "limit",  # a speed limit in cm/s: m/s, and the unit of the pack's signs ("15.7 m/s (35 mph)")
     "obj", "ordinal", "ms",  # "car 3"; "2nd"; milliseconds as seconds
     "frames",  # a count of frames: "1 frame", "3 frames"

@@ -214,8 +214,10 @@ class Reasoner:
         rules: list[str] = []
         if allowed:
             rules = self._approval_rules(solved, prover)
-            if explain:
+            if explain:  # every rule the approval cites, proved: permitted, and each reason calling for it
                 tree.append(prover.why(_atom("permitted", proposed)))
+                applicable = _atom("applicable", proposed)
+                tree.extend(prover.node_for(rule, env, applicable) for rule, env in prover.derivations(applicable))
         else:
             forbidden = _atom("forbidden", proposed)
             for rule, env in prover.derivations(forbidden):

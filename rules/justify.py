@@ -220,7 +220,7 @@ class Prover:
     def _failure_node(self, rule: CompiledRule, failure: _Failure, depth: int, negative_left: int) -> JustificationNode:
         lit = failure.literal
         if not lit.is_atom:
-            text = self.phrases.comparison(rule, lit, failure.env) + ", which is false"
+            text = f"that {self.phrases.comparison(rule, lit, failure.env)}, which is false"
             return JustificationNode(literal=lit.source, holds=False, text=text, kind="blocked",
                                      children=self._sources_of(rule, lit, failure.env))
         if failure.witness is None:  # a positive literal with nothing to match

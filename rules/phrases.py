@@ -7,6 +7,7 @@ import re
 from typing import Optional
 
 from clingo import Symbol, SymbolType
+from clingo.ast import ComparisonOperator as _CMP
 
 from .answer_set import AnswerSet
 from .catalog import PLACEHOLDER, Catalog, CompiledRule
@@ -46,7 +47,8 @@ _PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap
                 "decel": ("m/s²", 100), "speed_margin": ("m/s", 100), "turn_speed": ("m/s", 100),
                 "stopped_speed": ("m/s", 100)}
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "limit": "some speed", "ms": "some time",
-            "ahead": "somewhere", "right": "somewhere", "lane": "a lane", "detail": "", "paren": ""}
+            "ahead": "somewhere", "right": "somewhere", "along": "some speed", "across": "some speed",
+            "closing": "some speed", "lane": "a lane", "detail": "", "paren": ""}
 _SIGN_UNITS = {"mph": 44.704}  # cm/s per unit a pack's speed_unit/1 may name
 _WRAPPED = {"lane": "lane {}", "detail": ": {}", "paren": " ({})"}  # a value with the words around it, unknown: none
 
@@ -61,7 +63,8 @@ class Phrasebook:
         self._formats: dict[int, dict[str, str]] = {}
         self._sign_unit: Optional[str] = None  # read from the answer set when a limit is first shown
 
-    def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str) -> str:
+    def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str, digits: int = 1) -> str:
+        """`digits`: decimals of metres, m/s and seconds; more where a comparison's sides would read alike."""
         if sym is None:
             return _UNKNOWN.get(fmt or "", f"some {param}")
         if fmt in _WRAPPED:
@@ -75,18 +78,22 @@ class Phrasebook:
                 return self.catalog.words[sym.name]
             return _words(sym)
         n = sym.number
+        if fmt in _SIGNED:
+            if n == 0:
+                return _SIGNED[fmt][0]
+            words = _SIGNED[fmt][1] if n > 0 else _SIGNED[fmt][2]
+            return words.format(f"{abs(n) / 100:.{digits}f}")
         if fmt == "m":
-            return f"{n / 100:.1f} m"
+            return f"{n / 100:.{digits}f} m"
         if fmt == "mps":
-            return f"{n / 100:.1f} m/s"
+            return f"{n / 100:.{digits}f} m/s"
+        if fmt == "closing":
+            shown = f"{n / 100:.{digits}f} m/s"
+            return shown if n >= 0 else f"{shown} (the gap grows by {-n / 100:.{digits}f} m/s)"
         if fmt == "limit":
-            return f"{n / 100:.1f} m/s" + self._in_sign_unit(n)
-        if fmt == "ahead":
-            return "level with the ego" if n == 0 else f"{n / 100:.1f} m ahead" if n > 0 else f"{-n / 100:.1f} m behind"
-        if fmt == "right":
-            return "in line with the ego" if n == 0 else f"{n / 100:.1f} m to the right" if n > 0 else f"{-n / 100:.1f} m to the left"
+            return f"{n / 100:.{digits}f} m/s" + self._in_sign_unit(n)
         if fmt == "ms":
-            return f"{n / 1000:g} s"
+            return f"{n / 1000:.{digits}f} s"
         if fmt == "ordinal":
             return _ordinal(n)
         if fmt == "frames":
@@ -147,8 +154,8 @@ class Phrasebook:
             by_param = {m.group(1): m.group(2) for m in PLACEHOLDER.finditer(template.template)}
             for param, arg in zip(template.params, term[2]):
                 fmt = by_param.get(param)
-                if arg[0] == "v" and fmt in ("m", "mps", "limit", "ahead", "right", "ms", "frames", "ordinal"):
-                    formats.setdefault(arg[1], "m" if fmt in ("ahead", "right") else fmt)
+                if arg[0] == "v" and fmt in _COMPARED:
+                    formats.setdefault(arg[1], _COMPARED[fmt])
         self._formats[rule.index] = formats
         return formats
 
@@ -156,15 +163,70 @@ class Phrasebook:
         formats = self.formats_of(rule)
         left, guards = lit.comparison
         terms = [left] + [t for _, t in guards]
+        ops = [op for op, _ in guards]
         fmt = next((formats[v] for t in terms for v in sorted(term_vars(t)) if v in formats), None)
-
-        def show(term: Term) -> str:
+        values: list[Optional[Symbol]] = []
+        for term in terms:
             try:
-                return self.value(evaluate(term, env), fmt, "")
+                values.append(evaluate(term, env))
             except Unbound:
-                return lit.source
+                values.append(None)
+        numbers = [v.number for v in values if v is not None and v.type == SymbolType.Number]
+        if fmt in _AXES and len(numbers) == len(values):
+            if len(terms) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
+                return self._against_zero(terms, values, ops[0], fmt)
+            if not any(n < 0 for n in numbers):
+                fmt = "m"  # distances ahead, all of them: "5.0 m < 8.0 m" reads plainly
+            else:
+                # Signed positions: each with its side, and the comparison as words, since "-5.2 m ≤ -3.5 m"
+                # contradicts "5.2 m to the left" said just above it. A value computed from the position
+                # (a gap, |X|) is a distance and keeps plain metres.
+                axis = {v for v, f in formats.items() if f == fmt}
+                shown = ["the ego" if v.number == 0 else
+                         self.value(v, "m" if t[0] not in ("v", "s") and term_vars(t) & axis else fmt, "")
+                         for t, v in zip(terms, values)]
+                return " ".join([shown[0]] + [w for op, value in zip(ops, shown[1:]) for w in (_AXES[fmt][op], value)])
+        digits = _digits_to_tell_apart(numbers, fmt)
 
-        parts = [show(left)]
-        for op, term in guards:
-            parts += [CMP_TEXT.get(op, "?"), show(term)]
+        parts = [lit.source if values[0] is None else self.value(values[0], fmt, "", digits)]
+        for op, value in zip(ops, values[1:]):
+            parts += [CMP_TEXT.get(op, "?"), lit.source if value is None else self.value(value, fmt, "", digits)]
         return " ".join(parts)
+
+    def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
+        """'Y < 0' as '4.0 m behind is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind'."""
+        if not term_vars(terms[0]) and values[0].number == 0:
+            op, value = _FLIPPED[op], values[1]
+        else:
+            value = values[0]
+        shown = f"{value.number / 100:.1f} m" if value.number == 0 else self.value(value, fmt, "")
+        return f"{shown} {_AXES[fmt][op]} the ego"
+
+
+def _digits_to_tell_apart(numbers: list[int], fmt: Optional[str]) -> int:
+    """One decimal, or two where two different numbers would both read '8.9 m/s' (895 against 894 cm/s)."""
+    scale = 1000 if fmt == "ms" else 100
+    for a, b in zip(numbers, numbers[1:]):
+        if a != b and round(a / scale, 1) == round(b / scale, 1):
+            return 2 if fmt != "ms" else 3
+    return 1
+
+
+_SIGNED = {  # (at zero, positive, negative); the sign of a position or speed said in words
+    "ahead": ("level with the ego", "{} m ahead", "{} m behind"),
+    "right": ("in line with the ego", "{} m to the right", "{} m to the left"),
+    "along": ("0.0 m/s along the ego's heading", "{} m/s along the ego's heading", "{} m/s against the ego's heading"),
+    "across": ("0.0 m/s sideways", "{} m/s to the right", "{} m/s to the left"),
+}
+_COMPARED = {"m": "m", "mps": "mps", "limit": "limit", "ms": "ms", "frames": "frames", "ordinal": "ordinal",
+             "ahead": "ahead", "right": "right", "along": "mps", "across": "mps", "closing": "mps"}
+_LESS, _LESS_EQ, _MORE, _MORE_EQ = (int(o) for o in (_CMP.LessThan, _CMP.LessEqual, _CMP.GreaterThan,
+                                                      _CMP.GreaterEqual))
+_EQ, _NOT_EQ = int(_CMP.Equal), int(_CMP.NotEqual)
+_FLIPPED = {_LESS: _MORE, _LESS_EQ: _MORE_EQ, _MORE: _LESS, _MORE_EQ: _LESS_EQ, _EQ: _EQ, _NOT_EQ: _NOT_EQ}
+_AXES = {  # a comparison of signed positions as words, "is" meaning where the first one lies
+    "ahead": {_LESS: "is behind", _LESS_EQ: "is not ahead of", _MORE: "is ahead of", _MORE_EQ: "is not behind",
+              _EQ: "is level with", _NOT_EQ: "is not level with"},
+    "right": {_LESS: "is left of", _LESS_EQ: "is not right of", _MORE: "is right of", _MORE_EQ: "is not left of",
+              _EQ: "is in line with", _NOT_EQ: "is not in line with"},
+}
