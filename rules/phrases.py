@@ -102,7 +102,8 @@ class Phrasebook:
             cls = self._classes.get(n)
             if cls is None:
                 found = self._answer.with_first("object", 2, sym)
-                cls = self._classes[n] = _words(found[0].arguments[1]) if found else ""
+                cls = _words(found[0].arguments[1]) if found else ""
+                cls = self._classes[n] = "unknown object" if cls == "unknown" else cls  # not "unknown 7"
             return f"{cls} {n}" if cls else f"object {n}"
         return str(n)
 

@@ -501,3 +501,13 @@ def test_intersection_types_read_as_words(reasoner):
                intersection={"type": "t_intersect", "stage": "at", "distance": 0.0})
     text = reasoner.decide(sc, "turn_right", explain=True).justification.text
     assert "an intersection (T-junction) is ahead" in text and "t intersect" not in text
+
+
+def test_class_words_say_what_the_object_is(reasoner):
+    """AV-CSR files a bicycle under automobile; the text says vehicle, which is true, and names unknowns as objects."""
+    sc = scene(speed=10, objects=[obj("unknown", 0, 6, lane=1)])
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    assert "unknown object 1 is 6.0 m ahead" in text and "unknown 1" not in text
+    slow_bicycle = scene(speed=10, lanes=2, lane=2, objects=[obj("bicycle", 0, 30, lane=2, vy=3)])
+    text = reasoner.decide(slow_bicycle, "change_lane_left", explain=True).justification.text
+    assert "a bicycle is a kind of vehicle  [ent.hierarchy]" in text
