@@ -79,6 +79,8 @@ def run(
     """
     if not (math.isfinite(rate_hz) and rate_hz > 0):
         raise ValueError(f"--rate must be a finite number of frames per second above 0, got {rate_hz:g}")
+    if frames < 1:
+        raise ValueError(f"--frames must be at least 1, got {frames}")
     failsafes = 0
     period = 1.0 / rate_hz
     try:

@@ -245,6 +245,7 @@ def test_an_endpoint_zenoh_refuses_is_named_with_its_flag(capsys, command, argum
     (["--rate", "0"], "--rate must be a finite number of frames per second above 0, got 0"),
     (["--rate", "-2"], "--rate must be a finite number of frames per second above 0, got -2"),
     (["--rate", "inf"], "--rate must be a finite number of frames per second above 0, got inf"),
+    (["--frames", "0"], "--frames must be at least 1, got 0"),
     (["--vehicle", "bad id"], "vehicle 'bad id' must match [A-Za-z0-9_-]{1,128}"),
     (["--connect", "nonsense"], "bad zenoh endpoint 'nonsense': Endpoints must be of the form <protocol>/<address>"),
     (["--connect", "foo/bar:1"], "cannot connect to foo/bar:1: Unicast not supported for foo protocol"),

@@ -129,6 +129,8 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
         (["--duration", "nan"], "--duration must be a finite number of seconds above 0"),
         (["--duration", "inf"], "--duration must be a finite number of seconds above 0"),
         (["--faults", "none", "missed", "--miss-rate", "0"], "--faults gives more than one set that comes out as 'none'"),
+        (["--seed", "-1"], "--seed must be at least 0 (the environment's seeds are), got -1"),
+        (["--jobs", "0"], "--jobs must be at least 1, got 0"),
     ],
 )
 def test_cli_rejects_odd_option_values_in_one_line_without_a_traceback(argv, problem, capsys):
@@ -136,6 +138,25 @@ def test_cli_rejects_odd_option_values_in_one_line_without_a_traceback(argv, pro
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err
     assert err.startswith("discern eval: error: ") and problem in err
+
+
+@pytest.mark.parametrize("flag", ["--out", "--record"])
+def test_cli_refuses_an_output_folder_that_is_a_file_before_any_episode_runs(flag, tmp_path, capsys):
+    taken = tmp_path / "scene.json"
+    taken.write_text("{}")
+    code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "discern", flag, str(taken)])
+    err = capsys.readouterr().err
+    assert code == 2 and f"{flag} {taken}: not a directory" in err and "Traceback" not in err
+    assert taken.read_text() == "{}"
+
+
+def test_cli_says_a_weights_file_that_holds_no_weights_is_not_the_planners(tmp_path, capsys):
+    wrong = tmp_path / "scene.json"
+    wrong.write_text("{}")
+    code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "planner", "--faults", "none", "--quiet",
+                     "--weights", str(wrong), "--duration", "1", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and f"{wrong} does not hold this planner's weights" in err and "Traceback" not in err
 
 
 def test_cli_refuses_a_monitor_that_does_not_answer(capsys):

@@ -103,6 +103,12 @@ def _run_eval(args: argparse.Namespace) -> int:
     params = _params(args.param, problems)
     if args.record is not None and args.jobs > 1:
         problems.append("--record writes one MCAP log from one process: use it with --jobs 1")
+    if args.seed < 0:
+        problems.append(f"--seed must be at least 0 (the environment's seeds are), got {args.seed}")
+    if args.jobs < 1:
+        problems.append(f"--jobs must be at least 1, got {args.jobs}")
+    problems += [f"{flag} {path}: not a directory" for flag, path in (("--out", args.out), ("--record", args.record))
+                 if path is not None and path.exists() and not path.is_dir()]
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         problems.append(f"--duration must be a finite number of seconds above 0, got {args.duration}")
     problems += _rate_problems(args)
@@ -141,10 +147,14 @@ def _run_eval(args: argparse.Namespace) -> int:
     )
     try:
         results = evaluate(args.episodes, fault_sets, variants, setup, seed=args.seed, jobs=args.jobs, progress=not args.quiet)
-    except (FileNotFoundError, RuntimeError) as exc:
+    except (OSError, RuntimeError) as exc:
         print(f"discern eval: error: {exc}", file=sys.stderr)
         return 2
-    _, text = report(results, args.out)
+    try:
+        _, text = report(results, args.out)
+    except OSError as exc:  # a folder not writable, or removed while the episodes ran
+        print(f"discern eval: error: cannot write {args.out}: {exc}", file=sys.stderr)
+        return 2
     print(text)
     print(f"\nwrote {args.out}/: summary.csv, episodes.csv, summary.txt, evaluation.png, vetoing_rules.png")
     return 0

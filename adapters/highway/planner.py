@@ -7,6 +7,7 @@ follows the speed-limit sign it reads: a misread sign makes it speed, which is w
 
 from __future__ import annotations
 
+import pickle
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -109,7 +110,10 @@ class Planner:
                 "`python -m discern.adapters.highway.train` or reinstall the package"
             )
         network = QNetwork()
-        network.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+        try:
+            network.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+        except (pickle.UnpicklingError, RuntimeError, EOFError, OSError) as exc:  # not weights, or another network's
+            raise RuntimeError(f"{path} does not hold this planner's weights: {str(exc).splitlines()[0]}") from None
         network.eval()
         return cls(network=network, follow_signs=follow_signs)
 
