@@ -1,9 +1,12 @@
 """Read AUTO-DISCERN / AV-CSR frame files (Prolog facts) into Scenes, unchanged.
 
 The files are plain Prolog facts, one block per frame; the frame a fact
-belongs to is its timestamp argument T (as in the original s(CASP) program),
-and facts without T hold in every frame. Anything odd in the data is kept
-and reported as a note on the scene, never silently fixed.
+belongs to is its timestamp argument T (as in the original s(CASP) program).
+path_intersects, which has no T, holds in every frame; the template's
+sensor/2, which has none either, belongs to the FRAME block it sits under.
+A fact AV-CSR does not write, a wrong arity or a fact that contradicts
+another is refused with its file and line; anything else odd in the data is
+kept and reported as a note on the scene, never silently fixed.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from typing import Union
 
 from pydantic import ValidationError
 
-from discern.rules.scene import Action, Scene, describe_errors
+from discern.rules.scene import Action, IntersectionStage, Scene, Zone, describe_errors
 
 Term = Union[int, float, str, "Compound", list]
 
@@ -34,8 +37,6 @@ _TOKEN = re.compile(
     r"\s*(?:(?P<comment>%[^\n]*)|(?P<num>-?\d+(?:\.\d+)?(?![\w.]\d))|(?P<atom>[a-z][A-Za-z0-9_]*)"
     r"|(?P<var>[A-Z_][A-Za-z0-9_]*)|(?P<punct>[(),\[\]|])|(?P<end>\.(?=\s|$|%))|(?P<bad>\S))"
 )
-
-ZONES = {"city": "city", "road": "road", "residential": "residential", "campus": "campus", "highway": "highway"}
 
 
 def _tokens(text: str, path: str):
@@ -118,15 +119,81 @@ class AvcsrFrame:
 
 _HEADER = re.compile(r"%%%\s*FRAME\s+(\d+)")
 
+# The facts AV-CSR writes (its template.pl and README, and main_scasp.pl's sensor/3) by name and arity, with their
+# arguments; T is the frame. path_intersects/2 holds in every frame, sensor/2 in the FRAME block it sits under.
+_FORMS: dict[tuple[str, int], tuple[str, ...]] = {
+    ("self_speed", 2): ("Speed", "T"),
+    ("self_lane", 2): ("Lane", "T"),
+    ("speed_limit", 2): ("Speed", "T"),
+    ("obj_meta", 6): ("T", "Id", "Class", "pos(X, Y)", "lane(Kind, Lane)", "Indicator"),
+    ("lanes", 3): ("Kind", "[Ids]", "T"),
+    ("intersection", 3): ("Type", "Meta", "T"),
+    ("intersection", 4): ("Type", "Meta", "Stage", "T"),
+    ("at_intersection", 2): ("Id", "T"),
+    ("in_intersection", 2): ("Id", "T"),
+    ("traffic_light", 2): ("Colour", "T"),
+    ("traffic_sign", 2): ("Sign", "T"),
+    ("intent", 2): ("Intent", "T"),
+    ("self_pred_path", 2): ("Path", "T"),
+    ("obj_pred_path", 3): ("Id", "Path", "T"),
+    ("path_intersects", 2): ("SelfPath", "ObjectPath"),
+    ("sensor", 2): ("Side", "Dist"),
+    ("sensor", 3): ("Side", "Dist", "T"),
+    ("left_sensor", 2): ("Dist", "T"),
+    ("expected_action", 2): ("Action", "T"),
+}
 
-def _timestamp_index(fact: Compound) -> int | None:
-    """Where a fact keeps its timestamp, per the AV-CSR template."""
-    first = {"obj_meta"}
-    if fact.name in first:
-        return 0
-    if fact.name in ("path_intersects",) or (fact.name == "sensor" and len(fact.args) == 2):
-        return None
-    return len(fact.args) - 1
+# The template's at_intersection/in_intersection(0, T): the ego (object 0) waits at, or has entered, the intersection.
+_STAGES = {"at_intersection": IntersectionStage.at, "in_intersection": IntersectionStage.enter}
+_STAGE_KEY = "ego's stage at the intersection"
+
+
+def _show(term: Term) -> str:
+    """A term as the file writes it, for messages."""
+    if isinstance(term, Compound):
+        return f"{term.name}({', '.join(map(_show, term.args))})"
+    if isinstance(term, list):
+        return f"[{', '.join(map(_show, term))}]"
+    return str(term)
+
+
+def _timestamp_index(fact: Compound, path: Path, line: int) -> int | None:
+    """Where a fact keeps its frame T (None: it has none); an unknown name or arity is refused before any
+    argument is read, so that a stray fact cannot invent a frame."""
+    args = _FORMS.get((fact.name, len(fact.args)))
+    if args is None:
+        forms = [f"{name}({', '.join(a)})" for (name, _), a in _FORMS.items() if name == fact.name]
+        if forms:
+            raise AvcsrError(
+                f"{path}:{line}: {_show(fact)} has {len(fact.args)} arguments; AV-CSR writes {' or '.join(forms)}"
+            )
+        known = ", ".join(f"{name}/{arity}" for name, arity in sorted(_FORMS))
+        raise AvcsrError(f"{path}:{line}: unknown fact {fact.name}/{len(fact.args)}; the AV-CSR facts are {known}")
+    return args.index("T") if "T" in args else None
+
+
+def _environment(text: str) -> tuple[str, Zone, list[str]]:
+    """The environment that the file's first comment line names, and its zone; any other is read as city, with a
+    note, since the zone sets which speed limits are plausible."""
+    word = None
+    for line in map(str.strip, text.splitlines()):
+        if not line or re.fullmatch(r"%[\W_]*", line):  # a blank line, or a comment without words
+            continue
+        match = re.match(r"%+[\W_]*([A-Za-z]+)", line)
+        if match and not _HEADER.match(line):
+            word = match.group(1)
+        break
+    zones = [zone.value for zone in Zone]
+    if word and word.lower() in zones:
+        return word.capitalize(), Zone(word.lower()), []
+    known = ", ".join(zones)
+    said = (
+        f"the first comment line names environment {word!r}, not one of {known}"
+        if word
+        else f"no comment line before the facts names the environment (one of {known})"
+    )
+    note = f"{said}: the zone is assumed to be city"
+    return (word or "unknown").capitalize(), Zone.city, [note]
 
 
 def read_file(path: Union[str, Path]) -> list[AvcsrFrame]:
@@ -135,9 +202,7 @@ def read_file(path: Union[str, Path]) -> list[AvcsrFrame]:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise AvcsrError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-    first = text.lstrip().splitlines()[0] if text.strip() else ""
-    env_word = first.lstrip("% ").split(" ")[0].split("-")[0].strip().lower()
-    environment = env_word.capitalize() if env_word else "Unknown"
+    environment, zone, file_notes = _environment(text)
     headers = [(m.start(), int(m.group(1))) for m in _HEADER.finditer(text)]
     line_starts = [0] + [i + 1 for i, c in enumerate(text) if c == "\n"]
 
@@ -149,50 +214,115 @@ def read_file(path: Union[str, Path]) -> list[AvcsrFrame]:
                 current = frame
         return current
 
-    by_frame: dict[int, list[Compound]] = {}
-    global_facts: list[Compound] = []
+    by_frame: dict[int, list[tuple[Compound, int]]] = {}
+    global_facts: list[tuple[Compound, int]] = []
     notes: dict[int, list[str]] = {}
     for fact, line in _Parser(text, str(path)).clauses():
-        index = _timestamp_index(fact)
-        if index is None:
-            global_facts.append(fact)
+        index = _timestamp_index(fact, path, line)
+        block = block_of(line)
+        if index is not None:
+            t = fact.args[index]
+        elif fact.name == "sensor":  # the template's sensor/2 has no T: it belongs to the block it sits in
+            if block is None:
+                raise AvcsrError(
+                    f"{path}:{line}: {_show(fact)} has no frame T and sits under no %%% FRAME n %%% header"
+                )
+            t = block
+        else:  # path_intersects holds in every frame
+            global_facts.append((fact, line))
             continue
-        t = fact.args[index]
         if not isinstance(t, int):
             raise AvcsrError(f"{path}:{line}: {fact.name} has timestamp {t!r}, expected an integer")
-        by_frame.setdefault(t, []).append(fact)
-        block = block_of(line)
+        by_frame.setdefault(t, []).append((fact, line))
         if block is not None and block != t:
-            notes.setdefault(t, []).append(
-                f"{path.name}:{line}: {fact.name} is stamped T={t} but sits under FRAME {block}; read as T={t}"
-            )
+            note = f"{path.name}:{line}: {_show(fact)} is stamped T={t} but sits under FRAME {block}; read as T={t}"
+            notes.setdefault(t, []).append(note)
+            notes.setdefault(block, []).append(note)
+    if not by_frame:
+        raise AvcsrError(f"{path}: no frames: no fact names a frame T")
+    _check_crossings(global_facts, by_frame, path)
     frames = []
     for t in sorted(by_frame):
-        facts = by_frame[t] + global_facts
-        scene, expected, extra = _scene(facts, t, environment, str(path))
-        frames.append(AvcsrFrame(path.stem, environment, t, scene, expected, notes.get(t, []) + extra + scene.notes))
+        scene, expected, extra = _scene(by_frame[t] + global_facts, t, zone, path)
+        frame_notes = file_notes + notes.get(t, []) + extra + scene.notes
+        frames.append(AvcsrFrame(path.stem, environment, t, scene, expected, frame_notes))
     return frames
 
 
-def _scene(facts: list[Compound], t: int, environment: str, path: str) -> tuple[Scene, Action | None, list[str]]:
+def _check_crossings(crossings: list[tuple[Compound, int]], by_frame: dict, path: Path) -> None:
+    """Refuse a path_intersects that no frame can use, rather than drop it; AV-CSR's rules match
+    path_intersects(SelfPath, ObjectPath) only, so the order matters."""
+    paths = [
+        ({_show(f.args[0]) for f, _ in facts if f.name == "self_pred_path"},
+         {_show(f.args[1]) for f, _ in facts if f.name == "obj_pred_path"})
+        for facts in by_frame.values()
+    ]
+    for fact, line in crossings:
+        first, second = map(_show, fact.args)
+        if any(first in ego and second in objects for ego, objects in paths):
+            continue
+        if any(second in ego and first in objects for ego, objects in paths):
+            raise AvcsrError(
+                f"{path}:{line}: {_show(fact)} names the object's path first; AV-CSR's rules match "
+                f"path_intersects(SelfPath, ObjectPath) only, so it would never apply: "
+                f"write path_intersects({second}, {first})"
+            )
+        raise AvcsrError(
+            f"{path}:{line}: {_show(fact)} applies in no frame: none has both self_pred_path({first}, T) "
+            f"and obj_pred_path(_, {second}, T)"
+        )
+
+
+def _key(f: Compound) -> str:
+    """What a fact states that a frame holds once, in words: a second fact with the same key must be the same fact."""
+    a = f.args
+    if f.name in ("traffic_sign", "path_intersects"):  # a frame may hold several
+        return _show(f)
+    if f.name in _STAGES:
+        return _STAGE_KEY
+    if f.name in ("obj_meta", "obj_pred_path"):
+        return f"{f.name} for object {_show(a[1] if f.name == 'obj_meta' else a[0])}"
+    if f.name == "lanes":
+        return f"lanes of kind {_show(a[0])}"
+    if f.name in ("sensor", "left_sensor"):
+        return f"{'left' if f.name == 'left_sensor' else _show(a[0])} sensor reading"
+    return f.name
+
+
+def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) -> tuple[Scene, Action | None, list[str]]:
     data: dict = {"frame_id": t, "lanes": [], "objects": [], "traffic_lights": [], "signs": [], "sensors": []}
-    ego: dict = {"zone": ZONES.get(environment.lower(), "city")}
+    ego: dict = {"zone": zone}
     expected = None
-    ego_paths: set[str] = set()
-    obj_paths: dict[int, str] = {}
-    crossings: list[tuple[str, str]] = []
-    notes: list[str] = []
-    seen_lanes: set[tuple[str, int]] = set()
-    for f in facts:
+    held: dict[str, tuple[Compound, int]] = {}
+    object_paths: list[tuple[Compound, int]] = []
+    crossings: list[tuple[Term, Term]] = []
+    for f, line in facts:
+        key = _key(f)
+        if key in held:
+            first, first_line = held[key]
+            if f == first:  # the same fact twice says nothing new
+                continue
+            raise AvcsrError(
+                f"{path}:{line}: {_show(f)} contradicts {_show(first)} at line {first_line}: frame {t} holds one {key}"
+            )
+        held[key] = f, line
+        if f.name == "obj_pred_path":
+            object_paths.append((f, line))
+            continue
         try:
-            expected = _read_fact(f, data, ego, ego_paths, obj_paths, crossings, notes, seen_lanes) or expected
+            expected = _read_fact(f, data, ego, crossings) or expected
         except (ValueError, TypeError, AttributeError, IndexError) as exc:
-            raise AvcsrError(f"{path}: frame {t}: {f.name}/{len(f.args)} cannot be read: {exc}") from None
-    for obj in data["objects"]:
-        if obj["id"] in obj_paths:
-            obj["predicted_path"] = obj_paths[obj["id"]]
+            raise AvcsrError(f"{path}:{line}: {f.name}/{len(f.args)} cannot be read: {exc}") from None
+    notes = _intersection_stage(data, held, t, path)
+    for f, line in object_paths:
+        owners = [obj for obj in data["objects"] if obj["id"] == f.args[0]]
+        if not owners:
+            raise AvcsrError(f"{path}:{line}: {_show(f)}: frame {t} has no obj_meta for object {_show(f.args[0])}")
+        owners[0]["predicted_path"] = f.args[1]
     data["path_crossings"] = [
-        {"ego_path": p, "object_path": q} for p, q in crossings if p in ego_paths and q in obj_paths.values()
+        {"ego_path": p, "object_path": q}
+        for p, q in crossings
+        if p == ego.get("predicted_path") and any(q == obj.get("predicted_path") for obj in data["objects"])
     ]
     data["ego"] = ego
     try:
@@ -201,8 +331,33 @@ def _scene(facts: list[Compound], t: int, environment: str, path: str) -> tuple[
         raise AvcsrError(f"{path}: frame {t}:\n{describe_errors(exc)}") from None
 
 
-def _read_fact(f: Compound, data: dict, ego: dict, ego_paths: set, obj_paths: dict, crossings: list,
-               notes: list, seen_lanes: set) -> Action | None:
+def _intersection_stage(data: dict, held: dict, t: int, path: Path) -> list[str]:
+    """The ego's stage: intersection/4 states it, as may the template's at_intersection/in_intersection(0, T) beside
+    intersection/3; they must agree. With neither, the ego is read as arriving, and a note says so."""
+    inter = data.get("intersection")
+    stated = held.get(_STAGE_KEY)
+    if stated is None:
+        if inter is None or "stage" in inter:
+            return []
+        inter["stage"] = IntersectionStage.arriving
+        stageless = _show(held["intersection"][0])
+        return [f"{stageless} gives no stage, nor does at_intersection/in_intersection(0, {t}): read as arriving"]
+    f, line = stated
+    if inter is None:
+        raise AvcsrError(
+            f"{path}:{line}: {_show(f)}: frame {t} has no intersection(Type, Meta, T) to say which intersection"
+        )
+    if "stage" in inter and inter["stage"] != _STAGES[f.name].value:
+        inter_fact, inter_line = held["intersection"]
+        raise AvcsrError(
+            f"{path}:{line}: {_show(f)} contradicts {_show(inter_fact)} at line {inter_line}: "
+            f"frame {t} holds one {_STAGE_KEY}"
+        )
+    inter["stage"] = _STAGES[f.name]
+    return []
+
+
+def _read_fact(f: Compound, data: dict, ego: dict, crossings: list) -> Action | None:
     """One fact into the scene's data, or the expected action; a fact of the wrong shape raises, and _scene names it."""
     a = f.args
     if f.name == "self_speed":
@@ -229,27 +384,28 @@ def _read_fact(f: Compound, data: dict, ego: dict, ego_paths: set, obj_paths: di
         )
     elif f.name == "lanes":
         kind, ids = a[0], a[1]
-        for lane_id in ids:
-            if (kind, lane_id) not in seen_lanes:
-                seen_lanes.add((kind, lane_id))
-                data["lanes"].append({"kind": kind, "id": lane_id})
+        for lane_id in dict.fromkeys(ids):
+            data["lanes"].append({"kind": kind, "id": lane_id})
     elif f.name == "traffic_light":
         data["traffic_lights"].append({"colour": a[0], "source": "annotation"})
     elif f.name == "traffic_sign":
         data["signs"].append({"kind": a[0], "source": "annotation"})
     elif f.name == "intersection":
-        kind, meta, stage = a[0], a[1], a[2] if len(a) == 4 else "arriving"
-        inter = {"type": kind, "stage": stage}
-        if meta in ("major", "minor"):
-            inter["road"] = meta
-        elif isinstance(meta, int):
-            inter["arrival_rank"] = meta
+        inter = {"type": a[0]}
+        if a[1] in ("major", "minor"):
+            inter["road"] = a[1]
+        elif isinstance(a[1], int):
+            inter["arrival_rank"] = a[1]
+        elif a[1] != "none":
+            raise ValueError(f"meta {_show(a[1])} is not none, major, minor or the ego's arrival rank")
+        if len(a) == 4:
+            inter["stage"] = a[2]
         data["intersection"] = inter
+    elif f.name in _STAGES:
+        if a[0] != 0:
+            raise ValueError(f"object {_show(a[0])}: only 0, the ego, can be read (a scene holds no object's stage)")
     elif f.name == "self_pred_path":
-        ego_paths.add(a[0])
         ego["predicted_path"] = a[0]
-    elif f.name == "obj_pred_path":
-        obj_paths[a[0]] = a[1]
     elif f.name == "path_intersects":
         crossings.append((a[0], a[1]))
     elif f.name == "sensor":
@@ -260,10 +416,6 @@ def _read_fact(f: Compound, data: dict, ego: dict, ego_paths: set, obj_paths: di
         if not isinstance(a[0], str) or a[0] not in Action.__members__:
             raise ValueError(f"{a[0]!r} is not one of {', '.join(action.value for action in Action)}")
         return Action(a[0])
-    elif f.name in ("at_intersection", "in_intersection"):
-        notes.append(f"{f.name} is not used by the AV-CSR rules; ignored")
-    else:
-        notes.append(f"unknown fact {f.name}/{len(a)}; ignored")
     return None
 
 

@@ -159,6 +159,17 @@ def _indented(text: str) -> str:
     return "\n".join("        " + line for line in text.splitlines())
 
 
+def _repeats(text: str) -> int:
+    """--repeats: how many timed runs give a frame's median; fewer than one gives no time at all."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number of runs, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1 (the time is the median of that many runs), got {value}")
+    return value
+
+
 def cmd_scenarios(args: argparse.Namespace) -> int:
     frame_files, scenario_files = _scenario_inputs(args.paths)
     ok = True
@@ -176,7 +187,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
         print(paper_table.format_table(rows))
         for row in rows if args.explain else ():
             print(f"\n{row.frame.scenario} frame {row.frame.frame}:\n{_indented(row.verdict.justification.text)}")
-        ok = all(r.agrees for r in rows)
+        ok = all(r.agrees is not False for r in rows)  # a frame without expected_action is not scored
     if scenario_files:
         from discern.scenarios import runner
 
@@ -242,7 +253,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = scen_sub.add_parser("run", help="run scenario JSON files or AV-CSR .pl frames, or directories of them")
     run.add_argument("paths", nargs="+", metavar="PATH", help="a scenario .json, an AV-CSR .pl, or a directory")
     run.add_argument("--explain", action="store_true", help="print every verdict's justification")
-    run.add_argument("--repeats", type=int, default=5, help="timing repeats per KITTI frame (median)")
+    run.add_argument("--repeats", type=_repeats, default=5, help="timing repeats per KITTI frame (median), at least 1")
     run.add_argument("--rules", help="use the driving rules in this directory")
     run.set_defaults(func=cmd_scenarios)
 

@@ -20,13 +20,15 @@ ENVIRONMENTS = ["City", "Road", "Residential", "Campus"]
 class FrameRow:
     frame: AvcsrFrame
     decision: str
-    agrees: bool
+    agrees: bool | None  # None: the frame has no expected_action, so it is not scored
     ms: float
     verdict: Verdict
 
 
 def run(frames: Iterable[AvcsrFrame], reasoner: Reasoner, repeats: int = 5) -> list[FrameRow]:
     """Decide each frame with its full justification tree; time the median of a few runs."""
+    if repeats < 1:
+        raise ValueError(f"repeats must be at least 1 (the time is the median of the runs), got {repeats}")
     rows = []
     for frame in frames:
         proposal = frame.expected or "cruise"
@@ -37,18 +39,25 @@ def run(frames: Iterable[AvcsrFrame], reasoner: Reasoner, repeats: int = 5) -> l
             times.append((time.perf_counter() - start) * 1000.0)
         decision = verdict.recommended.value if verdict.recommended else "none"
         expected = frame.expected.value if frame.expected else None
-        rows.append(FrameRow(frame, decision, decision == expected, statistics.median(times), verdict))
+        agrees = decision == expected if expected else None
+        rows.append(FrameRow(frame, decision, agrees, statistics.median(times), verdict))
     return rows
 
 
+def _agree(row: FrameRow) -> str:
+    return {True: "yes", False: "NO", None: "-"}[row.agrees]
+
+
 def format_rows(rows: list[FrameRow]) -> str:
+    """One line per frame, and under it the adapter's notes on the frame (what it read oddly, what it assumed)."""
     out = [f"{'environment':<12} {'scenario':<22} {'frame':>5}  {'expected':<18} {'discern':<18} {'agree':<5} {'ms':>6}"]
     for r in rows:
         expected = r.frame.expected.value if r.frame.expected else "-"
         out.append(
             f"{r.frame.environment:<12} {r.frame.scenario:<22} {r.frame.frame:>5}  {expected:<18} "
-            f"{r.decision:<18} {'yes' if r.agrees else 'NO':<5} {r.ms:>6.2f}"
+            f"{r.decision:<18} {_agree(r):<5} {r.ms:>6.2f}"
         )
+        out += [f"{'':<8}note: {note}" for note in r.frame.notes]
     return "\n".join(out)
 
 
@@ -65,11 +74,17 @@ def format_table(rows: list[FrameRow]) -> str:
         times = [r.ms for r in group]
         paper = PAPER_MS.get(env)
         paper_text = f"{paper[0]:>20} {paper[1]:>7}" if paper else f"{'-':>20} {'-':>7}"
-        agree = sum(r.agrees for r in group)
+        agree = sum(r.agrees is True for r in group)
+        scored = sum(r.agrees is not None for r in group)
         out.append(
-            f"{env:<12} {len(group):>6} {agree:>3}/{len(group):<2}   {statistics.mean(times):>14.2f} "
+            f"{env:<12} {len(group):>6} {agree:>3}/{scored:<2}   {statistics.mean(times):>14.2f} "
             f"{max(times):>7.2f}   {paper_text}"
         )
-    total = sum(r.agrees for r in rows)
-    out.append(f"agreement with expected_action: {total}/{len(rows)} frames")
+    total = sum(r.agrees is True for r in rows)
+    scored = sum(r.agrees is not None for r in rows)
+    unscored = len(rows) - scored
+    out.append(
+        f"agreement with expected_action: {total}/{scored} frames"
+        + (f" ({unscored} without expected_action, not scored)" if unscored else "")
+    )
     return "\n".join(out)
