@@ -290,3 +290,26 @@ def test_an_out_path_that_cannot_be_written_is_one_error_line(tmp_path, capsys, 
     path = tmp_path / target
     assert main([a.format(good=good, target=path) for a in command]) == 2
     assert capsys.readouterr().err == f"discern: error: --out {path}: {message}\n"
+
+
+def test_check_says_a_json_file_nested_too_deeply_is_no_scene(tmp_path, capsys):
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000)
+    assert main(["check", str(deep), "--proposed", "cruise"]) == 2
+    [line] = capsys.readouterr().err.splitlines()
+    assert line == f"discern: error: {deep}: JSON nested too deeply to be a scene"
+
+
+def test_scenarios_run_with_own_rules_loads_them_once_for_all_files(tmp_path, monkeypatch):
+    import shutil
+
+    from discern.monitor import cli
+
+    rules = tmp_path / "rules"
+    shutil.copytree(Path(__file__).parent.parent / "rules" / "catalog", rules)
+    loads = []
+    real = cli.load_driving_rules
+    monkeypatch.setattr(cli, "load_driving_rules", lambda *a, **k: loads.append(a) or real(*a, **k))
+    files = sorted((Path(__file__).parent.parent / "scenarios" / "rules").glob("*.json"))[:3]
+    assert main(["scenarios", "run", *map(str, files), "--rules", str(rules)]) == 0
+    assert len(loads) == 1
