@@ -65,6 +65,14 @@ CASES = {
         scene(intent="enter_left_lane", intersection={"type": "t_intersect", "stage": "at"}),
         scene(intent="enter_left_lane", intersection={"type": "t_intersect", "stage": "enter"}),
     ),
+    "brake.wait_in_intersection": (
+        scene(speed=3, intent="enter_left_lane", other_lanes=("oncoming",),
+              intersection={"type": "t_intersect", "stage": "enter"},
+              objects=[obj("car", -3.5, 12, lane=1, kind="oncoming", vy=-10)]),
+        scene(speed=3, intent="enter_left_lane", other_lanes=("oncoming",),
+              intersection={"type": "t_intersect", "stage": "enter"},
+              objects=[obj("car", -3.5, 150, lane=1, kind="oncoming", vy=-10)]),
+    ),
     "brake.all_way_stop_order": (
         scene(intersection={"type": "unsignaled", "stage": "at", "arrival_rank": 2}),
         scene(intersection={"type": "unsignaled", "stage": "at", "arrival_rank": 1}),
