@@ -20,14 +20,16 @@ import shutil
 import socket
 import time
 from pathlib import Path
-from typing import Optional
+from typing import Iterable, Optional
 
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings
+from discern.monitor.log import McapLogWriter, vehicle_topic
 from discern.monitor.server import MonitorServer
+from discern.rules.scene import Proposal, Scene
 from tests.scenes import obj, scene
 
 FLEET_A_FRAMES = 40
@@ -139,6 +141,27 @@ def monitor_logs(tmp_path_factory) -> dict[str, Path]:
             assert len(files) == 1, files
             _made[name] = files[0]
     return dict(_made)
+
+
+def write_log(
+    directory: Path, frames: Iterable[tuple[str, Scene, str, int, Optional[int]]], reasoner, monitor_id: str = "m1"
+) -> Path:
+    """A log written by the monitor's own writer, at the times given, without a monitor's pace: the file.
+
+    Each frame is (vehicle, scene, action, proposal time, verdict time or None for a verdict lost); the
+    verdict is the shipped rules' (without history).
+    """
+    writer = McapLogWriter(LogSettings(directory=directory), monitor_id)
+    for vehicle, frame_scene, action, proposed_ns, decided_ns in frames:
+        proposal = Proposal(vehicle=vehicle, action=action, scene=frame_scene)
+        writer.write(vehicle_topic(vehicle, "proposal"), "proposal", proposal, log_time_ns=proposed_ns)
+        if decided_ns is not None:
+            verdict = reasoner.decide(frame_scene, proposal.action, vehicle=vehicle)
+            writer.write(vehicle_topic(vehicle, "verdict"), "verdict", verdict, log_time_ns=decided_ns)
+    writer.close()
+    assert writer.dropped == 0
+    [path] = writer.files
+    return path
 
 
 def audit(capsys, *args: str) -> tuple[int, str, str]:

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 from datetime import datetime, timezone
 
 import pytest
 
 from bench.report import pct
 from discern.monitor.audit.aggregate import latency_summary
+from discern.monitor.audit.timefmt import iso, parse_time
 from discern.monitor.status import StatusCounters
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings
@@ -25,8 +27,10 @@ from tests.audit_logs import (
     SHADOW_FRAMES,
     SLOW_FRAMES,
     audit,
+    highway,
     monitor_logs,
     serve_log,
+    write_log,
 )
 from tests.scenes import scene
 
@@ -221,6 +225,46 @@ def test_since_and_until_take_epoch_nanoseconds_as_the_csv_gives_them(capsys, tm
     by_s = export(capsys, tmp_path, *all_logs, "--since", f"{since / 1e9:.6f}", "--until", f"{until / 1e9:.6f}")
     assert [d["log_time_ns"] for d in by_ns["disagreements"]] == times[3:8]
     assert by_s["disagreements"] == by_ns["disagreements"]
+
+
+def test_a_shown_time_is_the_millisecond_its_record_falls_in_so_given_back_it_keeps_the_record(
+    capsys, tmp_path, reasoner
+):
+    """Shown rounded up (a float's rounding), a time late in its millisecond pasted into --since left its record out."""
+    late = 1_790_000_000_000_999_700
+    assert iso(late) == "2026-09-21T14:13:20.000Z" and iso(1_790_000_000_999_999_600) == "2026-09-21T14:13:20.999Z"
+    assert parse_time("2026-09-21T14:13:20.001Z") == 1_790_000_000_001_000_000  # exact, not 1_790_000_000_000_999_936
+    assert parse_time("2026-09-21T15:13:20.000001+01:00") == 1_790_000_000_000_001_000
+    assert parse_time("1790000000.001") == 1_790_000_000_001_000_000
+    log = write_log(tmp_path / "log", [("car_a", highway(1), "accelerate", late - 10**6, late)], reasoner)
+    out = tmp_path / "audit.csv"
+    code, _, err = audit(capsys, str(log), "--csv", str(out), "--workers", "1", "-q")
+    assert code == 0, err
+    [row] = csv.DictReader(out.open())
+    assert (row["time"], row["log_time_ns"], row["verdict"]) == ("2026-09-21T14:13:20.000Z", str(late), "override")
+    since = export(capsys, tmp_path, str(log), "--since", row["time"])
+    assert [d["log_time_ns"] for d in since["disagreements"]] == [late]
+
+
+def test_a_report_that_would_overwrite_a_log_is_refused_before_the_logs_are_read(capsys, tmp_path, logs):
+    run = tmp_path / "run"
+    run.mkdir()
+    first, second = run / "a.mcap", run / "b.mcap"
+    shutil.copy(logs["fleet"], first)
+    shutil.copy(logs["shadow"], second)
+    before = first.read_bytes(), second.read_bytes()
+    for mode in ([], ["--replay"]):
+        # the directory's first log named again as the report, spelt another way
+        spelt = f"{tmp_path}/run/../run/a.mcap"
+        code, out, err = audit(capsys, str(run), *mode, "--json", spelt, "--workers", "1")
+        assert code == 2 and out == "", err
+        assert err.strip() == f"discern audit: --json {spelt}: the report would overwrite the log {first}"
+        # `discern audit --csv run/*.mcap`: the shell made the first log the CSV, the second one the log read
+        code, out, err = audit(capsys, *mode, "--csv", str(first), str(second), "--workers", "1")
+        assert code == 2 and out == "", err
+        assert f"--csv {first}: a report named *.mcap could overwrite a log" in err
+        assert len(err.strip().splitlines()) == 1
+    assert (first.read_bytes(), second.read_bytes()) == before
 
 
 def test_csv_export_has_one_row_per_disagreement(capsys, tmp_path, all_logs):

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import gc
 import json
 from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
 
+from discern.monitor.audit import replay as replay_module
 from discern.monitor.audit.aggregate import Aggregates, audit_logs
-from discern.monitor.audit.frames import plan_tasks
+from discern.monitor.audit.frames import PENDING_PER_VEHICLE, plan_tasks
 from discern.monitor.audit.replay import ReplayCatalog, replay_logs
 from discern.monitor.client import Monitor
 from tests.audit_logs import (
@@ -26,7 +28,9 @@ from tests.audit_logs import (
     rewrite,
     serve_log,
     tolerant_rules,
+    write_log,
 )
+from tests.scenes import scene
 
 
 @pytest.fixture(scope="module")
@@ -119,6 +123,34 @@ def test_identical_frames_are_decided_once(capsys, tmp_path, logs):
     assert f"{doc['solved']} solved, {doc['reused']} identical to a frame solved before" in text
 
 
+def test_a_frame_reused_while_the_cache_overflows_is_still_compared(monkeypatch, tmp_path, reasoner):
+    """A parked car repeats one frame while a moving one fills the cache with new ones, more than it holds:
+    the repeated frame, counted as reused, must not be evicted by its own chunk's new frames before it is compared."""
+    start = 1_790_000_000 * 10**9
+    frames = []
+    for f in range(150):
+        t = start + f * 10**8
+        frames.append(("parked", scene(frame=f, speed=0.0), "cruise", t, t + 10**6))
+        frames.append(("moving", scene(frame=f, speed=5.0 + f * 0.01), "cruise", t + 1000, t + 1000 + 10**6))
+    log = str(write_log(tmp_path / "log", frames, reasoner))
+    roomy = replay_logs([log], workers=1).tally
+    assert roomy.solved > 150 and roomy.reused > 100  # the parked car's frame repeats once its window is full
+    for limit in (100, 5):  # more distinct frames than a chunk holds, and fewer
+        monkeypatch.setattr(replay_module, "CACHE_LIMIT", limit)
+        tally = replay_logs([log], workers=1).tally
+        assert (tally.frames, tally.solved + tally.reused, tally.changes) == (300, 300, [])
+        if limit > replay_module.BATCH:  # reused chunk after chunk, the parked car's frame is never evicted
+            assert (tally.solved, tally.reused) == (roomy.solved, roomy.reused)
+
+
+def test_a_replay_in_the_callers_process_leaves_its_heap_unfrozen(logs):
+    """The workers freeze what a job leaves (their caches, never rescanned); the caller's objects must stay
+    collectable in a program that goes on after the replay."""
+    frozen = gc.get_freeze_count()
+    replay_logs([str(logs["shadow"])], workers=1)
+    assert gc.get_freeze_count() == frozen and gc.isenabled()
+
+
 def test_worker_processes_find_the_same_changes(capsys, tmp_path, logs, tolerant):
     args = [str(logs["fleet"]), "--rules", str(tolerant)]
     _, one, _ = replay(capsys, tmp_path, *args, "--workers", "1")
@@ -193,6 +225,47 @@ def test_a_runs_files_stamped_by_a_clock_set_back_are_read_by_their_index(logs, 
         tally = audit_logs([str(directory)], workers=workers)
         assert (tally.frames, tally.unanswered) == (whole.frames, 0)
         assert tally.odometer.distance_m == pytest.approx(whole.odometer.distance_m)
+
+
+def test_a_runs_files_spelt_relative_and_absolute_are_read_as_one_sequence(logs, rotated, monkeypatch, tolerant):
+    monkeypatch.chdir(rotated[0].parent.parent)
+    directory = rotated[0].parent.name
+    spelt = [f"{directory}/{rotated[0].name}", str(rotated[1]), f"{directory}/../{directory}/{rotated[2].name}"]
+    [task] = plan_tasks(spelt, parts=1)
+    assert task.paths == tuple(spelt)
+    assert [t.lead_in for t in plan_tasks(spelt, parts=3)] == [(), tuple(spelt[:1]), tuple(spelt[:2])]
+    whole = audit_logs([str(logs["fleet"])], workers=1)
+    catalog = ReplayCatalog.of([str(tolerant)])
+    replayed = replay_logs([str(logs["fleet"])], catalog, workers=1).tally
+    for workers in (1, 3):
+        tally = audit_logs(spelt, workers=workers)
+        assert (tally.frames, tally.unanswered) == (whole.frames, 0)
+        assert tally.odometer.distance_m == pytest.approx(whole.odometer.distance_m)
+        t = replay_logs(spelt, catalog, workers=workers).tally
+        assert (t.frames, t.unanswered, t.skipped_refused) == (replayed.frames, 0, replayed.skipped_refused)
+        assert [(c.vehicle, c.frame_id, c.transition) for c in t.changes] == [
+            (c.vehicle, c.frame_id, c.transition) for c in replayed.changes
+        ]
+
+
+def test_a_proposal_the_lead_in_gives_up_on_is_counted_unanswered_once(tmp_path, reasoner):
+    """Verdicts lost: more proposals wait than are kept (PENDING_PER_VEHICLE). One given up on while the lead-in's
+    files are read again was counted by their own task; read with a lead-in or without, the count is the same."""
+    start = 1_800_000_000 * 10**9
+    frames = [
+        ("car_a", scene(frame=f), "cruise", start + f * 10**7, start + f * 10**7 + 1 if f % 3 == 0 else None)
+        for f in range(600)
+    ]
+    log = write_log(tmp_path / "src", frames, reasoner)
+    directory = tmp_path / "rotated"
+    directory.mkdir()
+    parts = [directory / f"discern-m1-20260101T0{i}0000-000{i}.mcap" for i in range(2)]
+    rewrite(log, parts, splits=(600,))  # frames 0 to 449 first: 300 proposals left waiting, more than are kept
+    assert 300 > PENDING_PER_VEHICLE
+    assert [t.lead_in for t in plan_tasks([str(directory)], parts=2)] == [(), (str(parts[0]),)]
+    for workers in (1, 2):
+        assert audit_logs([str(directory)], workers=workers).unanswered == 400
+        assert replay_logs([str(directory)], workers=workers).tally.unanswered == 400
 
 
 def test_a_run_led_in_by_short_files_reads_back_far_enough_whatever_the_workers(logs, tmp_path, tolerant):

@@ -104,7 +104,7 @@ def _run(args: argparse.Namespace) -> int:
     if not 1 <= args.workers <= MAX_WORKERS:
         raise UsageError(f"--workers must be 1 to {MAX_WORKERS}, got {args.workers}")
     filters = _filters(args)
-    _check_outputs(args)
+    _check_outputs(args, paths)
     if args.replay:
         return _replay(args, paths, filters)
     for flag in ("rules", "window", "jurisdiction", "compare_rules"):
@@ -184,19 +184,30 @@ def _filters(args: argparse.Namespace) -> Filters:
     )
 
 
-def _check_outputs(args: argparse.Namespace) -> None:
-    """Refuse a report that could not be written before the logs are read, not after a long replay."""
+def _check_outputs(args: argparse.Namespace, logs: list[str]) -> None:
+    """Refuse a report that could not be written before the logs are read, not after a long replay.
+
+    Nor may a report overwrite a log: one of those given, or any *.mcap (`--csv out/*.mcap`, the
+    shell's glob giving its first log to --csv).
+    """
+    inputs = {Path(log).resolve(): log for log in logs}
     named: dict[Path, str] = {}
     for flag in ("html", "csv", "json"):
         path = getattr(args, flag)
         if not path:
             continue
         target = Path(path)
+        key = target.resolve()
+        if key in inputs:
+            raise UsageError(f"--{flag} {path}: the report would overwrite the log {inputs[key]}")
+        if target.name.lower().endswith(".mcap"):
+            raise UsageError(
+                f"--{flag} {path}: a report named *.mcap could overwrite a log (did a shell glob give --{flag} a log?)"
+            )
         if target.is_dir():
             raise UsageError(f"cannot write {path}: Is a directory")
         if not target.parent.is_dir():
             raise UsageError(f"cannot write {path}: No such file or directory")
-        key = target.resolve()
         if key in named:
             raise UsageError(f"--{named[key]} and --{flag} name the same file {path}: one would overwrite the other")
         named[key] = flag

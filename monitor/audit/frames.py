@@ -106,7 +106,7 @@ class Pairing:
             self.counts.proposals += 1
             queue = self.pending.setdefault(record.vehicle, deque())
             if len(queue) >= PENDING_PER_VEHICLE:
-                self.counts.unanswered += self._counts(queue.popleft())
+                self.counts.unanswered += self._unanswered(queue.popleft())
             queue.append(record)
             return None
         if kind == "verdict":
@@ -120,13 +120,15 @@ class Pairing:
 
     def finish(self) -> None:
         """Count the proposals left without a verdict (the lead-in's were counted with their own task)."""
-        self.counts.unanswered += sum(
-            str(r.path) not in self.lead_in and self._counts(r) for q in self.pending.values() for r in q
-        )
+        self.counts.unanswered += sum(self._unanswered(r) for q in self.pending.values() for r in q)
         self.pending.clear()
 
     def _counts(self, record: LogRecord) -> bool:
         return self.counted(record.vehicle, record.log_time_ns)
+
+    def _unanswered(self, proposal: LogRecord) -> bool:
+        """Whether a proposal given up on counts here: not one of the lead-in's, which its own task counted."""
+        return str(proposal.path) not in self.lead_in and self._counts(proposal)
 
     def _frame(self, record: LogRecord) -> Frame:
         verdict = record.verdict
@@ -189,7 +191,7 @@ def _sequences(files: list[str]) -> list[list[str]]:
     a run, go by name, as a directory lists them. The sequences come in the order their first file
     was given.
     """
-    runs: dict[tuple, list[tuple]] = {}  # (directory, monitor, run) -> (order, path); a file of another name alone
+    runs: dict[tuple, list[tuple]] = {}  # (resolved directory, monitor, run) -> (order, path); others alone
     for path in files:
         named = _ROTATED.match(Path(path).name)
         if named is None:
@@ -197,7 +199,7 @@ def _sequences(files: list[str]) -> list[list[str]]:
             continue
         monitor, run, index = named.groups()
         order = (int(index),) if run else (Path(path).name,)
-        runs.setdefault((str(Path(path).parent), monitor, run), []).append((order, path))
+        runs.setdefault((Path(path).parent.resolve(), monitor, run), []).append((order, path))
     sequences: list[list[str]] = []
     for run in runs.values():
         start = len(sequences)
@@ -256,7 +258,7 @@ def _same_sequence(before: str, after: str) -> bool:
     """Whether `after` is the file the same monitor run wrote next after `before`."""
     a, b = Path(before), Path(after)
     ma, mb = _ROTATED.match(a.name), _ROTATED.match(b.name)
-    if a.parent != b.parent or ma is None or mb is None or ma.group(1, 2) != mb.group(1, 2):
+    if a.parent.resolve() != b.parent.resolve() or ma is None or mb is None or ma.group(1, 2) != mb.group(1, 2):
         return False
     if int(mb.group(3)) != int(ma.group(3)) + 1:  # a restarted monitor numbers its files from 0 again
         return False

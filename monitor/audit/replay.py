@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import gc
 import hashlib
+import os
 import time
 import zlib
 from collections import Counter, OrderedDict
@@ -49,7 +50,7 @@ from .frames import LEAD_IN_SLACK_S, Frame, FrameTask, PairingCounts, plan_tasks
 from .parallel import run_jobs
 
 BATCH = 96  # distinct frames grounded together: the per-rule cost is paid once per batch (rules/batch.py)
-CACHE_LIMIT = 100_000  # decided frames kept per worker for reuse
+CACHE_LIMIT = 100_000  # decided frames kept per worker for reuse, the least recently used dropped first
 
 
 @dataclass
@@ -160,6 +161,7 @@ class ReplayJob:
     shards: int
     filters: Filters
     window_s: float
+    caller_pid: int  # the process that asked for the replay: one worker runs the jobs in it
     compare_rules: bool = False
 
 
@@ -193,19 +195,22 @@ def _init_worker(catalog: Optional["ReplayCatalog"], window_s: Optional[float] =
 
 
 def replay_task(job: ReplayJob) -> ReplayTally:
-    """Re-decide the frames of this job's files and shard (runs in a worker process).
+    """Re-decide the frames of this job's files and shard (in a worker process, or the caller's with one worker).
 
     The cyclic garbage collector is off for the job: it found nothing to free
     here (a collection after a job finds 0 objects, measured) but rescanned the
     worker's caches of scenes again and again, about 0.3 ms a frame, a fifth of
-    the replay. What the job leaves is frozen: long-lived caches, never rescanned.
+    the replay. What the job leaves in a worker process is frozen: long-lived caches,
+    never rescanned. The caller's heap is not: frozen objects are never collected, in
+    a program that goes on after the replay.
     """
     enabled = gc.isenabled()
     gc.disable()
     try:
         return _replay_task(job)
     finally:
-        gc.freeze()
+        if os.getpid() != job.caller_pid:
+            gc.freeze()
         if enabled:
             gc.enable()
 
@@ -248,24 +253,35 @@ def vehicle_shard(vehicle: Optional[str], shards: int) -> int:
 def _replay_chunk(
     worker: _Worker, chunk: list[tuple[Frame, bytes, str]], compare_rules: bool, tally: ReplayTally
 ) -> None:
-    _solve_new(worker, chunk, compare_rules, tally)
+    known = _solve_new(worker, chunk, compare_rules, tally)
     for frame, key, _ in chunk:
-        _compare(worker, frame, key, tally)
+        _compare(worker, frame, key, known[key], tally)
 
 
 def _solve_new(
     worker: _Worker, chunk: list[tuple[Frame, bytes, str]], compare_rules: bool, tally: ReplayTally
-) -> None:
-    """Solve the chunk's frames not solved before, all in one grounding (Reasoner.solve_facts)."""
+) -> dict[bytes, Solved]:
+    """Solve the chunk's frames not solved before, all in one grounding (Reasoner.solve_facts); what each key came to.
+
+    The chunk's entries are held here, not looked up in the cache again: caching
+    the new ones evicts the least recently used, which may be one the chunk needs.
+    """
+    known: dict[bytes, Solved] = {}
     pending: dict[bytes, tuple[Frame, str]] = {}
     for frame, key, facts in chunk:
-        if key not in worker.solved and key not in pending:
+        if key in known or key in pending:
+            continue
+        hit = worker.solved.get(key)
+        if hit is None:
             pending[key] = (frame, facts)
+        else:
+            worker.solved.move_to_end(key)  # in use: a frame that keeps repeating stays cached
+            known[key] = hit
     tally.frames += len(chunk)
     tally.solved += len(pending)
     tally.reused += len(chunk) - len(pending)
     if not pending:
-        return
+        return known
     start = time.perf_counter()
     frames = [frame for frame, _ in pending.values()]
     texts = [facts for _, facts in pending.values()]
@@ -279,14 +295,15 @@ def _solve_new(
         solved = worker.reasoner.solve_facts(texts, [f.proposal.action for f in frames])
         results = [Solved(frozenset(s.permitted), s.recommended) for s in solved]
     tally.solve_s += time.perf_counter() - start
-    for key, known in zip(pending, results):
-        _remember(worker.solved, key, known)
+    for key, result in zip(pending, results):
+        known[key] = result
+        _remember(worker.solved, key, result)
+    return known
 
 
-def _compare(worker: _Worker, frame: Frame, key: bytes, tally: ReplayTally) -> None:
+def _compare(worker: _Worker, frame: Frame, key: bytes, known: Solved, tally: ReplayTally) -> None:
     """Count the frame as unchanged, changed (with both justifications) or citing other rules."""
     recorded, scene, action = frame.verdict, frame.proposal.scene, frame.proposal.action
-    known = worker.solved[key]
     if known.outcome is None:
         if known.permitted == frozenset(recorded.permitted) and known.recommended == recorded.recommended:
             return  # same permitted set and recommendation: the same decision and action
@@ -389,7 +406,11 @@ def replay_logs(
     try:
         tasks = plan_tasks(list(paths), parts=max(1, workers), lead_in_s=window + LEAD_IN_SLACK_S)
         shards = max(1, workers)  # every run of files split by vehicle: even shares, whatever the file sizes
-        jobs = [ReplayJob(task, shard, shards, filters, window, compare_rules) for task in tasks for shard in range(shards)]
+        jobs = [
+            ReplayJob(task, shard, shards, filters, window, os.getpid(), compare_rules)
+            for task in tasks
+            for shard in range(shards)
+        ]
         total = ReplayTally()
         for tally in run_jobs(replay_task, jobs, workers, _init_worker, (catalog, window)):
             total.merge(tally)

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-import math
-from datetime import datetime, timezone
+from datetime import datetime, timedelta, timezone
+from decimal import Decimal, InvalidOperation
 
+EPOCH = datetime(1970, 1, 1, tzinfo=timezone.utc)
 # What a log time can be: MCAP stamps unsigned nanoseconds, and people read them as dates up to year 9999.
 MAX_EPOCH_S = int(datetime(9999, 12, 31, 23, 59, 59, tzinfo=timezone.utc).timestamp())
 # An integer this large is no epoch second (it would be past year 9999): it is epoch nanoseconds,
@@ -13,21 +14,29 @@ MIN_EPOCH_NS, MAX_EPOCH_NS = 10**17, 2**64 - 1
 
 
 def iso(ns: int) -> str:
-    return datetime.fromtimestamp(ns / 1e9, tz=timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+    """The millisecond the time falls in, floored in integers.
+
+    A float rounds a time late in its millisecond up into the next, and that shown time given back
+    as --since would leave out the record it was shown for.
+    """
+    seconds, rest = divmod(ns, 10**9)
+    return f"{EPOCH + timedelta(seconds=seconds):%Y-%m-%dT%H:%M:%S}.{rest // 10**6:03d}Z"
 
 
 def parse_time(text: str, option: str = "time") -> int:
     """Nanoseconds since the epoch from ISO 8601 (UTC unless it says otherwise), epoch seconds or epoch nanoseconds.
 
-    A mistake raises ValueError naming `option` (the command-line flag) and the value.
+    Exact, in integers (a float of today's times in nanoseconds is 256 ns coarse): ISO 8601 to the
+    microsecond, as datetime reads it, epoch seconds to the nanosecond. A mistake raises ValueError
+    naming `option` (the command-line flag) and the value.
     """
     value = text.strip()
     try:
-        number = float(value)
-    except ValueError:
+        number = Decimal(value)
+    except InvalidOperation:
         number = None
     if number is not None:
-        if not math.isfinite(number):
+        if not number.is_finite():
             raise ValueError(f"{option} {text}: not a finite time")
         if value.isdigit() and MIN_EPOCH_NS <= int(value) <= MAX_EPOCH_NS:
             return int(value)
@@ -36,7 +45,7 @@ def parse_time(text: str, option: str = "time") -> int:
                 f"{option} {text}: out of range: epoch seconds go from 0 to {MAX_EPOCH_S} (year 9999), "
                 f"epoch nanoseconds (a whole number) from {MIN_EPOCH_NS} to {MAX_EPOCH_NS}"
             )
-        return int(round(number * 1e9))
+        return int(number.scaleb(9).to_integral_value())
     try:
         moment = datetime.fromisoformat(value.replace("Z", "+00:00"))
     except ValueError:
@@ -45,7 +54,7 @@ def parse_time(text: str, option: str = "time") -> int:
         ) from None
     if moment.tzinfo is None:
         moment = moment.replace(tzinfo=timezone.utc)
-    seconds = moment.timestamp()
-    if not 0 <= seconds <= MAX_EPOCH_S:
+    ns = (moment - EPOCH) // timedelta(microseconds=1) * 1000
+    if not 0 <= ns <= MAX_EPOCH_S * 10**9:
         raise ValueError(f"{option} {text}: out of range: a log holds times from 1970 to the end of year 9999 UTC")
-    return int(round(seconds * 1e9))
+    return ns
