@@ -246,6 +246,26 @@ def test_evaluation_records_every_proposal_and_verdict_to_mcap(tmp_path):
     assert [v.verdict.frame_id for v in verdicts] == [p.proposal.scene.frame_id for p in proposals]
 
 
+def test_a_replay_of_a_recorded_evaluation_decides_with_the_parameters_it_recorded(tmp_path, capsys):
+    """The closed loop decides with decel=4; a replay with the default 6 m/s² changed a decision with no rule edited."""
+    evaluate(1, [Faults()], ["discern"], Setup(record=str(tmp_path)), progress=False)
+    assert cli_main(["audit", "--replay", str(tmp_path), "-q", "--workers", "1"]) == 0
+    assert "(us rules, decel=4)" in capsys.readouterr().out
+    assert cli_main(["audit", "--replay", str(tmp_path), "-q", "--workers", "1", "--param", "decel=6"]) == 1
+    assert "1 decision would change" in capsys.readouterr().out
+
+
+def test_logs_decided_with_different_parameters_are_not_replayed_as_one(tmp_path, capsys):
+    from discern.monitor.config import LogSettings
+    from discern.monitor.log.writer import McapLogWriter
+
+    for name, params in (("a", {"decel": 4.0}), ("b", {})):
+        McapLogWriter(LogSettings(directory=tmp_path / name), "m", params).close()
+    assert cli_main(["audit", "--replay", str(tmp_path / "a"), str(tmp_path / "b"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "the logs were decided with different reasoning parameters" in err and '{"decel": 4.0}' in err
+
+
 def test_the_judge_counts_holding_a_speed_above_the_limit_as_speeding_and_slowing_down_as_not():
     """A veto of keeping 35 m/s on a 30 m/s road is no false veto; one of slowing down from it would be."""
     from discern.adapters.highway.actions import IDLE, SLOWER

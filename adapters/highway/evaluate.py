@@ -97,7 +97,9 @@ def _recorder(setup: Setup):
         from discern.monitor.config import LogSettings
         from discern.monitor.log.writer import McapLogWriter
 
-        _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), monitor_id="highway-eval")
+        # the in-process reasoner's parameters; a running monitor decides with its own defaults
+        params = {} if setup.monitor else dict(setup.params)
+        _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), "highway-eval", params)
     return _worker["recorder"]
 
 

@@ -16,6 +16,7 @@ from discern.monitor.config import check_number
 from discern.monitor.log import log_files
 from discern.rules.catalog import CatalogError, load_catalog
 from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
+from discern.rules.facts import Params
 
 from .aggregate import Aggregates, Filters, Kind, audit_logs
 from .parallel import default_workers
@@ -53,6 +54,13 @@ def register(subparsers) -> None:
         "--compare-rules",
         action="store_true",
         help="with --replay: decide every frame in full, to also list frames that keep their decision but cite other rules",
+    )
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="with --replay: decide with this reasoning parameter (discern.rules.facts.Params) instead of the one "
+        "the log recorded, e.g. --param decel=4; repeatable",
     )
     p.add_argument(
         "--jurisdiction",
@@ -107,7 +115,7 @@ def _run(args: argparse.Namespace) -> int:
     _check_outputs(args, paths)
     if args.replay:
         return _replay(args, paths, filters)
-    for flag in ("rules", "window", "jurisdiction", "compare_rules"):
+    for flag in ("rules", "window", "jurisdiction", "compare_rules", "param"):
         if getattr(args, flag) not in (None, False):
             raise UsageError(f"--{flag.replace('_', '-')} only applies with --replay")
     from . import report
@@ -131,9 +139,16 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         except ValueError as exc:
             raise UsageError(str(exc)) from None
     from . import replay_report
-    from .replay import ReplayCatalog, replay_logs
+    from .replay import ReplayCatalog, recorded_params, replay_logs
 
-    catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us")
+    values, problems = Params.overrides(args.param or [])
+    if problems:
+        raise UsageError("; ".join(problems))
+    try:
+        params = {**recorded_params(paths), **values}
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us", params)
     try:
         catalog.load()
     except CatalogError as exc:  # names the file and line it could not read

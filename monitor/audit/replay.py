@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import gc
 import hashlib
+import json
 import os
 import time
 import zlib
@@ -38,9 +39,10 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from discern.monitor.config import MonitorConfig
-from discern.monitor.log import FileRecovery, RecoveryReport
+from discern.monitor.log import FileRecovery, RecoveryReport, log_metadata
 from discern.rules.catalog import Catalog, catalog_dirs, load_catalog, load_driving_rules
 from discern.rules.engine import Reasoner, Request, jurisdiction_pack
+from discern.rules.facts import Params
 from discern.rules.scene import Action
 from discern.rules.verdict import Verdict
 from discern.sanity import WindowConfig, default_providers
@@ -173,7 +175,8 @@ class _Worker:
         self.window_s = window_s
         # the sanity layer sees the window the frames' histories were rebuilt with, as the monitor's did
         window = default_providers(WindowConfig(seconds=window_s))
-        self.reasoner = Reasoner(catalog=catalog.load(), jurisdiction=catalog.jurisdiction, providers=window)
+        self.reasoner = Reasoner(catalog=catalog.load(), params=Params(**dict(catalog.params)),
+                                 jurisdiction=catalog.jurisdiction, providers=window)
         self.solved: OrderedDict[bytes, Solved] = OrderedDict()
         self.explained: OrderedDict[bytes, Verdict] = OrderedDict()  # changed frames, with their full tree
 
@@ -360,15 +363,17 @@ class ReplayCatalog:
 
     rules: tuple[str, ...] = ()  # driving-rules directories in place of rules/catalog; none: the shipped ones
     jurisdiction: str = "us"
+    params: tuple[tuple[str, float], ...] = ()  # reasoning parameters (rules.facts.Params) other than the defaults
 
     @classmethod
-    def of(cls, rules: Optional[Sequence[str]] = None, jurisdiction: str = "us") -> "ReplayCatalog":
+    def of(cls, rules: Optional[Sequence[str]] = None, jurisdiction: str = "us",
+           params: Optional[dict[str, float]] = None) -> "ReplayCatalog":
         """A directory named twice (`--rules D --rules D/`) is loaded once, where it first appears."""
         once: dict[Path, str] = {}
         for d in rules or ():
             once.setdefault(Path(d).resolve(), str(d))
         jurisdiction_pack(jurisdiction)  # an unknown name fails here, naming the known ones
-        return cls(tuple(once.values()), jurisdiction)
+        return cls(tuple(once.values()), jurisdiction, tuple(sorted((params or {}).items())))
 
     @property
     def dirs(self) -> tuple[str, ...]:
@@ -386,7 +391,27 @@ class ReplayCatalog:
         return load_catalog(extra_files=pack)
 
     def describe(self) -> str:
-        return f"{', '.join(self.dirs)} ({self.jurisdiction} rules)"
+        params = "".join(f", {name}={value:g}" for name, value in self.params)
+        return f"{', '.join(self.dirs)} ({self.jurisdiction} rules{params})"
+
+
+def recorded_params(paths: Sequence[str]) -> dict[str, float]:
+    """The reasoning parameters the logs' verdicts were decided with (the writer's metadata; none: the defaults).
+
+    A replay with other parameters would report every decision they change as a rule change. Raises
+    ValueError when the files disagree: each set is its own replay.
+    """
+    first: dict[str, str] = {}  # the parameters as recorded -> the first file that has them
+    for path in paths:
+        first.setdefault(log_metadata(path).get("params", "{}"), str(path))
+    if len(first) > 1:
+        shown = "; ".join(f"{path}: {params}" for params, path in first.items())
+        raise ValueError(f"the logs were decided with different reasoning parameters ({shown}): replay them apart")
+    recorded = next(iter(first), "{}")
+    try:
+        return {str(name): float(value) for name, value in json.loads(recorded).items()}
+    except (ValueError, AttributeError, TypeError):
+        raise ValueError(f"{next(iter(first.values()))}: unreadable reasoning parameters {recorded!r}") from None
 
 
 def replay_logs(

@@ -36,7 +36,7 @@ log = logging.getLogger(__name__)
 
 PathLike = Union[str, os.PathLike]
 RECORD_SIZE_LIMIT = 1 << 30
-METADATA_NAME = "discern"  # the writer's metadata record: monitor_id, schema_version, pid, run
+METADATA_NAME = "discern"  # the writer's metadata record: monitor_id, schema_version, pid, run, params
 
 
 @dataclass(frozen=True)
@@ -200,7 +200,7 @@ def first_log_time_ns(path: PathLike) -> Optional[int]:
 
 
 def log_metadata(path: PathLike) -> dict[str, str]:
-    """The writer's `discern` metadata of a file (monitor_id, schema_version, pid, run); {} when it has none.
+    """The writer's `discern` metadata of a file (monitor_id, schema_version, pid, run, params); {} when it has none.
 
     The writer puts it right after the header, so only the file's first records are read.
     """

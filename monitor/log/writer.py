@@ -24,6 +24,7 @@ the run's files from 0000.
 from __future__ import annotations
 
 import errno
+import json
 import logging
 import os
 import queue
@@ -32,7 +33,7 @@ import time
 import uuid
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Optional, Union
+from typing import Mapping, Optional, Union
 
 from mcap.writer import CompressionType, Writer
 from pydantic import BaseModel
@@ -55,11 +56,14 @@ Payload = Union[bytes, BaseModel]
 class McapLogWriter:
     """Append-only recorder; `write` never blocks, `close` finishes the file cleanly."""
 
-    def __init__(self, settings: LogSettings, monitor_id: str):
+    def __init__(self, settings: LogSettings, monitor_id: str, params: Optional[Mapping[str, float]] = None):
+        """`params`: the reasoning parameters the verdicts are decided with (rules.facts.Params overrides), kept
+        in every file's metadata so that a replay decides alike."""
         if settings.compression not in ("zstd", "none"):
             raise ValueError(f"log compression {settings.compression!r} is not 'zstd' or 'none'")
         self.settings = settings
         self.monitor_id = monitor_id
+        self.params = dict(params or {})
         self.directory = Path(settings.directory)
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
@@ -219,6 +223,7 @@ class McapLogWriter:
                     "schema_version": str(SCHEMA_VERSION),
                     "pid": str(os.getpid()),
                     "run": self.run,
+                    "params": json.dumps(self.params, sort_keys=True),
                 },
             )
             stream.flush()
