@@ -17,7 +17,7 @@ from discern.rules.catalog import CatalogError, load_driving_rules
 from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack
 from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
-from discern.rules.scene import Action, Proposal, Scene, describe_errors
+from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
 from discern.sanity.jurisdiction import reasoner_for
 
 # Parts that add subcommands through a `register(subparsers)` function.
@@ -33,7 +33,8 @@ class UserError(Exception):
     """A mistake in what the user gave us: reported in one line, no traceback."""
 
 
-def _read_json(path: str) -> dict:
+def _read_json(path: str) -> tuple[str, dict]:
+    """The file's text, to validate as the schema reads JSON, and its object, to tell what kind of file it is."""
     try:
         text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:
@@ -48,7 +49,7 @@ def _read_json(path: str) -> dict:
         raise UserError(f"{path}: JSON nested too deeply to be a scene") from None
     if not isinstance(data, dict):
         raise UserError(f"{path}: expected a JSON object (a scene or a proposal)")
-    return data
+    return text, data
 
 
 def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> Reasoner:
@@ -73,20 +74,20 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
 def cmd_check(args: argparse.Namespace) -> int:
     if Path(args.scene).suffix == ".pl":
         raise UserError(f"{args.scene}: AV-CSR frames, not a scene: run them with `discern scenarios run {args.scene}`")
-    data = _read_json(args.scene)
+    text, data = _read_json(args.scene)
     try:
         if "frames" in data and "scene" not in data:
             raise UserError(f"{args.scene}: a scenario file, not a scene: `discern scenarios run {args.scene}` "
                             "decides its frames and checks their expected verdicts")
         if "scene" in data:
-            proposal = Proposal.model_validate(data)
+            proposal = Proposal.model_validate_json(text, **JSON_AS_SCHEMA)
             scene, action, vehicle = proposal.scene, proposal.action, proposal.vehicle
             if args.proposed:
                 action = Action(args.proposed)
         else:
             if not args.proposed:
                 raise UserError(f"{args.scene}: a bare scene needs --proposed ACTION")
-            scene, action, vehicle = Scene.model_validate(data), Action(args.proposed), "ego"
+            scene, action, vehicle = Scene.model_validate_json(text, **JSON_AS_SCHEMA), Action(args.proposed), "ego"
     except ValidationError as exc:
         raise UserError(f"{args.scene}: invalid scene:\n{describe_errors(exc)}") from None
     verdict = _reasoner(args).decide(scene, action, explain=True, shadow=args.shadow, vehicle=vehicle)

@@ -5,9 +5,9 @@
         verdict = monitor.check(scene, "change_lane_left", timeout=0.1)
         execute(verdict.action)
 
-`check` never raises for a missing or slow monitor, nor for a bad scene: it
-returns a verdict (a fail-safe brake with `error` saying why, if need be),
-exactly as the monitor itself does, so the planner's loop has one code path.
+`check` never raises for a missing or slow monitor, nor for a bad scene, nor
+once closed: it returns a verdict (a fail-safe brake with `error` saying why, if
+need be), exactly as the monitor itself does, so the planner's loop has one code path.
 """
 
 from __future__ import annotations
@@ -112,7 +112,7 @@ class Monitor:
         """The monitor's verdict on doing `action` in `scene`; a fail-safe one if none arrives in time.
 
         An invalid proposal is sent all the same: the monitor refuses it by name, counts it and logs it.
-        Only one that cannot even be sent, or a bad `timeout`, gets a fail-safe made here, unasked.
+        Only one that cannot even be sent, a bad `timeout` or a closed Monitor gets a fail-safe made here, unasked.
         """
         try:
             proposal, payload, problem = self._encode(scene, action, explain)
@@ -127,12 +127,17 @@ class Monitor:
             timeout = self.timeout if timeout is None else check_timeout(timeout)
         except ValueError as exc:
             return failsafe_verdict(self.vehicle, f"not sent: {exc}", RULE_NO_ANSWER, **labels)
-        if self.style == "query":
-            verdict = self._query(payload, timeout)
-            if isinstance(verdict, Verdict) and self._on_verdict is not None:
-                self._on_verdict(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
-        else:
-            verdict = self._publish_and_wait(payload, labels["frame_id"], timeout)
+        if self._closed:
+            return failsafe_verdict(self.vehicle, "not sent: this Monitor is closed", RULE_NO_ANSWER, **labels)
+        try:
+            if self.style == "query":
+                verdict = self._query(payload, timeout)
+            else:
+                verdict = self._publish_and_wait(payload, labels["frame_id"], timeout)
+        except zenoh.ZError as exc:  # closed meanwhile, from another thread
+            verdict = f"not sent: {exc}"
+        if self.style == "query" and isinstance(verdict, Verdict) and self._on_verdict is not None:
+            self._on_verdict(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
         if isinstance(verdict, Verdict):
             return verdict
         if problem is not None:  # the monitor would have refused it: say why first
@@ -220,7 +225,7 @@ class Monitor:
         return self._unserved(key)  # zenoh ends a query at once when nothing on its route serves the key
 
     def _publish_and_wait(self, payload: bytes, frame: Optional[int], timeout: float) -> Union[Verdict, str]:
-        """The verdict of this frame, else why none came."""
+        """The verdict of this frame (None: of a payload whose frame id cannot be read), else why none came."""
         slot = [threading.Event(), None]
         with self._lock:
             self._waiting[frame] = slot
@@ -245,17 +250,12 @@ class Monitor:
             log.warning("ignored an unreadable verdict on %s", sample.key_expr)
             return
         with self._lock:
-            slot = self._waiting.get(verdict.frame_id) if verdict.frame_id is not None else None
+            # A verdict naming no frame (a refusal of a payload with no frame id to read) is only for a wait
+            # whose payload had none either: another frame's late refusal must not pass for its verdict.
+            slot = self._waiting.get(verdict.frame_id)
         if slot is not None:
             slot[1] = verdict
             slot[0].set()
-        elif verdict.frame_id is None and self._waiting:
-            # A refused proposal the monitor could not read a frame from: it answers the oldest wait.
-            with self._lock:
-                first = next(iter(self._waiting.values()), None)
-            if first is not None:
-                first[1] = verdict
-                first[0].set()
         if self._on_verdict is not None:
             self._on_verdict(verdict)
 

@@ -237,11 +237,12 @@ def cmd_status(args) -> int:
 
     from discern.rules.scene import describe_errors
 
+    from .client import TIMEOUT_MAX_S
     from .status import MonitorStatus
 
     try:
         selector = keys.status_key(keys.monitor_selector(args.monitor_id))
-        check_number("--timeout", args.timeout, 0, unit=" s", above=True)
+        check_number("--timeout", args.timeout, 0, TIMEOUT_MAX_S, unit=" s", above=True)  # zenoh overflows past that
         session = zenoh.open(_zenoh_settings(args).to_zenoh(default_listen=[]))
     except ValueError as exc:
         return _fail("status", str(exc))
@@ -257,7 +258,7 @@ def cmd_status(args) -> int:
                     continue
                 answered += 1
                 try:
-                    status = MonitorStatus.model_validate_json(reply.ok.payload.to_bytes())
+                    status = MonitorStatus.model_validate_json(reply.ok.payload.to_bytes(), strict=True)
                 except ValidationError as exc:  # not a monitor of this version: say who, show the others
                     print(
                         f"discern status: warning: skipped an unreadable status from {reply.ok.key_expr} "

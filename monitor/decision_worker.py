@@ -13,10 +13,16 @@ perception history (a light seen flashing, an object seen before, a sign read
 twice), and a frame shed under load is still a frame the planner saw. A job
 too late to decide, or answered by the watchdog before the worker took it, is
 only decoded and admitted (about 0.3 ms for a 50-object scene, measured,
-against about 5 ms for its decision), and never gets a second answer. Every job
+against about 5 ms for its decision), and never gets a second answer. A job shed
+for lack of time that is no proposal, or out of order, is refused by name as a
+decided one would be: bad input is bad input, however busy the worker. Every job
 handed to a worker comes back as exactly one Outcome (a `lost` one when the
 worker dies with it), so the monitor learns of each payload whether it was a
 proposal at all: the log needs to know.
+
+A vehicle's window is dropped once the vehicle has been silent for longer than
+the window (VehicleState.expired), so a worker holds the windows of the
+vehicles heard from lately, not of every vehicle it ever served.
 """
 
 from __future__ import annotations
@@ -34,7 +40,7 @@ from discern.rules.engine import Reasoner, Request
 from discern.rules.scene import Proposal
 from discern.sanity import WindowConfig, default_providers
 
-from .protocol import RULE_BAD_INPUT, InputError, decode_proposal, encode, failsafe_verdict
+from .protocol import RULE_BAD_INPUT, InputError, decode_proposal, encode, failsafe_verdict, peek_frame
 from .vehicle_state import VehicleState
 
 log = logging.getLogger(__name__)
@@ -48,6 +54,7 @@ MAX_BATCH = 32
 # windows of 50-object scenes at 20 Hz (measured), a stall for whatever proposal arrives meanwhile.
 FULL_COLLECTION_S = 300.0
 NO_AUTOMATIC_FULL_COLLECTION = 1_000_000  # young collections between full ones: in effect, never
+EXPIRY_SWEEP_S = 1.0  # how often the windows of silent vehicles are looked for: a scan of every vehicle's state
 STOP = None  # sent down a worker's pipe: finish what was sent, then exit
 
 
@@ -111,18 +118,24 @@ def worker_main(conn, settings: WorkerSettings) -> None:
     while backlog or not stopping:  # told to stop, finish what was sent
         try:
             if not stopping:
-                stopping = _take_waiting(conn, backlog, idle)
+                stopping = _take_waiting(conn, backlog, idle, judge)
             for outcome in judge.next_batch(backlog):
                 conn.send(outcome)
+            judge.forget_silent(backlog)  # a worker that is never idle must drop them too
         except (EOFError, OSError):  # the monitor is gone
             return
 
 
-def _take_waiting(conn, backlog: deque, idle: "IdleWork") -> bool:
-    """Move every job waiting on the pipe to the backlog, waiting for one if there is none; True once told to stop."""
+def _take_waiting(conn, backlog: deque, idle: "IdleWork", judge: "Judge") -> bool:
+    """Move every job waiting on the pipe to the backlog, waiting for one if there is none; True once told to stop.
+
+    While it waits, the worker does its idle work, and drops the windows of the vehicles that fall silent.
+    """
     while not backlog or conn.poll(0):
         if not backlog and not conn.poll(0):
             idle.run(busy=lambda: conn.poll(0))
+            while not conn.poll(EXPIRY_SWEEP_S):
+                judge.forget_silent(backlog)
         job = conn.recv()
         if job is STOP:
             return True
@@ -215,6 +228,7 @@ class Judge:
         self.reasoner = Reasoner(jurisdiction=settings.jurisdiction, providers=window)
         self.vehicles: dict[str, VehicleState] = {}
         self.time = BatchTime()
+        self._next_sweep = time.monotonic() + EXPIRY_SWEEP_S
 
     def next_batch(self, backlog: deque) -> Iterator[Outcome]:
         """Take the next batch off the front of the backlog (oldest first) and judge it.
@@ -297,16 +311,31 @@ class Judge:
         room = min(len(backlog) - start, MAX_BATCH)
         return max(1, min(room, self.time.most_within((backlog[start].deadline - now) / DEADLINE_MARGIN)))
 
+    def forget_silent(self, backlog: deque) -> None:
+        """Drop the windows of vehicles silent past their window, every EXPIRY_SWEEP_S.
+
+        Measured from the oldest job still waiting, not from now: a job that arrived before the silence
+        ran out must still find its vehicle's window.
+        """
+        now = time.monotonic()
+        if now < self._next_sweep:
+            return
+        self._next_sweep = now + EXPIRY_SWEEP_S
+        horizon = backlog[0].arrived if backlog else now
+        for vehicle in [v for v, state in self.vehicles.items() if state.expired(horizon)]:
+            del self.vehicles[vehicle]
+
     def _shed(self, job: Job, why: str) -> Outcome:
-        """A proposal that gets no decision: its scene enters the window, and the monitor answers it fail-safe."""
-        proposal, error = self._remember(job)
+        """A proposal that gets no decision: its scene enters the window, and the monitor answers it fail-safe.
+
+        One that is no proposal, or out of order, is refused by name instead, as if it had been decided.
+        """
+        taken = self._admit(job)
+        if isinstance(taken, Outcome):
+            return taken
+        proposal, _ = taken
         return Outcome(
-            job.rid,
-            no_verdict=why,
-            frame_id=proposal.scene.frame_id if proposal else None,
-            action=proposal.action.value if proposal else None,
-            decoded=proposal is not None,
-            error=error,
+            job.rid, no_verdict=why, frame_id=proposal.scene.frame_id, action=proposal.action.value, decoded=True
         )
 
     def _in_time(self, job: Job, now: float) -> bool:
@@ -324,7 +353,7 @@ class Judge:
         return Outcome(job.rid, decoded=proposal is not None, error=error, receipt=True)
 
     def _remember(self, job: Job) -> tuple[Optional[Proposal], Optional[str]]:
-        """Admit a job that will not be decided into its vehicle's window: the proposal, or why it is none.
+        """Admit a job answered already into its vehicle's window: the proposal, or why it is none.
 
         A frame out of order stays out of the window, as it would if decided; its answer is already
         given, so it is not refused either.
@@ -360,7 +389,8 @@ class Judge:
                 str(exc),
                 RULE_BAD_INPUT,
                 proposed=proposal.action if proposal else None,
-                frame_id=proposal.scene.frame_id if proposal else None,
+                # the planner matches a verdict to its frame: name it even when the payload is no proposal
+                frame_id=proposal.scene.frame_id if proposal else peek_frame(job.payload)[0],
                 timestamp=proposal.scene.timestamp if proposal else None,
                 shadow=self.settings.shadow,
             )

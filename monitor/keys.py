@@ -3,10 +3,12 @@
 One vehicle, one key chunk: ``discern/<vehicle>/proposal`` (publish) and
 ``discern/<vehicle>/check`` (query) in, ``discern/<vehicle>/verdict`` out.
 The vehicle is always read from the key, so a verdict can be addressed even
-when the payload is garbage.
+when the payload is garbage; a key of any other shape names no vehicle.
 """
 
 from __future__ import annotations
+
+from typing import Optional
 
 import zenoh
 
@@ -33,10 +35,13 @@ def status_key(monitor_id: str) -> str:
     return f"{PREFIX}/monitor/{monitor_id}/status"
 
 
-def vehicle_of(key: str) -> str:
-    """The vehicle chunk of ``discern/<vehicle>/...``."""
+PROPOSAL_KINDS = ("proposal", "check")
+
+
+def vehicle_of(key: str) -> Optional[str]:
+    """The vehicle chunk of ``discern/<vehicle>/proposal`` or ``discern/<vehicle>/check``; None for any other key."""
     parts = key.split("/")
-    return parts[1] if len(parts) >= 3 and parts[0] == PREFIX else ""
+    return parts[1] if len(parts) == 3 and parts[0] == PREFIX and parts[2] in PROPOSAL_KINDS else None
 
 
 def is_wild(key: str) -> bool:
@@ -63,10 +68,12 @@ def _chunk_selector(pattern: str, what: str) -> str:
     pattern = pattern.strip()
     if not pattern or "/" in pattern:
         raise ValueError(f"{what} {pattern!r} must be one key chunk (no '/')")
+    if "**" in pattern:  # zenoh's '**' spans any number of chunks: discern/a/b/check would match it
+        raise ValueError(f"{what} {pattern!r} must be one key chunk: '**' matches several, use '*'")
     if not all(valid_id(part) for part in pattern.replace("$*", "*").split("*") if part):
         # '?' or '[12]' would be taken literally, and no id holds them: a filter that matches nothing
         raise ValueError(f"{what} {pattern!r} may hold only letters, digits, '_', '-' and the wildcard '*'")
-    if pattern not in ("*", "**") and "$*" not in pattern:
+    if pattern != "*" and "$*" not in pattern:
         pattern = pattern.replace("*", "$*")
     try:
         return str(zenoh.KeyExpr.autocanonize(f"{PREFIX}/{pattern}/x")).split("/")[1]

@@ -4,6 +4,11 @@ There is no second copy of the format here: the pydantic models of
 `discern.rules.scene` and `discern.rules.verdict` are the schema. This module
 only turns bytes into a Proposal with an error message a person can act on,
 and builds the fail-safe verdicts the monitor owes when it cannot judge.
+
+Messages off the wire are decoded strictly, as the published JSON Schema
+reads them: pydantic's lax mode would take `"25"` for a speed, `true` or `"7"`
+for a frame id and `"yes"` for a flag, which the schema refuses (a JSON integer
+is still a number wherever one is expected).
 """
 
 from __future__ import annotations
@@ -13,7 +18,7 @@ from typing import Iterable, Optional
 
 from pydantic import BaseModel, ValidationError
 
-from discern.rules.scene import ID_RULE, Action, Proposal, describe_errors, valid_id
+from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, Action, Proposal, describe_errors, valid_id
 from discern.rules.verdict import Decision, Justification, Verdict
 
 
@@ -75,7 +80,7 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
             "vehicle",
         )
     try:
-        proposal = Proposal.model_validate_json(payload)
+        proposal = Proposal.model_validate_json(payload, **JSON_AS_SCHEMA)
     except ValidationError as exc:
         invalid_json = [e["msg"] for e in exc.errors() if e["type"] == "json_invalid"]
         if invalid_json:
@@ -91,14 +96,15 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     return proposal
 
 
-_FRAME_ID = re.compile(rb'"frame_id"\s*:\s*(\d{1,18})\b')
+# A whole JSON integer, ended by what may follow a value: a number cut off (an oversized payload's head) is none.
+_FRAME_ID = re.compile(rb'"frame_id"\s*:\s*(\d{1,18})(?=\s*[,}])')
 _ACTION = re.compile(rb'"action"\s*:\s*"([a-z_]{1,32})"')
 
 
 def peek_frame(payload: Optional[bytes]) -> tuple[Optional[int], Optional[Action]]:
     """Frame id and action of a proposal not parsed yet, best effort and in microseconds.
 
-    Only labels a fail-safe sent for a proposal still queued at its deadline, so the
+    Only labels a fail-safe or a refusal of a payload not parsed (or not a proposal), so the
     planner can match it to its frame; a full parse there would only deepen the backlog.
     """
     if not payload:
@@ -170,5 +176,5 @@ def encode(model: BaseModel) -> bytes:
 
 
 def decode_verdict(payload: bytes) -> Verdict:
-    return Verdict.model_validate_json(payload)
+    return Verdict.model_validate_json(payload, **JSON_AS_SCHEMA)
 

@@ -13,6 +13,9 @@ Every proposal is answered exactly once: whoever claims the request first sends.
 Every answer is logged after the payload it answered: on the proposal channel if
 the payload is a proposal, on the rejected channel if not. A fail-safe sent
 before the worker read the payload is logged once the worker has (_AnswerLog).
+What the monitor keeps per vehicle (its verdict publisher, its last permitted
+actions) goes once the vehicle has been silent for longer than its window and
+budget: memory follows the vehicles heard from lately, not every one ever seen.
 """
 
 from __future__ import annotations
@@ -37,12 +40,13 @@ from .log import McapLogWriter, RejectedInput, vehicle_topic
 from .log.channels import STATUS_TOPIC
 from .protocol import RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, encode, failsafe_verdict, peek_frame
 from .status import MonitorStatus, StatusCounters
-from .vehicle_state import PermittedMemory
+from .vehicle_state import EXPIRY_MARGIN_S, PermittedMemory
 
 log = logging.getLogger(__name__)
 
 JSON = zenoh.Encoding.APPLICATION_JSON
 EXCERPT_BYTES = 512
+EXPIRY_SWEEP_S = 1.0  # how often the watchdog looks for vehicles gone silent
 
 
 @dataclass(eq=False)
@@ -105,7 +109,10 @@ class MonitorServer:
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._publishers_lock = threading.Lock()
         self._permitted = PermittedMemory()
-        self._vehicles: set[str] = set()
+        self._vehicles: dict[str, float] = {}  # vehicle -> arrival of its latest proposal
+        self._vehicles_lock = threading.Lock()  # between the zenoh threads and the sweep; never held with the other
+        # No proposal is still open this long after a vehicle's last one, and its window has lapsed.
+        self._expiry_s = config.window_s + self._budget_s + EXPIRY_MARGIN_S
         self._declared: list = []
         self.pool = DecisionPool(
             config.workers,
@@ -211,12 +218,16 @@ class MonitorServer:
         vehicle = keys.vehicle_of(key)
         wild = keys.is_wild(key)
         req = Request(
-            next(self._rids), key, vehicle, data, raw[:EXCERPT_BYTES] if data is None else b"", size, now, time.time_ns(),
-            now + self._budget_s, query,
+            next(self._rids), key, vehicle or "", data, raw[:EXCERPT_BYTES] if data is None else b"", size, now,
+            time.time_ns(), now + self._budget_s, query,
         )
-        if wild:
+        if wild or vehicle is None:
             # Not a vehicle: no per-vehicle state, and no verdict but a query's reply (a put's would be broadcast).
-            reason = f"key {key[:200]!r} has a wildcard: a proposal's key names its vehicle, discern/<vehicle>/..."
+            reason = (
+                f"key {key[:200]!r} has a wildcard: a proposal's key names its vehicle, discern/<vehicle>/..."
+                if wild
+                else f"key {key[:200]!r} is not discern/<vehicle>/proposal or discern/<vehicle>/check"
+            )
             if query is None:
                 req.claim()
                 self.counters.input_refused("vehicle")
@@ -236,7 +247,8 @@ class MonitorServer:
         else:
             refusal = None
         if refusal is None or refusal[1] != "vehicle":  # a key naming no valid vehicle is no vehicle
-            self._vehicles.add(vehicle)
+            with self._vehicles_lock:
+                self._vehicles[vehicle] = now
         self._open[req.rid] = req
         if refusal is not None:
             # Cheap to decide, but answered from the watchdog's thread, never from a zenoh thread.
@@ -311,9 +323,13 @@ class MonitorServer:
     # -- deadline --------------------------------------------------------------
 
     def _watch(self) -> None:
-        """Send refusals, and at its deadline a fail-safe for every request still open."""
+        """Send refusals, and at its deadline a fail-safe for every request still open; forget silent vehicles."""
         pending = self._pending
+        next_sweep = time.monotonic() + EXPIRY_SWEEP_S
         while not self._stopping.is_set():
+            if time.monotonic() >= next_sweep:
+                self._forget_silent(time.monotonic())
+                next_sweep = time.monotonic() + EXPIRY_SWEEP_S
             while self._refusals:
                 req, reason, kind = self._refusals.popleft()
                 self._answer(req, self._refuse(req, reason, kind))
@@ -337,6 +353,19 @@ class MonitorServer:
             reason = f"no decision within the {self.config.budget_ms:g} ms budget"
             if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
                 self.counters.count("deadline_misses")
+
+    def _forget_silent(self, now: float) -> None:
+        """Drop the state of the vehicles silent for `_expiry_s`: a vehicle coming back is a new episode anyway."""
+        with self._vehicles_lock:
+            silent = [v for v, last in self._vehicles.items() if now - last > self._expiry_s]
+            for vehicle in silent:
+                del self._vehicles[vehicle]
+        for vehicle in silent:
+            self._permitted.forget(vehicle)
+            with self._publishers_lock:
+                publisher = self._publishers.pop(vehicle, None)
+            if publisher is not None:
+                _quietly(publisher.undeclare)
 
     # -- answers ---------------------------------------------------------------
 
@@ -372,8 +401,13 @@ class MonitorServer:
         )
 
     def _refuse(self, req: Request, reason: str, kind: str) -> Answer:
-        """The answer to a payload refused on arrival, before any worker saw it."""
-        verdict = failsafe_verdict(req.vehicle, reason, RULE_BAD_INPUT, shadow=self.config.shadow)
+        """The answer to a payload refused on arrival, before any worker saw it.
+
+        Labelled with the payload's frame id when a glance finds one: a planner waiting over
+        publish/subscribe matches a verdict to its frame. An oversized payload is glanced at in its head.
+        """
+        frame_id, _ = peek_frame(req.payload or req.head)  # the action stays unread: refused, it is not kept
+        verdict = failsafe_verdict(req.vehicle, reason, RULE_BAD_INPUT, frame_id=frame_id, shadow=self.config.shadow)
         verdict.latency_ms = round((time.monotonic() - req.arrived) * 1000, 3)
         return Answer(
             encode(verdict), verdict.decision.value, True, verdict.latency_ms, kind, error=reason, not_proposal=reason
@@ -387,8 +421,10 @@ class MonitorServer:
             if req.query is not None:
                 with req.query as query:
                     query.reply(req.key, answer.verdict, encoding=JSON)
-            else:
+            elif valid_id(req.vehicle):
                 self._publisher(req.vehicle).put(answer.verdict)
+            else:  # no vehicle, so none of its state: no publisher kept for a key nobody will use again
+                self.session.put(keys.verdict_key(req.vehicle), answer.verdict, encoding=JSON)
         except Exception as exc:  # the session is closing, or the querier gave up
             log.warning("could not send the verdict for %s: %s", req.key, exc)
         self.counters.verdict_sent(answer.decision, answer.failsafe, answer.latency_ms, answer.error_kind)

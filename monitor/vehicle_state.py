@@ -12,8 +12,13 @@ back in both frame id and scene time from past the episode's first frame to
 that first frame or before it: a replayed or late frame of the episode went out
 after its first frame, in both id and time, so it stays refused. (A replay of
 the episode's very first frame cannot be told from a restart that repeats it
-exactly, and is admitted.) Without scene timestamps only a silence longer than
-the window starts afresh.
+exactly, and is admitted.) Scene time 0 is a time like any other once the
+vehicle's clock has moved past it: episodes often start at 0.0. Without scene
+timestamps only a silence longer than the window starts afresh.
+
+A vehicle silent for longer than its window would start afresh anyway, so its
+state is dropped a little after that (`expired`): memory follows the vehicles
+heard from lately, not every vehicle ever seen.
 """
 
 from __future__ import annotations
@@ -27,6 +32,9 @@ from .protocol import InputError
 
 MAX_FRAMES = 256  # bounds memory whatever the frame rate
 PERMITTED_MEMORY_S = 0.5  # how long a verdict's permitted set may guide a fail-safe
+# Past its window a silent vehicle starts afresh; its state is dropped this much later, once nothing in transit
+# can still be one of its frames from before the silence.
+EXPIRY_MARGIN_S = 1.0
 
 
 class VehicleState:
@@ -54,7 +62,7 @@ class VehicleState:
                 f"frame_id: {what} frame {scene.frame_id}, the last frame judged for this vehicle was {last}",
                 "order",
             )
-        if last is None or 0 < scene.timestamp < self.last_timestamp:  # the clock going back is a new episode too
+        if last is None or scene.timestamp < self.last_timestamp:  # the clock going back is a new episode too
             self.episode_start = (scene.frame_id, scene.timestamp)
         self._evict(scene, now)
         history = tuple(s for _, s in self.frames)
@@ -64,21 +72,29 @@ class VehicleState:
         self.last_arrival = now
         return history
 
+    def expired(self, now: float) -> bool:
+        """Silent for so long that its next frame starts afresh whatever it is: the state can go."""
+        return now - self.last_arrival > self.window_s + EXPIRY_MARGIN_S
+
     def _restarts(self, scene: Scene) -> bool:
-        """Does the scene begin a new episode? From past the episode's first frame back to it, in id and time."""
+        """Does the scene begin a new episode? From past the episode's first frame back to it, in id and time.
+
+        The episode's clock must have moved on from its first frame, so a planner without timestamps (all 0)
+        never restarts this way, while one whose episodes start at 0.0 does.
+        """
         first_id, first_time = self.episode_start
         return (
             self.last_frame_id is not None
             and scene.frame_id <= first_id < self.last_frame_id
-            and 0 < scene.timestamp <= first_time < self.last_timestamp
+            and scene.timestamp <= first_time < self.last_timestamp
         )
 
     def _evict(self, scene: Scene, now: float) -> None:
         frames = self.frames
+        if frames and frames[-1][1].timestamp > scene.timestamp:
+            frames.clear()  # the clock went back, to 0.0 too: a new episode
         if scene.timestamp > 0:
             # Scene time when the planner gives it: a simulation may run faster than the wall clock.
-            if frames and frames[-1][1].timestamp > scene.timestamp:
-                frames.clear()  # the clock went back: a new episode
             oldest = scene.timestamp - self.window_s
             while frames and not (oldest <= frames[0][1].timestamp <= scene.timestamp):
                 frames.popleft()
@@ -100,3 +116,6 @@ class PermittedMemory:
     def recent(self, vehicle: str, now: float) -> tuple[Action, ...]:
         at, permitted = self._last.get(vehicle, (float("-inf"), ()))
         return permitted if now - at <= self.memory_s else ()
+
+    def forget(self, vehicle: str) -> None:
+        self._last.pop(vehicle, None)

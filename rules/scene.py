@@ -159,6 +159,11 @@ class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", populate_by_name=True, use_enum_values=False)
 
 
+# How JSON from outside (the wire, a file) is read: as the published JSON Schema says, no more. Lax mode would
+# take "25" for a speed or true for a frame id; by name, "cls" for "class" (a name only Python code may use).
+JSON_AS_SCHEMA = {"strict": True, "by_alias": True, "by_name": False}
+
+
 class Vec2(Strict):
     x: Metres = 0.0
     y: Metres = 0.0
@@ -322,21 +327,34 @@ class Proposal(Strict):
     explain: bool = Field(False, description="ask for the full justification tree")
 
 
+# A field name is short: a longer one is an unknown key, which could be any size (a refusal repeats its line
+# in the verdict's error, summary and text, and in the log). Cut, it still names the problem; so does a line
+# cut to MAX_PROBLEM, longer than any the schema's own names make.
+MAX_PATH_PART = 64
+MAX_PROBLEM = 300
+MAX_VALUE_SHOWN = 60
+
+
+def _cut(text: str, limit: int) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}... (cut from {len(text)} characters)"
+
+
 def describe_errors(exc: ValidationError, root: str = "") -> str:
-    """One line per problem, naming the field path, the problem and the offending value."""
+    """One line per problem, naming the field path, the problem and the offending value; each line bounded."""
     lines = []
     for err in exc.errors():
-        path = ".".join(str(p) for p in (root, *err["loc"]) if p != "")  # a whole-scene check names its fields itself
+        # a whole-scene check names its fields itself
+        path = ".".join(_cut(str(p), MAX_PATH_PART) for p in (root, *err["loc"]) if p != "")
         message = err["msg"].removeprefix("Value error, ")
         if err["type"] == "value_error":
             pass
         elif err["type"] == "enum":
             expected = err.get("ctx", {}).get("expected", "")
-            message = f"unknown value {err['input']!r} (expected one of {expected})"
+            message = f"unknown value {repr(err['input'])[:MAX_VALUE_SHOWN]} (expected one of {expected})"
         elif err["type"] in ("missing",):
             message = "is required but missing"
         elif "input" in err and err["type"] not in ("model_type", "dict_type"):
             shown = repr(err["input"])
-            message = f"{message} (got {shown[:60]})"
-        lines.append(f"{path}: {message}" if path else message)
+            message = f"{message} (got {shown[:MAX_VALUE_SHOWN]})"
+        lines.append(_cut(f"{path}: {message}" if path else message, MAX_PROBLEM))
     return "\n".join(lines)

@@ -7,7 +7,7 @@ from typing import Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from discern.rules.scene import Action, Scene
+from discern.rules.scene import JSON_AS_SCHEMA, Action, Scene
 from discern.rules.verdict import Decision
 
 
@@ -42,4 +42,4 @@ class Scenario(BaseModel):
 
     @classmethod
     def load(cls, path: Path) -> "Scenario":
-        return cls.model_validate_json(Path(path).read_text(encoding="utf-8"))
+        return cls.model_validate_json(Path(path).read_text(encoding="utf-8"), **JSON_AS_SCHEMA)

@@ -313,3 +313,21 @@ def test_scenarios_run_with_own_rules_loads_them_once_for_all_files(tmp_path, mo
     files = sorted((Path(__file__).parent.parent / "scenarios" / "rules").glob("*.json"))[:3]
     assert main(["scenarios", "run", *map(str, files), "--rules", str(rules)]) == 0
     assert len(loads) == 1
+
+
+@pytest.mark.parametrize("change, field", [
+    (lambda d: d["ego"].update(speed="25"), "ego.speed"),
+    (lambda d: d.update(frame_id=True), "frame_id"),
+])
+def test_check_reads_a_scene_file_as_the_schema_and_the_wire_do(tmp_path, capsys, change, field):
+    data = good_dict()
+    change(data)
+    assert main(["check", write(tmp_path, data), "--proposed", "cruise"]) == 2
+    assert field in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("timeout", ["0", "1e20", "nan"])
+def test_status_refuses_a_timeout_it_cannot_wait_in_one_line(capsys, timeout):
+    assert main(["status", "--timeout", timeout]) == 2
+    [line] = capsys.readouterr().err.splitlines()
+    assert line.startswith("discern status: error: --timeout must be a finite number above 0 s and at most")

@@ -7,6 +7,7 @@ derandomized so that CI sees the same examples every time.
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -18,10 +19,15 @@ from pydantic import ValidationError
 from discern.adapters.avcsr import AvcsrError, read_file
 from discern.monitor.protocol import InputError, decode_proposal
 from discern.rules.render import render_html, render_json
-from discern.rules.scene import Action, Scene, describe_errors
+from discern.rules.scene import Action, Proposal, Scene, describe_errors
 from tests.test_avcsr_adapter import FRAME
 
 SCHEMAS = Path(__file__).resolve().parents[1] / "rules" / "schema"
+PROPOSAL = Proposal.model_validate({
+    "vehicle": "car_1", "action": "cruise",
+    "scene": {"frame_id": 1, "ego": {"speed": 25.0, "lane": 1}, "lanes": [{"kind": "current", "id": 1}],
+              "objects": [{"id": 1, "class": "car", "position": {"x": 0.0, "y": 40.0}}]},
+})
 SCENE_SCHEMA = json.loads((SCHEMAS / "scene.schema.json").read_text())
 PROPOSAL_SCHEMA = json.loads((SCHEMAS / "proposal.schema.json").read_text())
 
@@ -63,6 +69,93 @@ def test_any_bytes_on_a_proposal_key_decode_or_name_their_problem(payload):
         assert exc.kind in {"json", "schema", "vehicle"} and str(exc)
         return
     assert proposal.vehicle == "car_1"
+
+
+@FUZZ
+@given(document=from_schema(PROPOSAL_SCHEMA))
+def test_every_proposal_the_schema_admits_decodes_strictly_or_fails_only_a_cross_field_check(document):
+    """Strict decoding refuses only what the schema refuses: a JSON integer is still a number, an enum its string."""
+    try:
+        decode_proposal(json.dumps(document).encode(), document.get("vehicle", "car_1"))
+    except InputError as exc:
+        # the lanes and the object ids are checked across fields, which a JSON Schema cannot say;
+        # and the schema's pattern lets Python's `$` take a vehicle id ending in a newline, which no key holds
+        assert exc.kind == "vehicle" or any(
+            problem in str(exc) for problem in ("does not exist: current lanes are", "appears twice")
+        ), str(exc)
+
+
+@pytest.mark.parametrize("path, value, expected", [
+    (("scene", "frame_id"), True, "scene.frame_id: Input should be a valid integer (got True)"),
+    (("scene", "frame_id"), "7", "scene.frame_id: Input should be a valid integer (got '7')"),
+    (("scene", "ego", "speed"), "25", "scene.ego.speed: Input should be a valid number (got '25')"),
+    (("scene", "ego", "lane"), "2", "scene.ego.lane: Input should be a valid integer (got '2')"),
+    (("scene", "objects", 0, "emergency_lights"), "false", "scene.objects.0.emergency_lights: Input should be a valid"),
+    (("explain",), "yes", "explain: Input should be a valid boolean (got 'yes')"),
+    (("explain",), 1, "explain: Input should be a valid boolean (got 1)"),
+    (("version",), "1", "version: Input should be 1 (got '1')"),
+])
+def test_a_wire_value_of_another_json_type_than_the_schema_says_is_refused_not_converted(path, value, expected):
+    document = json.loads(PROPOSAL.model_dump_json(by_alias=True))
+    target = document
+    for key in path[:-1]:
+        target = target[key]
+    target[path[-1]] = value
+    with pytest.raises(InputError) as refused:
+        decode_proposal(json.dumps(document).encode(), "car_1")
+    assert refused.value.kind == "schema" and str(refused.value).startswith(f"schema violation: {expected}")
+
+
+def test_json_integers_are_numbers_and_enum_strings_are_their_values_on_the_wire():
+    payload = (b'{"action": "cruise", "scene": {"frame_id": 3, "timestamp": 2, "ego": {"speed": 25, "lane": 1, '
+               b'"zone": "highway"}, "lanes": [{"kind": "current", "id": 1}], "objects": [{"id": 1, "class": "car", '
+               b'"position": {"x": 0, "y": 40}, "velocity": {"x": 0, "y": 20}, "sources": ["camera", "radar"]}]}}')
+    proposal = decode_proposal(payload, "car_1")
+    assert proposal.scene.ego.speed == 25.0 and isinstance(proposal.scene.ego.speed, float)
+    assert proposal.action is Action.cruise and proposal.scene.objects[0].cls.value == "car"
+
+
+def test_a_field_under_its_python_name_is_refused_on_the_wire_as_the_schema_does():
+    """The schema names an object's class "class"; "cls" is only Python's name for it."""
+    payload = (b'{"action": "cruise", "scene": {"frame_id": 3, "ego": {"speed": 25, "lane": 1}, '
+               b'"lanes": [{"kind": "current", "id": 1}], "objects": [{"id": 1, "cls": "car", '
+               b'"position": {"x": 0, "y": 40}}]}}')
+    with pytest.raises(InputError) as refused:
+        decode_proposal(payload, "car_1")
+    assert refused.value.kind == "schema" and "scene.objects.0.class" in str(refused.value)
+
+
+SCENARIO_FILES = sorted((Path(__file__).resolve().parents[1] / "scenarios").rglob("*.json"))
+
+
+@pytest.mark.parametrize("path", SCENARIO_FILES, ids=lambda p: p.name)
+def test_every_scene_of_the_scenario_files_decodes_strictly_as_a_proposal(path):
+    """The scenes written by hand, numbers and all, are what a planner may send as they are."""
+    frames = json.loads(path.read_text(encoding="utf-8"))["frames"]
+    for frame in frames:
+        payload = json.dumps({"action": frame["proposed"], "scene": frame["scene"]}).encode()
+        assert decode_proposal(payload, "car_1").scene.frame_id == frame["scene"]["frame_id"]
+
+
+def test_a_huge_unknown_key_is_named_cut_short_in_a_bounded_reason():
+    document = json.loads(PROPOSAL.model_dump_json(by_alias=True))
+    document["scene"]["k" * 300_000] = 1
+    document["scene"]["objects"] = [{"j" * 300_000: 1}]
+    with pytest.raises(InputError) as refused:
+        decode_proposal(json.dumps(document).encode(), "car_1")
+    reason = str(refused.value)
+    assert f"scene.{'k' * 64}... (cut from 300000 characters): Extra inputs are not permitted" in reason
+    assert f"scene.objects.0.{'j' * 64}... (cut from 300000 characters)" in reason
+    assert len(reason) < 1000
+
+
+def test_a_problem_past_its_length_is_cut_saying_so():
+    lanes = [{"kind": "current", "id": i} for i in range(1, 1001)]
+    with pytest.raises(ValidationError) as refused:
+        Scene.model_validate({"frame_id": 1, "ego": {"speed": 1, "lane": 1000}, "lanes": lanes[:-1]})
+    [line] = describe_errors(refused.value).splitlines()
+    assert line.startswith("ego.lane 1000 does not exist: current lanes are [1, 2, 3")
+    assert re.search(r"\.\.\. \(cut from 49\d\d characters\)$", line) and len(line) < 350
 
 
 @FUZZ

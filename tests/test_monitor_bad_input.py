@@ -98,6 +98,27 @@ BAD = {
     "wrong_version": (lambda v: json.dumps(proposal(v) | {"version": 2}).encode(), "version", "schema"),
     "oversized": (lambda v: json.dumps(proposal(v) | {"pad": "x" * MAX_PAYLOAD}).encode(), f"exceeds the limit of {MAX_PAYLOAD} bytes", "size"),
     "other_vehicle": (lambda v: json.dumps(proposal("somebody_else")).encode(), "payload names 'somebody_else'", "vehicle"),
+    # decoded strictly, by JSON type as the published schema reads it: nothing is converted
+    "speed_as_text": (
+        lambda v: with_scene(v, ("ego", "speed"), "25"), "scene.ego.speed: Input should be a valid number (got '25')",
+        "schema",
+    ),
+    "lane_as_text": (
+        lambda v: with_scene(v, ("ego", "lane"), "2"), "scene.ego.lane: Input should be a valid integer (got '2')",
+        "schema",
+    ),
+    "frame_id_as_boolean": (
+        lambda v: with_scene(v, ("frame_id",), True), "scene.frame_id: Input should be a valid integer (got True)",
+        "schema",
+    ),
+    "explain_as_text": (
+        lambda v: json.dumps(proposal(v) | {"explain": "yes"}).encode(), "explain: Input should be a valid boolean",
+        "schema",
+    ),
+    "explain_as_number": (
+        lambda v: json.dumps(proposal(v) | {"explain": 1}).encode(), "explain: Input should be a valid boolean (got 1)",
+        "schema",
+    ),
 }
 
 
@@ -110,6 +131,18 @@ def test_bad_input_gets_a_failsafe_brake_naming_the_problem(session, case):
     assert expected in verdict.error, verdict.error
     assert verdict.vehicle == vehicle and verdict.rules == ["monitor.bad_input"]
     assert verdict.justification.summary.startswith("fail-safe brake")
+
+
+def test_a_refusal_of_a_huge_unknown_key_names_it_cut_short(session, monitor):
+    key = "k" * 6000  # the payload stays under this monitor's limit; the cut is the same for 300 KB
+    verdict = ask(session, "discern/long_key/check", with_scene("long_key", (key,), 1))
+    assert verdict.rules == ["monitor.bad_input"] and verdict.frame_id == 1
+    assert verdict.error.startswith(f"schema violation: scene.{'k' * 64}... (cut from 6000 characters): ")
+    assert "Extra inputs are not permitted" in verdict.error and len(verdict.error) < 200
+    assert len(verdict.justification.summary) < 250 and len(verdict.justification.text) < 250
+    _, proc = monitor
+    assert wait_until(lambda: any("long_key" in line for line in proc.lines))
+    assert max(len(line) for line in proc.lines) < 1000  # the warning on stderr too
 
 
 def test_duplicate_and_out_of_order_frames_are_refused(session):

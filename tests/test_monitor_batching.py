@@ -18,7 +18,7 @@ from discern.monitor.example_planner import highway_scene
 from discern.rules.engine import Reasoner, Request
 from discern.rules.scene import Proposal
 from discern.rules.verdict import Verdict
-from tests.monitor_process import serve
+from tests.monitor_process import serve, wait_until
 from tests.audit_logs import flashing
 
 BUDGET_MS = 3000
@@ -319,3 +319,103 @@ def test_the_sanity_rules_see_the_whole_window_the_monitor_keeps(window_s, remem
     outcomes = [o for _ in range(2) for o in judge.next_batch(backlog)]
     verdict = Verdict.model_validate_json(outcomes[-1].verdict)
     assert ("san.memory.red_light" in verdict.rules) is remembered
+
+
+def test_a_shed_payload_that_is_no_proposal_is_refused_by_name_not_answered_as_late():
+    """Bad input is bad input however busy the worker: refused as such, counted by kind, brake even in shadow mode."""
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=True))
+    judge.time.learn(1, 0.05)  # 50 ms a decision: 75 ms with the margin
+    now = time.monotonic()
+    nan = payload("busy", highway_scene(7, 3), "accelerate").replace(b'"speed":25.0', b'"speed":NaN', 1)
+    assert b"NaN" in nan
+    backlog = deque([
+        Job(0, "busy", b'{"action": "cruise", "frame_id": 6, "scene": {', now - 0.09, now + 0.01),  # 10 ms left
+        Job(1, "busy", nan, now - 0.09, now + 0.01),
+    ])
+    malformed, schema = judge.next_batch(backlog)
+    for outcome, kind, frame in ((malformed, "json", 6), (schema, "schema", 7)):
+        assert outcome.verdict is not None and outcome.no_verdict is None and outcome.error_kind == kind
+        verdict = Verdict.model_validate_json(outcome.verdict)
+        assert verdict.rules == ["monitor.bad_input"] and verdict.action.value == "brake" and verdict.failsafe
+        assert verdict.decision.value == "override" and verdict.error == outcome.error
+        assert verdict.frame_id == frame  # the frame id the payload shows, proposal or not
+    assert "malformed JSON" in malformed.error and "scene.ego.speed: Input should be a finite number" in schema.error
+
+
+def test_a_shed_frame_out_of_order_is_refused_as_a_decided_one_would_be():
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=True))
+    now = time.monotonic()
+    [first] = judge.next_batch(deque([Job(0, "order", payload("order", highway_scene(5, 3), "cruise"), now, now + 10)]))
+    assert first.verdict is not None and first.error_kind is None
+    judge.time.fixed_s, judge.time.per_proposal_s = 0.0, 0.05
+    late = Job(1, "order", payload("order", highway_scene(5, 3), "accelerate"), now - 0.09, now + 0.01)
+    [replayed] = judge.next_batch(deque([late]))
+    assert replayed.error_kind == "order" and "duplicate frame 5" in replayed.error
+    verdict = Verdict.model_validate_json(replayed.verdict)
+    assert verdict.rules == ["monitor.bad_input"] and verdict.frame_id == 5
+    assert verdict.decision.value == "veto" and verdict.action.value == "accelerate"  # shadow: its action is kept
+
+
+def test_a_refusal_names_the_frame_id_of_a_payload_that_is_no_proposal():
+    """A planner waiting over publish/subscribe matches a verdict to its frame by its frame_id."""
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
+    now = time.monotonic()
+    wrong = payload("labels", highway_scene(41, 3), "cruise").replace(b'"lane":2', b'"lane":"2"', 1)
+    assert b'"lane":"2"' in wrong
+    [refused] = judge.next_batch(deque([Job(0, "labels", wrong, now, now + 10)]))
+    assert refused.error_kind == "schema" and Verdict.model_validate_json(refused.verdict).frame_id == 41
+
+
+def test_the_windows_of_vehicles_silent_past_their_window_are_dropped(monkeypatch):
+    judge = Judge(WorkerSettings(window_s=0.05, shadow=False))
+    clock = [time.monotonic()]
+    monkeypatch.setattr(decision_worker.time, "monotonic", lambda: clock[0])
+    for rid, vehicle in enumerate(("gone", "stays")):
+        list(judge.next_batch(deque([Job(rid, vehicle, payload(vehicle, highway_scene(1, 2), "cruise"), clock[0], clock[0] + 1)])))
+    assert set(judge.vehicles) == {"gone", "stays"}
+    clock[0] += decision_worker.EXPIRY_SWEEP_S + 1.0  # past the window and its margin
+    arrived = clock[0]
+    list(judge.next_batch(deque([Job(2, "stays", payload("stays", highway_scene(2, 2), "cruise"), arrived, arrived + 1)])))
+    judge.forget_silent(deque())
+    assert set(judge.vehicles) == {"stays"}
+    clock[0] += 0.5  # "stays" silent past its 0.05 s window, but not past the margin: kept for now
+    judge.forget_silent(deque())
+    assert set(judge.vehicles) == {"stays"}
+    clock[0] += decision_worker.EXPIRY_SWEEP_S + 1.0
+    judge.forget_silent(deque())
+    assert judge.vehicles == {}
+
+
+def test_a_window_is_kept_while_a_job_sent_before_the_silence_ran_out_still_waits(monkeypatch):
+    judge = Judge(WorkerSettings(window_s=0.05, shadow=False))
+    clock = [time.monotonic()]
+    monkeypatch.setattr(decision_worker.time, "monotonic", lambda: clock[0])
+    list(judge.next_batch(deque([Job(0, "queued", payload("queued", highway_scene(1, 2), "cruise"), clock[0], clock[0] + 1)])))
+    waiting = deque([Job(1, "queued", payload("queued", highway_scene(2, 2), "cruise"), clock[0] + 0.01, clock[0] + 9)])
+    clock[0] += decision_worker.EXPIRY_SWEEP_S + 5.0  # a long backlog: the job waited, its vehicle's window with it
+    judge.forget_silent(waiting)
+    assert set(judge.vehicles) == {"queued"}
+
+
+def test_an_idle_worker_drops_the_windows_of_vehicles_that_fall_silent(monkeypatch):
+    import multiprocessing
+    import threading
+
+    from discern.monitor import vehicle_state
+
+    monkeypatch.setattr(decision_worker, "EXPIRY_SWEEP_S", 0.01)
+    monkeypatch.setattr(vehicle_state, "EXPIRY_MARGIN_S", 0.0)
+    judge = Judge(WorkerSettings(window_s=0.05, shadow=False))
+    now = time.monotonic()
+    list(judge.next_batch(deque([Job(0, "idle", payload("idle", highway_scene(1, 2), "cruise"), now, now + 1)])))
+    assert set(judge.vehicles) == {"idle"}
+    monitor_end, worker_end = multiprocessing.Pipe()
+    waiting = threading.Thread(
+        target=decision_worker._take_waiting, args=(worker_end, deque(), decision_worker.IdleWork(judge.reasoner), judge)
+    )
+    waiting.start()
+    try:
+        assert wait_until(lambda: not judge.vehicles, timeout=10)  # no job came: it swept while it waited
+    finally:
+        monitor_end.send(decision_worker.STOP)
+        waiting.join(10)

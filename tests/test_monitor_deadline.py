@@ -109,7 +109,8 @@ def test_a_worker_that_once_was_slow_still_tries_fresh_proposals():
     now = time.monotonic()
     [fresh] = judge.next_batch(deque([Job(1, "v", payload, now, now + BUDGET_MS / 1000)]))
     assert fresh.verdict is not None and fresh.decision == "approve"
-    [stale] = judge.next_batch(deque([Job(2, "v", payload, now - 0.045, now + 0.005)]))  # 5 ms of 50 left
+    later = Proposal(vehicle="v", action="cruise", scene=highway_scene(1, 4)).model_dump_json().encode()
+    [stale] = judge.next_batch(deque([Job(2, "v", later, now - 0.045, now + 0.005)]))  # 5 ms of 50 left
     assert stale.verdict is None and "left after queueing" in stale.no_verdict
 
 
@@ -145,7 +146,7 @@ def test_a_shed_frames_scene_is_in_the_window_of_the_next_decided_frame_and_the_
         assert not answer(ask(session, "siren", proposal("siren", flashing(0, False)))).failsafe  # timed: it may shed
         first = ask(session, "siren", proposal("siren", flashing(1, False)))
         shed = ask(session, "siren", proposal("siren", flashing(2, True)))  # waits out frame 1's 700 ms
-        garbled = ask(session, "garbled", MALFORMED)  # shed too, its payload read all the same
+        garbled = ask(session, "garbled", MALFORMED)  # shed too, its payload read: refused as what it is
         shed, garbled = answer(shed), answer(garbled)
         answer(first)
         after = answer(ask(session, "siren", proposal("siren", flashing(3, True))))
@@ -153,7 +154,7 @@ def test_a_shed_frames_scene_is_in_the_window_of_the_next_decided_frame_and_the_
         session.close()
         assert proc.stop() == 0, proc.output
     assert shed.failsafe and shed.rules == [RULE_DEADLINE] and shed.frame_id == 2
-    assert garbled.failsafe and garbled.rules == [RULE_DEADLINE]
+    assert garbled.failsafe and garbled.rules == ["monitor.bad_input"] and garbled.error.startswith("malformed JSON")
     # the lights were seen in frames 2 and 3: an emergency vehicle on duty, only if frame 2 is in the window
     assert not after.failsafe and after.action is Action.pull_over and "san.emergency.flashing" in after.rules
 

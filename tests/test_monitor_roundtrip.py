@@ -84,6 +84,27 @@ def test_many_vehicles_are_served_concurrently_each_in_frame_order(client):
         assert all(v.vehicle == vehicle and not v.failsafe for v in verdicts)
 
 
+def test_a_planner_restarting_its_episodes_at_scene_time_zero_is_judged_afresh_each_time(client):
+    """Frame 0 at 0.0 after frame 5 at 0.25: a new episode, not six frames refused as out of order."""
+    monitor = client("restarts_at_zero")
+    for episode in range(3):
+        verdicts = [
+            monitor.check(highway_scene(f, 4).model_copy(update={"timestamp": round(0.05 * f, 2)}), "cruise")
+            for f in range(6)
+        ]
+        assert not [v.error for v in verdicts if v.failsafe], episode
+        assert [v.frame_id for v in verdicts] == list(range(6))
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_check_after_close_returns_a_failsafe_instead_of_raising(client, style):
+    monitor = client(f"closed_{style}", style=style)
+    monitor.close()
+    verdict = monitor.check(highway_scene(9, 4), "cruise")
+    assert verdict.failsafe and verdict.rules == ["monitor.no_answer"] and verdict.action.value == "brake"
+    assert verdict.error == "not sent: this Monitor is closed" and verdict.frame_id == 9
+
+
 def test_status_reports_counts_and_latency(client, monitor):
     client("car_s").check(highway_scene(0, 8), "cruise")
     [report] = status(monitor, "rt")

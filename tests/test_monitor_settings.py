@@ -6,6 +6,7 @@ import math
 
 import pytest
 
+from discern.monitor import keys
 from discern.monitor.config import LogSettings, MonitorConfig
 from tests.monitor_process import START_TIMEOUT_S, DiscernProcess, endpoint, free_port
 
@@ -58,6 +59,7 @@ def test_the_documented_bounds_are_accepted(tmp_path):
         (["--log-rotate-mb", "nan"], "--log-rotate-mb must be a finite number at least 0.0625 MiB, got nan"),
         (["--connect", "nonsense"], "bad zenoh endpoint 'nonsense': Endpoints must be of the form"),
         (["--vehicles", "car_[12]"], "vehicle filter 'car_[12]' may hold only letters, digits, '_', '-' and the wildcard '*'"),
+        (["--vehicles", "**"], "vehicle filter '**' must be one key chunk: '**' matches several, use '*'"),
     ],
 )
 def test_serve_refuses_bad_settings_in_one_line_with_status_2(tmp_path, flags, message):
@@ -68,3 +70,31 @@ def test_serve_refuses_bad_settings_in_one_line_with_status_2(tmp_path, flags, m
         proc.stop()
     assert code == 2 and len(proc.lines) == 1, proc.output
     assert proc.lines[0].startswith(f"discern serve: error: {message}"), proc.output
+
+
+@pytest.mark.parametrize("pattern", ["**", "fleet_**", "**_a", "a**b"])
+def test_a_vehicle_filter_that_spans_key_chunks_is_refused(pattern):
+    with pytest.raises(ValueError, match="must be one key chunk: '\\*\\*' matches several"):
+        keys.vehicle_selector(pattern)
+
+
+@pytest.mark.parametrize("pattern, chunk", [("*", "*"), ("fleet_a_*", "fleet_a_$*"), ("$*", "*"), ("car_1", "car_1")])
+def test_a_one_chunk_vehicle_filter_is_taken(pattern, chunk):
+    assert keys.vehicle_selector(pattern) == chunk
+
+
+@pytest.mark.parametrize(
+    "key, vehicle",
+    [
+        ("discern/car_1/check", "car_1"),
+        ("discern/car_1/proposal", "car_1"),
+        ("discern/car_1/extra/check", None),
+        ("discern/car_1/a/b/proposal", None),
+        ("discern/check", None),
+        ("discern/proposal", None),
+        ("discern/car_1/verdict", None),
+        ("other/car_1/check", None),
+    ],
+)
+def test_only_a_three_chunk_proposal_or_check_key_names_a_vehicle(key, vehicle):
+    assert keys.vehicle_of(key) == vehicle

@@ -6,7 +6,8 @@ import pytest
 
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.protocol import InputError
-from discern.monitor.vehicle_state import MAX_FRAMES, VehicleState
+from discern.rules.scene import Action
+from discern.monitor.vehicle_state import EXPIRY_MARGIN_S, MAX_FRAMES, PermittedMemory, VehicleState
 
 
 def frame(frame_id: int, timestamp: float):
@@ -56,6 +57,43 @@ def test_a_new_episode_going_back_in_frame_id_and_time_is_admitted_with_a_fresh_
     for run in range(2):  # a planner restarted at once: the same frames again
         histories = [state.admit(frame(i, 1.0 + 0.05 * i), now=run + 0.05 * i) for i in range(3)]
         assert [[s.frame_id for s in h] for h in histories] == [[], [0], [0, 1]]
+
+
+def test_a_new_episode_starting_again_at_scene_time_zero_is_admitted_with_a_fresh_window():
+    state = VehicleState(window_s=2.0)
+    for run in range(2):  # episodes at 20 Hz from t = 0.0, the second right after the first
+        histories = [state.admit(frame(i, 0.05 * i), now=2.0 * run + 0.05 * i) for i in range(40)]
+        assert [len(h) for h in histories[:3]] == [0, 1, 2]  # frame 0 at 0.0 starts it, not 40 refusals
+
+
+def test_a_clock_going_back_to_zero_while_the_frame_id_rises_clears_the_window():
+    state = VehicleState(window_s=2.0)
+    for i in range(5):
+        state.admit(frame(i, 1.0 + 0.05 * i), now=0.05 * i)
+    assert state.admit(frame(5, 0.0), now=0.25) == ()  # a planner that keeps counting across episodes
+    assert [s.frame_id for s in state.admit(frame(6, 0.05), now=0.3)] == [5]
+
+
+def test_without_scene_timestamps_a_frame_going_back_is_refused_not_a_new_episode():
+    state = VehicleState(window_s=2.0)
+    for i in range(5):
+        state.admit(frame(i, 0.0), now=0.05 * i)
+    with pytest.raises(InputError, match="out-of-order frame 0"):
+        state.admit(frame(0, 0.0), now=0.3)
+
+
+def test_a_vehicle_expires_once_silent_past_its_window_and_the_margin():
+    state = VehicleState(window_s=2.0)
+    state.admit(frame(1, 1.0), now=100.0)
+    assert not state.expired(100.0 + 2.0 + EXPIRY_MARGIN_S)
+    assert state.expired(100.0 + 2.0 + EXPIRY_MARGIN_S + 0.01)
+
+
+def test_a_forgotten_vehicle_has_no_permitted_actions_left():
+    memory = PermittedMemory()
+    memory.remember("v", (Action.cruise,), now=1.0)
+    memory.forget("v")
+    assert memory.recent("v", 1.0) == () and memory._last == {}
 
 
 def test_an_old_frame_of_the_episode_is_refused_though_it_goes_back_in_frame_id_and_time():
