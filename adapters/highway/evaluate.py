@@ -8,6 +8,7 @@ false vetoes (oracle.py's definition), time above the true limit, and the rules 
 from __future__ import annotations
 
 import csv
+import math
 import multiprocessing
 import time
 from collections import Counter
@@ -248,12 +249,17 @@ def format_table(rows: list[dict]) -> str:
         ("speeding_s", "speeding s", "{:.0f}"),
         ("decide_ms_p50", "p50 ms", "{:.1f}"),
     ]
-    cells = [[c[1] for c in columns]] + [[fmt.format(r[key]) for key, _, fmt in columns] for r in rows]
+    cells = [[c[1] for c in columns]] + [[_cell(fmt, r[key]) for key, _, fmt in columns] for r in rows]
     widths = [max(len(row[i]) for row in cells) for i in range(len(columns))]
     lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)) for row in cells]
     lines.insert(1, "  ".join("-" * w for w in widths))
     tops = [f"top vetoing rules [{r['faults']}/{r['variant']}]: {r['top_rules']}" for r in rows if r["top_rules"]]
     return "\n".join(lines + [""] + tops)
+
+
+def _cell(fmt: str, value) -> str:
+    """A figure a variant does not have (the planner alone decides nothing) reads '–', as in docs/evaluation.md."""
+    return "–" if isinstance(value, float) and math.isnan(value) else fmt.format(value)
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
