@@ -19,9 +19,11 @@ from dataclasses import dataclass
 from typing import Iterable, Optional, Sequence
 
 from discern.rules.facts import cm
-from discern.rules.scene import DetectedObject, LaneKind, LightColour, ObjectClass, Scene, SensorSide, SignKind, Source
+from discern.rules.scene import (DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour, ObjectClass,
+                                 Scene, SensorSide, SignKind, Source)
 
 CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Source.annotation}
+PICTURE = {Source.camera, Source.fused}  # sources that classify signs from a picture (def.read_from_a_picture)
 EGO_LENGTH, EGO_WIDTH = 4.6, 2.0
 HALF_LANE = 1.75  # m: half a lane, the ego's corridor when predicting crossings
 # The classes the catalog calls motor vehicles (def.motor_vehicle: an automobile, not a vulnerable road user): ahead,
@@ -53,7 +55,10 @@ class WindowConfig:
     seconds: float = 2.0  # frames older than this are out of the window
     max_frames: int = 40  # frames without timestamps, whose age cannot be told: at most this many of them
     confirm_frames: int = 2  # frames in a row a reading needs before it is believed
-    track_frames: int = 3  # frames a lost object must have been tracked to be kept
+    confirm_s: float = 0.2  # and for how long: at 50 Hz two frames are 40 ms, a flicker
+    track_frames: int = 2  # frames a lost object must have been tracked to be kept
+    track_s: float = 0.3  # and for how long: at 5 Hz two frames are 0.4 s, at 50 Hz three are a 60 ms ghost
+    untimed_frame_s: float = 0.1  # how long a frame without timestamps is taken to last (10 Hz, as KITTI's)
     horizon_s: float = 3.0  # how far ahead tracked courses are followed
     sensor_margin: float = 2.0  # m a range reading may exceed a lost object's distance and still be it
     # A flashing signal runs at about 1 Hz (MUTCD 4D.19: 50-60 flashes a minute, lit for 1/2 to 2/3 of each):
@@ -67,6 +72,11 @@ class WindowConfig:
             raise ValueError(
                 "window needs seconds > 0, max_frames >= 1, confirm_frames >= 1 and track_frames >= 1, "
                 f"got {self}"
+            )
+        if self.confirm_s < 0 or self.track_s < 0 or not self.untimed_frame_s > 0:
+            raise ValueError(
+                "window needs confirm_s >= 0, track_s >= 0 and untimed_frame_s > 0, "
+                f"got {self.confirm_s}, {self.track_s} and {self.untimed_frame_s}"
             )
         if not self.horizon_s > 0:
             raise ValueError(f"window horizon_s must be > 0, got {self.horizon_s}")
@@ -83,8 +93,10 @@ class _Summary:
 
     readings: frozenset[int]
     primary: Optional[int]
+    misread: tuple[tuple[int, str], ...]  # limits read from a picture where a stop sign belonged, with the evidence
     lights: frozenset[LightColour]
     flashing: frozenset[LightColour]
+    steady: frozenset[LightColour]  # colours some light of which is not flagged flashing
     stop_sign: bool
     speed: int  # the ego's, cm/s
     objects: dict[int, DetectedObject]  # by id
@@ -98,8 +110,12 @@ class _Summary:
         return cls(
             readings=frozenset(_readings(scene)),
             primary=_primary(scene),
-            lights=frozenset(l.colour for l in scene.traffic_lights),
-            flashing=frozenset(l.colour for l in scene.traffic_lights if l.flashing),
+            misread=_misread(scene),
+            # a lamp of colour "none" (unlit, glare, unreadable) shows no colour: it is no light seen, and does not
+            # make a red seen before any less the last colour seen (the core gives it no fact either)
+            lights=frozenset(l.colour for l in scene.traffic_lights if l.colour is not LightColour.none),
+            flashing=frozenset(l.colour for l in scene.traffic_lights if l.flashing and l.colour is not LightColour.none),
+            steady=frozenset(l.colour for l in scene.traffic_lights if not l.flashing and l.colour is not LightColour.none),
             stop_sign=any(s.kind is SignKind.stop for s in scene.signs),
             speed=cm(scene.ego.speed),
             objects={o.id: o for o in scene.objects},
@@ -128,12 +144,18 @@ class WindowProvider:
                 f"window_frames({len(window) + 1}).window_param(confirm_frames,{c.confirm_frames})."
                 f"window_param(track_frames,{c.track_frames})."
             )
+            # how long a frame lasts here, in ms: the window's mean frame interval (without timestamps, the nominal
+            # one); so many frames of a reading or a track last that many intervals
+            interval = (scene.timestamp - window[0].timestamp) * 1000 / len(window)
+            if not interval > 0:
+                interval = c.untimed_frame_s * 1000
+            out.append(f"window_param(confirm_ms,{round(c.confirm_s * 1000)}).window_param(track_ms,{round(c.track_s * 1000)}).")
             now, past = self._summary(scene), [self._summary(s) for s in window]
-            out.extend(_limit_facts(now, past, c.confirm_frames))
+            out.extend(_limit_facts(now, past, c.confirm_frames, interval))
             times = [s.timestamp for s in window] + [scene.timestamp]
             out.extend(_light_facts(now, past, times, c))
             out.extend(_sign_facts(now, past))
-            out.extend(_memory_facts(scene, now, window, past, c))
+            out.extend(_memory_facts(scene, now, window, past, c, interval))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
         return "".join(out)
 
@@ -151,21 +173,39 @@ class WindowProvider:
         return summary
 
     def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:
-        """The recent frames, oldest first: newer than `seconds` before this one and not from its future.
+        """The recent frames, oldest first: those of the current run newer than `seconds` before this one.
 
-        Frames with timestamps are kept for the whole `seconds`, however many: at 50 Hz a cap of 40 frames
-        cut a 2 s window to 0.8 s, too short to see a light flash. Only frames without timestamps are
-        counted against `max_frames`.
+        A run restarts where the clock or the frame ids go back and stay back: the frames before belong to an
+        earlier run (its frames are not this one's past, however close their timestamps). A single frame older
+        than the one delivered before it, followed by a newer one, came late: it is dropped, so that the window's
+        frames are in time order (a late frame put in the wrong place makes a steady light look dark and lit again).
+        Frames from this one's future are from an earlier run too. Frames with timestamps are kept for the whole
+        `seconds`, however many: at 50 Hz a cap of 40 frames cut a 2 s window to 0.8 s, too short to see a light
+        flash. Only frames without timestamps are counted against `max_frames`.
         """
+        run: list[Scene] = []
+        frames = [*history, scene]
+        for i, past in enumerate(history):
+            if run and _goes_back(past, run[-1]):
+                if not _goes_back(frames[i + 1], run[-1]):
+                    continue  # late: the run goes on after it
+                run = []  # a restart: what came before is another run
+            run.append(past)
+        if run and _goes_back(scene, run[-1]):
+            return []  # this frame goes back: the frames before it are from its future, or from an earlier run
         kept: list[Scene] = []
         timed = scene.timestamp > 0
-        for past in reversed(history):
-            age = scene.timestamp - past.timestamp
-            if age < 0 or age > self.config.seconds or (not timed and len(kept) >= self.config.max_frames):
+        for past in reversed(run):
+            if scene.timestamp - past.timestamp > self.config.seconds or (not timed and len(kept) >= self.config.max_frames):
                 break
             kept.append(past)
         kept.reverse()
         return kept
+
+
+def _goes_back(frame: Scene, before: Scene) -> bool:
+    """Whether `frame` is older than, or numbered before, the frame `before` it."""
+    return frame.timestamp < before.timestamp or frame.frame_id < before.frame_id
 
 
 # --- speed-limit readings ---------------------------------------------------
@@ -176,6 +216,23 @@ def _readings(scene: Scene) -> set[int]:
     if scene.speed_limit is not None:
         values.add(cm(scene.speed_limit))
     return values
+
+
+def _misread(scene: Scene) -> tuple[tuple[int, str], ...]:
+    """Limits read from a picture while the ego came up to, or stood at, an intersection whose approach the map or
+    a stop line without traffic lights showed stop-controlled (san.stop.evidence_map, san.stop.evidence_line): where
+    the rules took the sign for a stop sign. Cross traffic and a vehicle ahead stopping are the rules' own evidence,
+    worked out in the frame; they are not remembered."""
+    x = scene.intersection
+    if x is None or x.stage not in (IntersectionStage.arriving, IntersectionStage.at):
+        return ()
+    lit = any(l.colour is not LightColour.none for l in scene.traffic_lights)
+    evidence = ["the_map_marks_it_stop_controlled"] if x.stop_controlled else []
+    if x.stop_line and not lit and x.type is not IntersectionType.signaled:
+        evidence.append("a_stop_line_and_no_traffic_lights")
+    values = sorted({cm(s.value) for s in scene.signs
+                     if s.kind is SignKind.speed_limit and s.value is not None and s.source in PICTURE})
+    return tuple((v, e) for v in values for e in evidence)
 
 
 def _primary(scene: Scene) -> Optional[int]:
@@ -199,30 +256,46 @@ def _runs(values: Iterable[Optional[int]]) -> list[tuple[int, int]]:
     return runs
 
 
-def _limit_facts(now: _Summary, past: list[_Summary], confirm: int) -> list[str]:
-    out = []
+def _believed(runs: list[tuple[int, int]], confirm: int) -> Optional[int]:
+    """The index of the run whose limit held at the end of `runs`: the last run read in enough frames in a row, or a
+    lower run read since it (a lower limit takes effect at once; a rise since, read in too few frames, does not)."""
+    settled = [i for i, (_, length) in enumerate(runs) if length >= confirm]
+    if not settled:
+        return None
+    since = runs[settled[-1]:]
+    lowest = min(value for value, _ in since)
+    return max(i for i, (value, _) in enumerate(since) if value == lowest) + settled[-1]
+
+
+def _run_facts(value: int, frames: int, interval: float) -> str:
+    """A reading's run: in how many frames in a row, and for how long."""
+    return f"reading_run({value},{frames}).reading_time({value},{round(frames * interval)})."
+
+
+def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, interval: float) -> list[str]:
+    out = sorted({f"misread_before({v},{e})." for p in past for v, e in p.misread})
     for value in sorted(now.readings):
         run = 1
         for frame in reversed(past):
             if value not in frame.readings:
                 break
             run += 1
-        out.append(f"reading_run({value},{run}).")
+        out.append(_run_facts(value, run, interval))
     primary = now.primary
     runs = _runs(p.primary for p in past)
-    if primary is not None:
+    if primary is None:  # no limit read now: the one read last is still a reading, with what held before it
+        last = _believed(runs, confirm)
+        if last is None:
+            return out
+        value, length = runs[last]
+        out.append(f"remembered_limit({value}).{_run_facts(value, length, interval)}")
+        runs = runs[:last]
+    else:
         while runs and runs[-1][0] == primary:  # the current reading's own run
             runs.pop()
-        settled = [value for value, length in runs if length >= confirm]
-        if settled:
-            out.append(f"prior_limit({settled[-1]}).")
-    else:
-        settled_runs = [(value, length) for value, length in runs if length >= confirm]
-        if settled_runs:
-            value, length = settled_runs[-1]
-            if runs[-1][0] < value:  # a lower limit read since holds at once, as it did while in view
-                value, length = runs[-1]
-            out.append(f"remembered_limit({value}).reading_run({value},{length}).")
+    before = _believed(runs, confirm)
+    if before is not None:
+        out.append(f"prior_limit({runs[before][0]}).")
     return out
 
 
@@ -235,18 +308,46 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
     frames = past + [now]
     out = []
     for colour in (LightColour.red, LightColour.yellow):
-        flagged = sum(colour in f.flashing for f in frames)  # perception's flag, in how many frames
+        # perception's flag: in how many of the latest frames that show the colour, back to a steady report of it
+        states = [None if colour not in f.lights else colour not in f.steady for f in frames]
+        flagged = _recent_run(states, times, config)
         if flagged:
             out.append(f"light_flashing_frames({colour.value},{flagged}).")
-        if _flashes([colour in f.lights for f in frames], times, config):
+        # a yellow lit now needs a whole lit phase seen as well as a dark one: a steady yellow hidden for a moment
+        # and back is on, off, on too, and taking it for flashing would let the ego run it
+        if _flashes([colour in f.lights for f in frames], times, config, whole_lit=colour is LightColour.yellow):
             out.append(f"light_flashes({colour.value}).")
-    last_seen = next((p.lights for p in reversed(past) if p.lights), frozenset())
-    if not now.lights and LightColour.red in last_seen and LightColour.green not in last_seen:
-        out.append("light_seen_recently(red).")  # red when last seen: a green hidden for a frame is no red
+    last = next((p for p in reversed(past) if p.lights), None)
+    if not now.lights and last is not None and LightColour.green not in last.lights:
+        # the colour when last seen: a green hidden for a frame is no red; a yellow perception flagged flashing
+        # calls for caution, not for a stop, and only a steady one is remembered
+        if LightColour.red in last.lights:
+            out.append("light_seen_recently(red).")
+        if LightColour.yellow in last.steady:
+            out.append("light_seen_recently(yellow).")
     return out
 
 
-def _flashes(on: list[bool], times: list[float], config: WindowConfig) -> bool:
+def _recent_run(states: Sequence[Optional[bool]], times: Sequence[float], config: WindowConfig) -> int:
+    """In how many frames, counted back from now, something was seen flashing (True) at a flash's pace.
+
+    A frame is True (flagged flashing, or lit for a beacon), False (shown and reported steady: the count stops
+    there) or None (not shown: dark between flashes, or hidden). The latest True frame must be no longer ago than
+    a flash's longest phase, and no two True frames further apart: two glints a second and more apart, or a flag
+    long ago, are no flashing light. Frames without timestamps have no pace to hold against.
+    """
+    longest = round(config.flash_max_phase_s * 1000)
+    count, since = 0, round(times[-1] * 1000)
+    for state, t in zip(reversed(states), reversed(times)):
+        if state is None:
+            continue
+        if not state or since - round(t * 1000) > longest:
+            break
+        count, since = count + 1, round(t * 1000)
+    return count
+
+
+def _flashes(on: list[bool], times: list[float], config: WindowConfig, whole_lit: bool = False) -> bool:
     """Whether a light seen on (True) and off over frames at `times` goes through a whole flash cycle.
 
     It must go on, off and on again (one whole dark phase seen between two lit ones), and every
@@ -254,7 +355,8 @@ def _flashes(on: list[bool], times: list[float], config: WindowConfig) -> bool:
     flickers goes off for a tenth of a second, and one lit for seconds is steady. A phase lasts
     from its first frame to the first frame of the next; the phases at the window's edges are
     cut, so only their length so far is held against the most a phase may last.
-    Without timestamps nothing lasts, and nothing is seen flashing.
+    Without timestamps nothing lasts, and nothing is seen flashing. With `whole_lit`, a light lit now must
+    also have been seen through a whole lit phase (on, off, on, off, on, or off, on, off, on).
     """
     starts = [i for i in range(len(on)) if i == 0 or on[i] != on[i - 1]]
     if len(starts) < 3 or not any(on[i] for i in starts[:-2]):  # no on, off, on
@@ -264,6 +366,8 @@ def _flashes(on: list[bool], times: list[float], config: WindowConfig) -> bool:
     ends = [ms[i] for i in starts[1:]] + [ms[-1]]
     lengths = [end - ms[i] for i, end in zip(starts, ends)]
     whole = lengths[1:-1]  # seen from start to end
+    if whole_lit and on[-1] and not any(on[i] for i in starts[1:-1]):
+        return False
     return all(shortest <= n <= longest for n in whole) and lengths[0] <= longest and lengths[-1] <= longest
 
 
@@ -378,6 +482,17 @@ def _inside(position: float, speed: float, reach: float) -> Optional[tuple[float
     return (min(a, b), max(a, b))
 
 
+def _runs_into_ego(obj: DetectedObject, vx: float, vy: float, age: float) -> bool:
+    """Whether the track of a lost object, from where it was last seen and at the velocity relative to the ego it had,
+    overlaps the ego's own footprint within `age` seconds: an object cannot be where the ego is."""
+    length, width = _footprint(obj)
+    span_x = _inside(obj.position.x, vx, (EGO_WIDTH + width) / 2)
+    span_y = _inside(_to_centre(obj.position.y, length), vy, (EGO_LENGTH + length) / 2)
+    if span_x is None or span_y is None:
+        return False
+    return max(span_x[0], span_y[0], 0.0) < min(span_x[1], span_y[1], age)
+
+
 def _side_of(x: float, y: float) -> SensorSide:
     """The range sensor that faces a position (y: the gap from the ego's bumper, 0 alongside)."""
     if abs(x) < HALF_LANE:
@@ -391,7 +506,7 @@ def _side_of(x: float, y: float) -> SensorSide:
 
 
 def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: list[_Summary],
-                  config: WindowConfig) -> list[str]:
+                  config: WindowConfig, interval: float) -> list[str]:
     """Objects the camera lost, where their track puts them now, and what says they are still there;
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
@@ -399,8 +514,9 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     unconfirmed = now.ids.difference(oid for oid, _ in now.confirmed)
     last: dict[int, tuple[Scene, DetectedObject]] = {}
     frames: dict[int, int] = {}
-    lights: dict[int, int] = {}
+    lights: dict[int, list[float]] = {}  # when each object showed emergency lights, oldest first
     earlier: dict[int, set[Source]] = {}
+    echoed: dict[int, set[Source]] = {}  # lost objects: the confirming sources that reported them in the window
     # a frame sits in some twenty windows: set operations on its summary, not a pass over its objects
     for past, summary in zip(window, summaries):
         for oid in sorted(summary.ids - now.ids):
@@ -409,8 +525,10 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         for oid, confirming in summary.confirmed:
             if oid in unconfirmed:
                 earlier.setdefault(oid, set()).update(confirming)
+            elif oid not in now.ids:
+                echoed.setdefault(oid, set()).update(confirming)
         for oid in summary.lit:
-            lights[oid] = lights.get(oid, 0) + 1
+            lights.setdefault(oid, []).append(past.timestamp)
     for oid, found in earlier.items():
         out.extend(f"obj_source_before({oid},{s.value})." for s in sorted(found, key=lambda s: s.value))
     kept: set[int] = set()
@@ -418,6 +536,8 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         age = max(scene.timestamp - seen.timestamp, 0.0)
         vx, vy = _relative_velocity(obj, seen.ego.speed)
         length = _footprint(obj)[0]
+        if _runs_into_ego(obj, vx, vy, age):
+            continue  # the ego would have hit it: it did not keep that course, and where it is is not known
         x, y = obj.position.x + vx * age, _to_gap(_to_centre(obj.position.y, length) + vy * age, length)
         tracked = max(frames[oid], obj.track_age or 0)
         side = _side_of(x, y)
@@ -429,6 +549,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         kept.add(oid)
         out.append(f"remembered({oid},{int(round(age * 1000))}).remembered_object({oid},{obj.cls.value}).")
         out.append(f"remembered_pos({oid},{cm(x)},{cm(y)}).track_frames({oid},{tracked}).")
+        out.append(f"track_time({oid},{round(tracked * interval)}).")
         if obj.lane is not None and obj.lane.kind is not LaneKind.current:
             # the ego's road's lanes: placed by its tracked offset (the rules), as a car cutting in moves across
             out.append(f"remembered_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")
@@ -437,13 +558,16 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         out.extend(f"remembered_source({oid},{source.value})." for source in obj.sources)
         if reads:
             out.append(f"sensor_still_reads({oid},{reads[0].side.value}).")
-        elif facing:  # it reads clear road past where the object should be
+        elif facing:  # it reads clear road past where the object should be (the rules say whether that clears it)
             out.append(f"sensor_reads_past({oid},{side.value}).")
+            out.extend(f"reported_before({oid},{s.value})." for s in sorted(echoed.get(oid, ()), key=lambda s: s.value))
         found = _conflict(obj, x, y, scene.ego.speed, config.horizon_s)
         if found is not None:
             out.append(f"remembered_conflict({oid},{found[0]},{found[1]}).")
-    for oid, count in lights.items():
-        if oid in present or oid in kept:
-            now = 1 if oid in present and present[oid].emergency_lights else 0
-            out.append(f"lights_frames({oid},{count + now}).")
+    for oid, lit in lights.items():
+        if oid in present or oid in kept:  # frames lit at a beacon's pace up to now (one unlit or unseen is dark)
+            times = lit + [scene.timestamp] if oid in present and present[oid].emergency_lights else lit
+            count = _recent_run([True] * len(times) + [None], times + [scene.timestamp], config)
+            if count:
+                out.append(f"lights_frames({oid},{count}).")
     return out

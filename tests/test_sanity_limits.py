@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from discern.rules.catalog import catalog_dirs, load_catalog
 from discern.rules.engine import Reasoner, jurisdiction_pack
 from discern.sanity.examples import MPH, limit_sign, obj, scene
@@ -63,3 +65,62 @@ def test_a_stop_sign_misread_as_a_limit_does_not_set_the_limit():
                     intersection={"type": "unsignaled", "stage": "arriving", "stop_line": True},
                     objects=[obj(1, "car", -3.5, -20.0, 1)], lanes=2, lane=2)
     assert limit_in_force(misread) == 15.65  # the zone's usual limit, not the "45" of the stickered sign
+
+
+def _stop45_then_through(stop_line: bool = True):
+    """A stop sign read as "speed limit 45" while coming up to a stop line; the ego stops, enters, and drives on."""
+    def inter(stage, **kw):
+        return {"type": "unsignaled", "stage": stage, "stop_line": stop_line, **kw}
+    return (scene(frame=1, timestamp=0.0, speed=10.0, limit=None, signs=[limit_sign(45)], intersection=inter("arriving", distance=30.0)),
+            scene(frame=2, timestamp=0.1, speed=9.0, limit=None, signs=[limit_sign(45)], intersection=inter("arriving", distance=25.0)),
+            scene(frame=3, timestamp=0.6, speed=3.0, limit=None, signs=[limit_sign(45)], intersection=inter("arriving", distance=5.0)),
+            scene(frame=4, timestamp=1.1, speed=0.0, limit=None, signs=[limit_sign(45)], intersection=inter("at", distance=0.0)),
+            scene(frame=5, timestamp=1.5, speed=3.0, limit=None, signs=[limit_sign(45)], intersection=inter("enter")),
+            scene(frame=6, timestamp=1.8, speed=16.0, limit=None))
+
+
+def test_a_stop_sign_misread_as_45_stays_doubted_once_the_ego_has_entered_and_passed_it():
+    frames = _stop45_then_through()
+    for last in (5, 6):  # entering with the sign in view, and past it
+        assert limit_in_force(frames[last - 1], frames[:last - 1]) == 15.65, last  # the city's usual 35 mph, not 45
+    verdict = US.decide(frames[-1], "accelerate", history=frames[:-1], explain=True)
+    assert verdict.action.value == "cruise" and "san.stop.misread_limit" in verdict.rules
+    # read in many frames with no stop control, 45 is believed (the control: it is the stop line that doubts it)
+    plain = _stop45_then_through(stop_line=False)
+    assert limit_in_force(plain[-1], plain[:-1]) == 20.12
+
+
+def _frames(zone: str, readings, dt: float = 0.1):
+    """Frames `dt` apart reading the given limits (mph; None: no sign in view) at 17 m/s."""
+    return [scene(frame=i + 1, timestamp=round(dt * i, 3), speed=17.0, zone=zone, limit=None,
+                  signs=[limit_sign(v)] if v else []) for i, v in enumerate(readings)]
+
+
+@pytest.mark.parametrize("zone, true, taped, reasoner", [
+    ("road", 35, 85, US), ("city", 25, 85, US), ("rural", 30, 80, reasoner_for("uk"))])
+def test_a_true_limit_outlives_the_taped_sign_that_followed_it_once_both_leave_view(zone, true, taped, reasoner):
+    """35 read over three frames, then a taped 85, then no sign: the 35 stays in force, not the zone's usual limit."""
+    frames = _frames(zone, [true] * 3 + [taped] * 3 + [None] * 3)
+    for last in range(4, len(frames) + 1):
+        answer = reasoner.solve(frames[last - 1], "cruise", frames[:last - 1]).answer
+        (limit,) = answer.of("effective_limit", 1)
+        assert limit.arguments[0].number == round(true * MPH * 100), (last, limit)
+
+
+def test_a_lower_limit_read_in_one_frame_is_the_prior_of_a_doubted_reading_after_it():
+    frames = _frames("road", [45, 45, 45, 35, 85, 85], dt=0.2)
+    for last in (5, 6):
+        assert limit_in_force(frames[last - 1], frames[:last - 1]) == 15.65, last  # 35 mph, not the 45 before it
+
+
+@pytest.mark.parametrize("hz, frames_65, raised", [
+    (50, 2, False), (20, 2, False), (10, 1, False),  # 40 ms, 0.1 s, 0.1 s of a 65: a flicker
+    (50, 10, True), (20, 4, True), (10, 2, True), (5, 2, True)])  # 0.2 s and more, at least 2 frames: a sign
+def test_a_higher_reading_is_confirmed_by_how_long_it_was_read_whatever_the_frame_rate(hz, frames_65, raised):
+    """45 read for 0.5 s, then 65 (above the road's usual 55) for some frames, then no sign: the 65 raises the limit only
+    once read for 0.2 s and in 2 frames, while in view and after."""
+    readings = [45] * (hz // 2) + [65] * frames_65 + [None] * hz
+    frames = _frames("road", readings, dt=1 / hz)
+    expected = 29.06 if raised else 20.12
+    for last in (hz // 2 + frames_65, len(frames)):  # the last frame the 65 is read in, and 1 s after it
+        assert limit_in_force(frames[last - 1], frames[:last - 1]) == expected, (hz, frames_65, last)

@@ -41,6 +41,42 @@ def test_window_stops_at_a_frame_from_the_future():
     assert [s.timestamp for s in PROVIDER.window(frames[-1], frames[:-1])] == [0.2]
 
 
+def _framed(frame_id: int, t: float, **kw):
+    return at(t, frame=frame_id, **kw)
+
+
+def test_window_stops_at_a_restart_whose_clock_went_back():
+    """Episode A ran 0.5 s; episode B restarted its clock (and frame ids) at 0: at B's 0.7 s, A's frames are 0.2 to
+    0.7 s old, and none of them belongs in B's window."""
+    old = [_framed(i + 1, round(0.1 * i, 1)) for i in range(6)]
+    new = [_framed(i + 1, round(0.1 * i, 1)) for i in range(8)]
+    history = old + new
+    assert [(s.frame_id, s.timestamp) for s in PROVIDER.window(history[-1], history[:-1])] == \
+        [(s.frame_id, s.timestamp) for s in new[:-1]]
+    clock_only = old + [_framed(7 + i, round(0.1 * i, 1)) for i in range(8)]  # ids go on, the clock restarts
+    assert [s.frame_id for s in PROVIDER.window(clock_only[-1], clock_only[:-1])] == list(range(7, 14))
+
+
+def test_window_stops_at_a_frame_id_reset_without_timestamps():
+    history = [_framed(i + 1, 0.0) for i in range(6)] + [_framed(i + 1, 0.0) for i in range(3)]
+    assert [s.frame_id for s in PROVIDER.window(history[-1], history[:-1])] == [1, 2]
+
+
+def test_window_drops_a_frame_that_arrives_late():
+    """A frame older than the one delivered before it, followed by a newer one, came late: it is dropped, so the
+    window's frames are in time order."""
+    times = [0.0, 0.1, 0.2, 0.4, 0.5, 0.3, 0.6]
+    for ids in (range(1, 8), [1, 2, 3, 5, 6, 4, 7]):  # numbered as delivered, or as captured
+        history = [_framed(i, t) for i, t in zip(ids, times)]
+        assert [s.timestamp for s in PROVIDER.window(history[-1], history[:-1])] == [0.0, 0.1, 0.2, 0.4, 0.5]
+
+
+def test_a_late_frame_without_the_light_does_not_make_a_steady_yellow_flash():
+    yellow = [{"colour": "yellow"}]
+    frames = [_framed(i + 1, t, lights=[] if t == 0.3 else yellow) for i, t in enumerate([0.0, 0.1, 0.2, 0.4, 0.5, 0.3, 0.6])]
+    assert not any(f.startswith("light_flashes") for f in facts(frames))
+
+
 def test_window_caps_the_number_of_frames_without_timestamps():
     provider = WindowProvider(WindowConfig(max_frames=3))
     frames = [at(0.0) for _ in range(10)]
@@ -156,12 +192,43 @@ def test_the_shortest_flash_phase_is_a_window_parameter():
 
 def test_the_frames_that_report_a_light_flashing_are_counted_apart_from_an_inferred_flash():
     yellow = [{"colour": "yellow", "flashing": True}]
-    found = facts([at(0.0, lights=yellow), at(0.1, lights=[{"colour": "yellow"}]), at(0.2, lights=yellow)])
+    found = facts([at(0.0, lights=yellow), at(0.1), at(0.2, lights=yellow)])
     assert "light_flashing_frames(yellow,2)." in found and "light_flashes(yellow)." not in found
+
+
+def test_flags_are_counted_back_from_now_to_the_last_steady_report_of_the_colour():
+    """A frame that reports the colour steady ends the count: flags either side of it are two glitches."""
+    yellow, steady = [{"colour": "yellow", "flashing": True}], [{"colour": "yellow"}]
+    found = facts([at(0.0, lights=yellow), at(0.1, lights=steady), at(0.2, lights=yellow)])
+    assert "light_flashing_frames(yellow,1)." in found
+    assert not any(f.startswith("light_flashing_frames") for f in facts([at(0.0, lights=yellow), at(0.1, lights=steady)]))
+    beside = [{"colour": "yellow"}, {"colour": "yellow", "flashing": True}]  # a steady yellow beside a flashing beacon
+    assert "light_flashing_frames(yellow,1)." in facts([at(0.0, lights=yellow), at(0.1, lights=beside), at(0.2, lights=yellow)])
+
+
+def test_flags_and_emergency_lights_count_only_at_a_flashs_pace_up_to_now():
+    """The latest flag no longer ago than a flash's longest phase, and none more than that apart."""
+    yellow = [{"colour": "yellow", "flashing": True}]
+    assert "light_flashing_frames(yellow,2)." in facts([at(0.0, lights=yellow), at(0.9, lights=yellow), at(1.9)])
+    assert "light_flashing_frames(yellow,1)." in facts([at(0.0, lights=yellow), at(1.1, lights=yellow), at(1.2)])
+    assert not any(f.startswith("light_flashing_frames") for f in facts([at(0.0, lights=yellow), at(1.1)]))
+    frames = [at(0.1 * i, objects=[obj(4, "emergency_vehicle", 0.0, -30.0, 1, emergency_lights=i in (2, 15))])
+              for i in range(17)]
+    assert "lights_frames(4,1)." in facts(frames)
+    assert not any(f.startswith("lights_frames") for f in facts(frames[:2] + frames[3:15] + [frames[16]]))
 
 
 def test_a_red_light_out_of_view_is_remembered():
     assert "light_seen_recently(red)." in facts([at(0.0, lights=[{"colour": "red"}]), at(0.1)])
+
+
+def test_a_lamp_of_colour_none_does_not_erase_a_red_light_seen_before():
+    """A lamp perception reports with colour "none" (glare, unlit, unreadable) shows no colour: the red seen before
+    is still the last colour seen, as when the light is out of view."""
+    red, none = [{"colour": "red"}], [{"colour": "none"}]
+    assert "light_seen_recently(red)." in facts([at(0.0, lights=red), at(0.1, lights=red), at(0.2, lights=none)])
+    assert "light_seen_recently(red)." in facts([at(0.0, lights=red), at(0.1, lights=none), at(0.2)])
+    assert not any(f.startswith("light_") for f in facts([at(0.0, lights=none), at(0.1, lights=none)]))
 
 
 def test_a_lost_object_is_remembered_where_its_track_puts_it():
@@ -259,3 +326,47 @@ def test_whether_the_ego_stopped_in_the_window_is_the_rules_call_with_their_para
     for stopped_speed, stopped in [(0.5, False), (1.0, True)]:
         solved = Reasoner(params=Params(stopped_speed=stopped_speed)).solve(frames[-1], "cruise", frames[:-1])
         assert solved.answer.holds(Function("stopped_recently")) is stopped
+
+
+def test_readings_and_tracks_last_as_many_mean_frame_intervals_as_they_have_frames():
+    fast = [at(round(0.02 * i, 2), limit=20.0, objects=[obj(7, "car", 0.0, 20.0, 1)] if i < 3 else []) for i in range(6)]
+    found = facts(fast)  # 50 Hz: 6 frames of the reading, 120 ms; the car in 3 frames, 60 ms
+    assert {"reading_run(2000,6).", "reading_time(2000,120).", "track_frames(7,3).", "track_time(7,60).",
+            "window_param(confirm_ms,200).", "window_param(track_ms,300)."} <= found
+    untimed = facts([at(0.0, limit=20.0) for _ in range(3)])  # without timestamps a frame lasts untimed_frame_s
+    assert "reading_time(2000,300)." in untimed
+    with pytest.raises(ValueError, match="untimed_frame_s > 0"):
+        WindowConfig(untimed_frame_s=0)
+
+
+def test_a_lost_object_whose_track_runs_into_the_ego_is_not_remembered():
+    """A car standing 14 m ahead, lost at 12 m/s: once its track reaches the ego's own footprint it was not there (the
+    ego would have hit it), and it is no longer remembered; until then it is."""
+    seen = [at(round(0.1 * i, 1), speed=12.0, objects=[obj(8, "car", 0.0, 14.0 - 1.2 * i, 1, vy=0.0, sources=("camera",))])
+            for i in range(3)]
+    before = facts(seen + [at(0.6, speed=12.0)])  # lost 0.4 s ago at 11.6 m: 6.8 m ahead now
+    assert "remembered_pos(8,0,680)." in before
+    for t in (1.2, 1.5, 2.1):  # level with the ego, then behind it
+        assert not any(f.startswith("remembered") for f in facts(seen + [at(t, speed=12.0)])), t
+    beside = [at(round(0.1 * i, 1), speed=12.0, objects=[obj(8, "car", -3.5, 14.0 - 1.2 * i, 1, vy=0.0, sources=("camera",))])
+              for i in range(3)]
+    assert any(f.startswith("remembered_pos(8,-350,0)") for f in facts(beside + [at(1.2, speed=12.0)]))  # passed beside
+
+
+YELLOW = [{"colour": "yellow"}]
+
+
+def test_a_steady_yellow_out_of_view_is_remembered_and_a_flashing_one_is_not():
+    assert "light_seen_recently(yellow)." in facts([at(0.0, lights=YELLOW), at(0.1, lights=YELLOW), at(0.2)])
+    flagged = [{"colour": "yellow", "flashing": True}]  # perception said flashing: caution, not a yellow to stop for
+    assert "light_seen_recently(yellow)." not in facts([at(0.0, lights=flagged), at(0.25)])
+
+
+def test_a_yellow_lit_again_after_one_dark_gap_is_not_yet_seen_flashing():
+    """A steady yellow hidden for 0.4 s and back: on, off, on is not enough pattern for a yellow lit now."""
+    lit = [True] * 4 + [False] * 4 + [True] * 2
+    frames = [at(round(0.1 * i, 1), lights=YELLOW if on else []) for i, on in enumerate(lit)]
+    assert all("light_flashes(yellow)." not in facts(frames[:k]) for k in range(1, len(frames) + 1))
+    flashing = [(i // 5) % 2 == 0 for i in range(21)]  # 1 Hz: a whole lit and a whole dark phase seen
+    frames = [at(round(0.1 * i, 1), lights=YELLOW if on else []) for i, on in enumerate(flashing)]
+    assert "light_flashes(yellow)." in facts(frames)
