@@ -43,6 +43,7 @@ class Params:
     speed_margin: float = 2.2352  # m/s (5 mph), how far above the limit the ego may be before it must slow down
     turn_speed: float = 8.9408  # m/s (20 mph), the fastest the ego turns at an intersection
     turn_dist: float = 10.0  # m, a turn starts no farther than this before the stop line
+    move_over_dist: float = 150.0  # m, an emergency vehicle or a stopped school bus nearer than this ahead is acted on
 
     @classmethod
     def overrides(cls, pairs: list[str]) -> tuple[dict[str, float], list[str]]:

@@ -319,6 +319,15 @@ def _examples() -> list[Example]:
                 tuple(scene(frame=i + 1, speed=25.0, lane=2, lanes=2, zone="highway", limit=29.0, other_lanes=("shoulder",),
                             objects=[obj(9, "emergency_vehicle", 3.5, 79.0 - 2 * i, 1, kind="shoulder", vy=0.0)])
                       for i in range(3))),
+        Example("san.school_bus.stop",
+                "A bus stands at the right kerb 30 m ahead, red lights flashing; the ego could pass it in the left lane.",
+                tuple(scene(frame=i + 1, speed=13.0, lane=2, lanes=2, limit=15.6, other_lanes=("shoulder",),
+                            objects=[obj(4, "bus", 3.5, 30.0 - i, 1, kind="shoulder", vy=0.0, emergency_lights=True)])
+                      for i in range(3)),
+                Action.change_lane_left,
+                tuple(scene(frame=i + 1, speed=13.0, lane=2, lanes=2, limit=15.6, other_lanes=("shoulder",),
+                            objects=[obj(4, "bus", 3.5, 30.0 - i, 1, kind="shoulder", vy=0.0)])
+                      for i in range(3))),
         Example("san.memory.object_permanence", "The camera loses a faster car in the left lane; the rear-left radar still reads it.",
                 (*left_car, lost_seen), Action.change_lane_left, (left_car[2], lost)),
         Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",

@@ -123,7 +123,7 @@ def test_a_flashing_flag_long_ago_does_not_release_the_ego_at_a_red_hidden_since
 def test_two_isolated_light_glints_do_not_make_an_emergency_vehicle():
     """Sun on chrome in two frames 1.3 s apart, unlit between: no beacon flashes that slowly."""
     def van(lit: bool):
-        return obj(5, "truck", -3.5, -20.0, 1, vy=25.0, emergency_lights=lit)
+        return obj(5, "truck", -3.5, -20.0, 1, vy=30.0, emergency_lights=lit)  # coming up behind
 
     frames = tuple(scene(frame=i + 1, timestamp=round(0.1 * i, 1), speed=25.0, lane=2, lanes=2, zone="highway", limit=29.0,
                          objects=[van(i in (2, 15))]) for i in range(17))
