@@ -171,6 +171,9 @@ def _examples() -> list[Example]:
     glint = (scene(frame=1, speed=12.0, lanes=2, limit=15.0, objects=[obj(4, "car", 0.0, -40.0, 1, vy=20.0)]),
              scene(frame=2, speed=12.0, lanes=2, limit=15.0,
                    objects=[obj(4, "car", 0.0, -38.0, 1, vy=20.0, emergency_lights=True)]))
+    school_bus = tuple(scene(frame=i + 1, speed=13.0, lane=2, lanes=2, limit=15.6, other_lanes=("shoulder",),
+                             objects=[obj(4, "bus", 3.5, 30.0 - i, 1, kind="shoulder", vy=0.0, emergency_lights=True)])
+                       for i in range(3))
     left_car = [scene(frame=i + 1, speed=12.0, lane=2, lanes=2, limit=15.0,
                       objects=[obj(7, "car", -3.5, -12.8 + 0.8 * i, 1, vy=20.0)]) for i in range(3)]
     lost = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0)
@@ -321,13 +324,15 @@ def _examples() -> list[Example]:
                       for i in range(3))),
         Example("san.school_bus.stop",
                 "A bus stands at the right kerb 30 m ahead, red lights flashing; the ego could pass it in the left lane.",
-                tuple(scene(frame=i + 1, speed=13.0, lane=2, lanes=2, limit=15.6, other_lanes=("shoulder",),
-                            objects=[obj(4, "bus", 3.5, 30.0 - i, 1, kind="shoulder", vy=0.0, emergency_lights=True)])
-                      for i in range(3)),
+                school_bus,
                 Action.change_lane_left,
                 tuple(scene(frame=i + 1, speed=13.0, lane=2, lanes=2, limit=15.6, other_lanes=("shoulder",),
                             objects=[obj(4, "bus", 3.5, 30.0 - i, 1, kind="shoulder", vy=0.0)])
                       for i in range(3))),
+        Example("jur.us.school_bus_law",
+                "The school bus at the right kerb again, red lights flashing; under the US pack the ego stops behind it "
+                "(under the UK's it passes slowly).",
+                school_bus, Action.cruise, school_bus, "us", "uk"),
         Example("san.memory.object_permanence", "The camera loses a faster car in the left lane; the rear-left radar still reads it.",
                 (*left_car, lost_seen), Action.change_lane_left, (left_car[2], lost)),
         Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",

@@ -147,7 +147,7 @@ def test_scenarios_run_takes_single_files_of_either_kind_and_explains_each_verdi
     frames = sorted(avcsr_dir.glob("*.pl"))[0]
     assert main(["scenarios", "run", str(scenario), str(frames), "--repeats", "1", "--explain"]) == 0
     out = capsys.readouterr().out
-    assert "pass  acc.cut_in #0: override accelerate with cruise" in out and "1 passed, 0 failed" in out
+    assert "pass  acc.cut_in #0: override accelerate with brake" in out and "1 passed, 0 failed" in out
     assert "agreement with expected_action: 3/3 frames" in out
     # --explain: each verdict's proof under its line, the scenario's and the paper frames' alike
     assert "            - car 1 signals into lane 2 within the gap it needs, because  [def.lane_claimed]" in out
@@ -156,10 +156,10 @@ def test_scenarios_run_takes_single_files_of_either_kind_and_explains_each_verdi
 
 def test_scenarios_run_fails_when_any_expectation_fails(tmp_path, capsys):
     data = json.loads((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
-    data["frames"][0]["expect"]["action"] = "brake"
+    data["frames"][0]["expect"]["action"] = "cruise"
     assert main(["scenarios", "run", write(tmp_path, data, "wrong.json")]) == 1
     out = capsys.readouterr().out
-    assert "FAIL  acc.cut_in #0" in out and "action cruise, expected brake" in out and "0 passed, 1 failed" in out
+    assert "FAIL  acc.cut_in #0" in out and "action brake, expected cruise" in out and "0 passed, 1 failed" in out
 
 
 @pytest.mark.parametrize("name, message", [

@@ -538,3 +538,22 @@ def test_a_school_sign_sets_a_limit_in_the_us_and_only_warns_in_the_uk():
     sc = scene(speed=11.2, limit=13.4, sign="school_zone", zone="road")
     assert decide(sc, "cruise").decision.value == "override"
     assert Reasoner(jurisdiction="uk").decide(sc, "cruise").decision.value == "approve"
+
+
+def test_a_lead_car_pulling_away_calls_for_no_braking_and_a_tailgater_still_forbids_it():
+    away = scene(speed=25, limit=31, zone="highway",
+                 objects=[obj("car", 0, 20, lane=1, vy=35), obj("car", 0, -4, lane=1, vy=25)])
+    assert "brake.no_phantom_braking" in decide(away, "brake").rules
+
+
+def test_a_cross_car_standing_in_the_junction_still_holds_a_turn():
+    in_the_box = scene(speed=0, intent="enter_left_lane", other_lanes=("cross_left",),
+                       intersection={"type": "four_way", "stage": "at"},
+                       objects=[obj("car", -2, 6, lane=1, kind="cross_left", velocity={"x": 0.0, "y": 0.0})])
+    assert decide(in_the_box, "turn_left").decision.value == "override"
+
+
+def test_a_headway_in_a_lane_change_proof_reads_in_metres():
+    behind = scene(speed=20, lane=2, lanes=2, objects=[obj("car", -3.5, -15, lane=1, vy=20)])
+    text = REASONER.decide(behind, "change_lane_left", explain=True).justification.text
+    assert "15.0 m < 20.0 m" in text and "15000" not in text
