@@ -156,7 +156,9 @@ PathId = Annotated[str, Field(pattern=r"^[^\x00-\x1f\x7f]*$")]
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", populate_by_name=True, use_enum_values=False)
+    """Python code may build a model by field name (`cls=`); JSON always carries the schema's names ("class")."""
+
+    model_config = ConfigDict(extra="forbid", populate_by_name=True, serialize_by_alias=True, use_enum_values=False)
 
 
 # How JSON from outside (the wire, a file) is read: as the published JSON Schema says, no more. Lax mode would

@@ -275,7 +275,7 @@ def test_csv_export_has_one_row_per_disagreement(capsys, tmp_path, all_logs):
     assert len(rows) == FLEET_A_FRAMES // 2 + PEDESTRIAN_FRAMES + SHADOW_FRAMES + 1 + SLOW_FRAMES
     first = next(r for r in rows if r["vehicle"] == "car_b" and r["frame_id"] == "0")
     assert (first["proposed"], first["executed"], first["verdict"]) == ("cruise", "brake", "override")
-    assert first["rules"] == "cruise.hazard;brake.obstacle_ahead"
+    assert first["rules"] == "cruise.closing_in;cruise.hazard;brake.obstacle_ahead"  # closing in on it, and a hazard
     assert first["time"].endswith("Z") and float(first["latency_ms"]) > 0
 
 
