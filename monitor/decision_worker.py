@@ -41,7 +41,7 @@ from discern.rules.scene import Proposal
 from discern.sanity import WindowConfig, default_providers
 
 from .protocol import RULE_BAD_INPUT, InputError, decode_proposal, encode, failsafe_verdict, peek_frame
-from .vehicle_state import VehicleState
+from .vehicle_state import EXPIRY_SWEEP_S, VehicleState
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +54,6 @@ MAX_BATCH = 32
 # windows of 50-object scenes at 20 Hz (measured), a stall for whatever proposal arrives meanwhile.
 FULL_COLLECTION_S = 300.0
 NO_AUTOMATIC_FULL_COLLECTION = 1_000_000  # young collections between full ones: in effect, never
-EXPIRY_SWEEP_S = 1.0  # how often the windows of silent vehicles are looked for: a scan of every vehicle's state
 STOP = None  # sent down a worker's pipe: finish what was sent, then exit
 
 

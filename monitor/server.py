@@ -40,13 +40,12 @@ from .log import McapLogWriter, RejectedInput, vehicle_topic
 from .log.channels import STATUS_TOPIC
 from .protocol import RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, encode, failsafe_verdict, peek_frame
 from .status import MonitorStatus, StatusCounters
-from .vehicle_state import EXPIRY_MARGIN_S, PermittedMemory
+from .vehicle_state import EXPIRY_MARGIN_S, EXPIRY_SWEEP_S, PermittedMemory
 
 log = logging.getLogger(__name__)
 
 JSON = zenoh.Encoding.APPLICATION_JSON
 EXCERPT_BYTES = 512
-EXPIRY_SWEEP_S = 1.0  # how often the watchdog looks for vehicles gone silent
 
 
 @dataclass(eq=False)

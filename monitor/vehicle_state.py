@@ -35,6 +35,7 @@ PERMITTED_MEMORY_S = 0.5  # how long a verdict's permitted set may guide a fail-
 # Past its window a silent vehicle starts afresh; its state is dropped this much later, once nothing in transit
 # can still be one of its frames from before the silence.
 EXPIRY_MARGIN_S = 1.0
+EXPIRY_SWEEP_S = 1.0  # how often the monitor and its workers look for vehicles gone silent: a scan of every vehicle
 
 
 class VehicleState:
