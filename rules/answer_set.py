@@ -103,7 +103,7 @@ class AnswerSet:
         return found
 
     def constants(self, name: str) -> set[str]:
-        """The constants c with name(c) true: the verdict's permitted and recommended actions."""
+        """The constants c with name(c) true: the verdict's permitted, recommended and replacing actions."""
         return {sym.arguments[0].name for sym in self.of(name, 1)}
 
     def texts(self, name: str, arity: int) -> list[str]:

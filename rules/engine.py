@@ -65,7 +65,7 @@ class FactProvider(Protocol):
 class SolvedFrame:
     """The solved frame: model plus what the verdict needs from it."""
 
-    READS = ("permitted", "recommended")  # the constants every verdict reads
+    READS = ("permitted", "recommended", "replacement")  # the constants every verdict reads
 
     def __init__(self, answer: AnswerSet, proposed: Action, owns: Optional[clingo.Control] = None):
         self.answer = answer
@@ -75,6 +75,8 @@ class SolvedFrame:
         self.permitted = [a for a in Action if a.value in permitted]
         recommended = answer.constants("recommended")
         self.recommended: Optional[Action] = next((a for a in RANK if a.value in recommended), None)
+        replacement = answer.constants("replacement")  # derived only when the proposal is forbidden
+        self.replacement: Optional[Action] = next((a for a in RANK if a.value in replacement), None)
 
 
 @dataclass(frozen=True)
@@ -208,7 +210,7 @@ class Reasoner:
         elif shadow:
             decision, action = Decision.veto, proposed
         else:
-            decision, action = Decision.override, recommended or Action.brake
+            decision, action = Decision.override, solved.replacement or Action.brake
 
         tree: list[JustificationNode] = []
         rules: list[str] = []
@@ -224,7 +226,9 @@ class Reasoner:
                 node = prover.node_for(rule, env, forbidden)
                 tree.append(node)
                 rules.extend(r for r in rule_ids(node) if r not in rules)
-        if recommended is not None and (explain or not allowed):
+        if solved.replacement is not None and not allowed:
+            tree.append(prover.why(_atom("replacement", solved.replacement)))
+        elif recommended is not None and explain:
             tree.append(prover.why(_atom("recommended", recommended)))
 
         summary = _summary(decision, proposed, action, recommended, rules)

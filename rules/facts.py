@@ -40,6 +40,7 @@ class Params:
     stopped_speed: float = 0.5  # m/s, slower than this the ego has come to a stop
     range_match: float = 3.0  # m, a range reading this close to an object's distance is that object
     lane_width: float = 3.5  # m, places objects reported without a lane; a side reading within it is in the next lane
+    accel_step: float = 0.5  # m/s an accelerate adds before the next decision: nearer the limit than this, it would pass it
     speed_margin: float = 2.2352  # m/s (5 mph), how far above the limit the ego may be before it must slow down
     turn_speed: float = 8.9408  # m/s (20 mph), the fastest the ego turns at an intersection
     turn_dist: float = 10.0  # m, a turn starts no farther than this before the stop line

@@ -44,8 +44,8 @@ _LOOSE_SPACE = re.compile(r" +(?=[,.;:)]|$)| (?= )")  # left where an unknown va
 # "a" before a value: "an" before a vowel sound; none before a mass noun ("debris can be swerved around")
 _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8|1[18]\b))")
 _PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000),
-                "decel": ("m/s²", 100), "speed_margin": ("m/s", 100), "turn_speed": ("m/s", 100),
-                "stopped_speed": ("m/s", 100)}
+                "decel": ("m/s²", 100), "accel_step": ("m/s", 100), "speed_margin": ("m/s", 100),
+                "turn_speed": ("m/s", 100), "stopped_speed": ("m/s", 100)}
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "limit": "some speed", "ms": "some time",
             "ahead": "somewhere", "right": "somewhere", "along": "some speed", "across": "some speed",
             "closing": "some speed", "lane": "a lane", "detail": "", "paren": ""}

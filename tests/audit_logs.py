@@ -187,7 +187,7 @@ def tolerant_rules(directory: Path) -> Path:
             continue
         end = text.find("\n\n", start)
         block = text[start:end]
-        edited = re.sub(r"V >= S\.$", "V >= S + 500.", block, flags=re.M)
+        edited = re.sub(r"V \+ D > S\.$", "V + D > S + 500.", block, flags=re.M)
         assert edited != block, block
         path.write_text(text[:start] + edited + text[end:])
         return rules

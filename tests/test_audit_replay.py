@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gc
+import shutil
 import json
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from discern.monitor.audit.aggregate import Aggregates, audit_logs
 from discern.monitor.audit.frames import PENDING_PER_VEHICLE, plan_tasks
 from discern.monitor.audit.replay import ReplayCatalog, replay_logs
 from discern.monitor.client import Monitor
+from discern.rules.catalog import catalog_dirs
 from tests.audit_logs import (
     CLEAR_FRAMES,
     FLEET_A_FRAMES,
@@ -343,7 +345,7 @@ def test_compare_rules_finds_frames_citing_other_rules(capsys, tmp_path, logs):
     for path in renamed.glob("*.lp"):
         text = path.read_text()
         if "%! rule acc.at_limit\n" in text:
-            text = text.replace("V >= S + 500.", "V >= S.").replace(
+            text = text.replace("V + D > S + 500.", "V + D > S.").replace(
                 "%! rule acc.at_limit\n", "%! rule acc.not_over_limit\n"
             )
             path.write_text(text)
@@ -388,3 +390,21 @@ def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
     assert err.startswith(f"discern audit: rules catalog: {lp}: cannot parse: ")
     assert f"{lp}:5:1" in err and "syntax error" in err
     assert "Traceback" not in err
+
+
+def test_a_replacement_rule_changed_alone_is_reported_though_permitted_and_recommended_stay(capsys, tmp_path, reasoner):
+    """Holding the speed instead of a recommended acceleration changes what an override executes, nothing else."""
+    start = 1_790_000_000 * 10**9
+    frames = [("car_r", scene(frame=f, speed=10.0, limit=15), "change_lane_left", start + f * 10**8,
+               start + f * 10**8 + 10**6) for f in range(3)]
+    log = str(write_log(tmp_path / "log", frames, reasoner))
+    speeding_up = tmp_path / "rules" / "catalog"
+    shutil.copytree(catalog_dirs()[0], speeding_up)
+    decision = speeding_up / "90_decision.lp"
+    text = decision.read_text()
+    assert "held_instead(accelerate) :- permitted(cruise).\n" in text
+    decision.write_text(text.replace("held_instead(accelerate) :- permitted(cruise).\n",
+                                     "held_instead(accelerate) :- permitted(cruise), proposed(accelerate).\n"))
+    code, doc, out = replay(capsys, tmp_path, log, "--rules", str(speeding_up), "--workers", "1")
+    assert code == 1 and len(doc["changes"]) == 3
+    assert "change_lane_left: override cruise -> override accelerate" in out

@@ -6,7 +6,7 @@ from discern.rules.catalog import catalog_dirs
 from discern.rules.engine import Reasoner, jurisdiction_pack
 from discern.rules.fact_text import FACT_NAME
 from discern.rules.scene import Action
-from discern.rules.facts import scene_facts
+from discern.rules.facts import Params, scene_facts
 from tests.scenes import obj, scene
 
 CLASSES = ["car", "truck", "pedestrian", "bicycle", "plastic_bag", "roadblock", "unknown"]
@@ -73,3 +73,24 @@ def test_stopping_gap_grows_with_speed(reasoner):
 def test_latency_and_frame_are_reported(reasoner):
     verdict = reasoner.decide(scene(frame=42), "cruise", vehicle="car7")
     assert verdict.frame_id == 42 and verdict.vehicle == "car7" and verdict.latency_ms > 0
+
+
+def test_a_forbidden_lane_change_is_replaced_by_holding_the_speed_not_by_speeding_up(reasoner):
+    verdict = reasoner.decide(scene(speed=10, limit=15), "change_lane_left")
+    decided = (verdict.decision.value, verdict.action.value, verdict.recommended.value)
+    assert decided == ("override", "cruise", "accelerate")
+    assert verdict.justification.summary.endswith("; recommended: accelerate")
+    assert "cruise replaces the forbidden proposal, because  [dec.replacement_holds_speed]" in verdict.justification.text
+
+
+def test_a_forbidden_proposal_is_replaced_by_the_recommended_action_when_that_is_not_speeding_up(reasoner):
+    verdict = reasoner.decide(scene(speed=10, limit=15, objects=[obj("pedestrian", 0, 6, lane=1)]), "change_lane_left")
+    assert (verdict.action.value, verdict.recommended.value) == ("brake", "brake")
+    assert "brake replaces the forbidden proposal, because  [dec.replacement]" in verdict.justification.text
+
+
+def test_accelerating_is_forbidden_within_one_step_of_the_limit():
+    stepping = Reasoner(params=Params(accel_step=5.0))
+    assert "acc.at_limit" in stepping.decide(scene(speed=11, limit=15), "accelerate").rules
+    assert stepping.decide(scene(speed=10, limit=15), "accelerate").decision.value == "approve"
+    assert Reasoner().decide(scene(speed=11, limit=15), "accelerate").decision.value == "approve"

@@ -255,7 +255,7 @@ def test_a_replay_of_a_recorded_evaluation_decides_with_the_parameters_it_record
     no rule edit changed. A parameter that matters, given on the command line, changes decisions."""
     evaluate(1, [Faults()], ["discern"], Setup(record=str(tmp_path)), progress=False)
     assert cli_main(["audit", "--replay", str(tmp_path), "-q", "--workers", "1"]) == 0
-    assert "(us rules, decel=4)" in capsys.readouterr().out
+    assert "(us rules, accel_step=2.5, decel=4)" in capsys.readouterr().out
     assert cli_main(["audit", "--replay", str(tmp_path), "-q", "--workers", "1", "--param", "headway_s=3"]) == 1
     assert re.search(r"\b[1-9]\d* decisions? would change", capsys.readouterr().out)
 

@@ -106,7 +106,7 @@ def test_html_is_self_contained_with_collapsible_nodes(reasoner):
 
 def test_the_html_page_leads_with_the_decision_and_folds_what_did_not_happen(reasoner):
     page = render_html(reasoner.decide(scene(lane=1, lanes=2), "change_lane_left", explain=True))
-    assert "<div class='decision override'>OVERRIDE: ACCELERATE</div>" in page
+    assert "<div class='decision override'>OVERRIDE: CRUISE</div>" in page
     assert "<details><summary><span class=\"holds\">there is no evidence that" in page  # folded: one click away
     assert "<details open><summary><span class=\"holds\">change lane left is forbidden" in page
     assert "<td>vehicle</td><td>ego</td>" in page and "<td>latency</td>" in page and "<html lang='en'>" in page

@@ -244,6 +244,8 @@ CASES = {
     "dec.suggested": (scene(), None),
     "dec.preference": (scene(speed=5, limit=15), None),
     "dec.fallback_brake": (None, scene()),
+    "dec.replacement": (scene(objects=[ped_ahead]), scene()),
+    "dec.replacement_holds_speed": (scene(speed=10, limit=15), scene(speed=10, limit=15, lane=2, lanes=2)),
     "jur.right_hand_traffic": (scene(), None),
     "po.intent": (scene(intent="pull_over"), scene()),
     "po.not_edge_lane": (scene(lane=1, lanes=2), scene(lane=2, lanes=2)),
@@ -266,20 +268,24 @@ CASES = {
 }
 
 
-def fired(sc) -> set[str]:
-    return Prover(REASONER.catalog, REASONER.solve(sc, "cruise").answer).fired_rules()
+# The proposal of a case's scenes where it is not cruise: rules about replacing a forbidden proposal need one.
+PROPOSED = {"dec.replacement_holds_speed": "change_lane_left"}
+
+
+def fired(sc, proposed: str = "cruise") -> set[str]:
+    return Prover(REASONER.catalog, REASONER.solve(sc, proposed).answer).fired_rules()
 
 
 @pytest.mark.parametrize("rule_id", sorted(r for r, (firing, _) in CASES.items() if firing is not None))
 def test_rule_fires_in_its_scene(rule_id):
     firing, _ = CASES[rule_id]
-    assert rule_id in fired(firing)
+    assert rule_id in fired(firing, PROPOSED.get(rule_id, "cruise"))
 
 
 @pytest.mark.parametrize("rule_id", sorted(r for r, (_, blocked) in CASES.items() if blocked is not None))
 def test_rule_does_not_fire_when_its_condition_or_exception_fails(rule_id):
     _, blocked = CASES[rule_id]
-    assert rule_id not in fired(blocked)
+    assert rule_id not in fired(blocked, PROPOSED.get(rule_id, "cruise"))
 
 
 def test_every_driving_rule_has_a_case_or_a_jurisdiction_case():
@@ -557,3 +563,16 @@ def test_a_headway_in_a_lane_change_proof_reads_in_metres():
     behind = scene(speed=20, lane=2, lanes=2, objects=[obj("car", -3.5, -15, lane=1, vy=20)])
     text = REASONER.decide(behind, "change_lane_left", explain=True).justification.text
     assert "15.0 m < 20.0 m" in text and "15000" not in text
+
+
+def test_a_lane_change_leaves_the_time_headway_to_a_vehicle_at_its_speed_and_less_to_one_pulling_away():
+    """def.headway_gap: the follower's headway less how much farther the faster one ahead needs to stop."""
+    def beside(y: float, vy: float, speed: float = 25.0):
+        return decide(scene(speed=speed, limit=35, lane=2, lanes=2, objects=[obj("car", -3.5, y, lane=1, vy=vy)]),
+                      "change_lane_left")
+
+    assert "cll.lane_taken" in beside(20, vy=25).rules  # 20 m at 25 m/s: 0.8 s
+    assert beside(20, vy=30).decision.value == "approve"  # 30 m/s ahead: 25 - (30² - 25²)/12 = 2.1 m needed
+    assert "cll.lane_taken" in beside(-20, vy=25).rules  # the car behind would follow at 0.8 s
+    assert beside(-20, vy=20, speed=30).decision.value == "approve"  # falling back: 20 - (30² - 20²)/12 < 0
+    assert "cll.lane_taken" in beside(12, vy=31, speed=30).rules  # barely faster: 30 - 61/12 = 24.9 m needed

@@ -23,7 +23,7 @@ from discern.rules.verdict import Decision, Verdict
 from discern.sanity import WindowConfig
 
 from .actions import from_catalog, to_catalog
-from .envs import SUPPORTED, policy_period
+from .envs import SUPPORTED, TARGET_SPEEDS, policy_period
 from .perception import Faults, Perceived, Perception
 from .scene import build_scene
 from .truth import VehicleIds, read_truth
@@ -31,7 +31,9 @@ from .truth import VehicleIds, read_truth
 
 # highway-env's MDPVehicle sheds 4.3-5 m/s in the second after a SLOWER (measured in the closed loop):
 # Discern's stopping gaps must assume what this vehicle can brake, not the catalog's 6 m/s^2 default.
-VEHICLE_PARAMS = {"decel": 4.0}
+# A FASTER aims one step of TARGET_SPEEDS above the target speed nearest the current speed, so it passes a
+# limit on that grid exactly when the speed is more than half a step below it: acc.at_limit's accel_step.
+VEHICLE_PARAMS = {"decel": 4.0, "accel_step": (TARGET_SPEEDS[1] - TARGET_SPEEDS[0]) / 2}
 
 # The roads of envs.SUPPORTED; the scene conversion gets curved, two-way and exit geometry wrong.
 SUPPORTED_CLASSES = (HighwayEnv, HighwayEnvFast, MergeEnv)

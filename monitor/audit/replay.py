@@ -44,7 +44,7 @@ from discern.rules.catalog import Catalog, catalog_dirs, load_catalog, load_driv
 from discern.rules.engine import Reasoner, Request, jurisdiction_pack
 from discern.rules.facts import Params
 from discern.rules.scene import Action
-from discern.rules.verdict import Verdict
+from discern.rules.verdict import Decision, Verdict
 from discern.sanity import WindowConfig, default_providers
 
 from .aggregate import Filters, scenario_kind
@@ -61,6 +61,7 @@ class Solved:
 
     permitted: frozenset[Action]
     recommended: Optional[Action]
+    replacement: Optional[Action]  # what an override executes: not always the recommendation
     outcome: Optional["Outcome"] = None
 
 
@@ -292,11 +293,11 @@ def _solve_new(
         verdicts = worker.reasoner.decide_many(
             [Request(f.proposal.scene, f.proposal.action, f.history, shadow=f.verdict.shadow) for f in frames], texts
         )
-        results = [Solved(frozenset(v.permitted), v.recommended, Outcome.of(v)) for v in verdicts]
+        results = [Solved(frozenset(v.permitted), v.recommended, None, Outcome.of(v)) for v in verdicts]
         tally.decided += len(results)
     else:
         solved = worker.reasoner.solve_facts(texts, [f.proposal.action for f in frames])
-        results = [Solved(frozenset(s.permitted), s.recommended) for s in solved]
+        results = [Solved(frozenset(s.permitted), s.recommended, s.replacement) for s in solved]
     tally.solve_s += time.perf_counter() - start
     for key, result in zip(pending, results):
         known[key] = result
@@ -308,8 +309,9 @@ def _compare(worker: _Worker, frame: Frame, key: bytes, known: Solved, tally: Re
     """Count the frame as unchanged, changed (with both justifications) or citing other rules."""
     recorded, scene, action = frame.verdict, frame.proposal.scene, frame.proposal.action
     if known.outcome is None:
-        if known.permitted == frozenset(recorded.permitted) and known.recommended == recorded.recommended:
-            return  # same permitted set and recommendation: the same decision and action
+        if (known.permitted == frozenset(recorded.permitted) and known.recommended == recorded.recommended
+                and (recorded.decision is not Decision.override or recorded.action is known.replacement)):
+            return  # same permitted set, recommendation and replacement: the same decision and action
         start = time.perf_counter()
         known.outcome = Outcome.of(worker.reasoner.decide(scene, action, history=frame.history, shadow=recorded.shadow))
         tally.solve_s += time.perf_counter() - start
