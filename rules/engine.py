@@ -210,7 +210,8 @@ class Reasoner:
         elif shadow:
             decision, action = Decision.veto, proposed
         else:
-            decision, action = Decision.override, solved.replacement or Action.brake
+            # A catalog written before replacement/1 (an edited copy given with --rules) overrides as it did then.
+            decision, action = Decision.override, solved.replacement or recommended or Action.brake
 
         tree: list[JustificationNode] = []
         rules: list[str] = []
@@ -226,9 +227,9 @@ class Reasoner:
                 node = prover.node_for(rule, env, forbidden)
                 tree.append(node)
                 rules.extend(r for r in rule_ids(node) if r not in rules)
-        if solved.replacement is not None and not allowed:
+        if decision is Decision.override and solved.replacement is not None:
             tree.append(prover.why(_atom("replacement", solved.replacement)))
-        elif recommended is not None and explain:
+        elif recommended is not None and (explain or not allowed):
             tree.append(prover.why(_atom("recommended", recommended)))
 
         summary = _summary(decision, proposed, action, recommended, rules)

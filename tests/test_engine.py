@@ -1,8 +1,9 @@
 import random
+import shutil
 
 import clingo
 
-from discern.rules.catalog import catalog_dirs
+from discern.rules.catalog import catalog_dirs, load_driving_rules
 from discern.rules.engine import Reasoner, jurisdiction_pack
 from discern.rules.fact_text import FACT_NAME
 from discern.rules.scene import Action
@@ -94,3 +95,25 @@ def test_accelerating_is_forbidden_within_one_step_of_the_limit():
     assert "acc.at_limit" in stepping.decide(scene(speed=11, limit=15), "accelerate").rules
     assert stepping.decide(scene(speed=10, limit=15), "accelerate").decision.value == "approve"
     assert Reasoner().decide(scene(speed=11, limit=15), "accelerate").decision.value == "approve"
+
+
+def test_a_shadow_veto_proves_the_recommendation_for_nothing_replaces_the_proposal(reasoner):
+    verdict = reasoner.decide(scene(speed=10, limit=15), "change_lane_left", shadow=True)
+    assert (verdict.decision.value, verdict.action.value) == ("veto", "change_lane_left")
+    assert "replaces the forbidden proposal" not in verdict.justification.text
+    assert "accelerate is the recommended action, because  [dec.preference]" in verdict.justification.text
+
+
+def test_a_catalog_written_before_replacements_overrides_with_the_recommended_action(tmp_path):
+    """An edited copy of rules/catalog from before replacement/1 (given with --rules) decides as it did then."""
+    older = tmp_path / "catalog"
+    shutil.copytree(catalog_dirs()[0], older)
+    decision = older / "90_decision.lp"
+    text = decision.read_text()
+    start = text.index("%! rule dec.replacement\n")
+    end = text.index("held_instead(accelerate) :- permitted(cruise).\n") + len("held_instead(accelerate) :- permitted(cruise).\n")
+    decision.write_text(text[:start] + text[end:])
+    reasoner = Reasoner(catalog=load_driving_rules([older], extra_files=[jurisdiction_pack("us")]))
+    verdict = reasoner.decide(scene(speed=10, limit=15), "change_lane_left", explain=True)
+    assert (verdict.decision.value, verdict.action.value) == ("override", "accelerate")
+    assert "accelerate is the recommended action, because  [dec.preference]" in verdict.justification.text

@@ -32,7 +32,8 @@ from .truth import VehicleIds, read_truth
 # highway-env's MDPVehicle sheds 4.3-5 m/s in the second after a SLOWER (measured in the closed loop):
 # Discern's stopping gaps must assume what this vehicle can brake, not the catalog's 6 m/s^2 default.
 # A FASTER aims one step of TARGET_SPEEDS above the target speed nearest the current speed, so it passes a
-# limit on that grid exactly when the speed is more than half a step below it: acc.at_limit's accel_step.
+# limit on that grid when the speed is less than half a step below it (at exactly half, numpy's rounding
+# decides): acc.at_limit's accel_step.
 VEHICLE_PARAMS = {"decel": 4.0, "accel_step": (TARGET_SPEEDS[1] - TARGET_SPEEDS[0]) / 2}
 
 # The roads of envs.SUPPORTED; the scene conversion gets curved, two-way and exit geometry wrong.

@@ -8,9 +8,10 @@ rules and are counted, not replayed.
 
 Frames are solved in batches, many in one grounding (Reasoner.solve_facts).
 Each frame is first only solved: a verdict's decision and action follow from
-the proposed action, the shadow flag and the permitted set and recommended
-action (Reasoner.decide), and the logged verdict carries all four, so when the
-solved sets equal the logged ones the decision cannot have changed and no
+the proposed action, the shadow flag, the permitted set and the action that
+replaces a forbidden proposal (Reasoner.decide), and the logged verdict carries
+them all, so when the solved sets, the recommendation and an override's
+replacement equal the logged ones the decision cannot have changed and no
 proof is built. Otherwise the frame is decided in full, and a changed one is
 explained with its whole justification tree. `compare_rules` decides every
 frame in full, to also find frames that keep their decision but cite other
