@@ -73,10 +73,8 @@ class SolvedFrame:
         self.owns = owns  # the Control that only this frame uses, to retire once its verdict is made
         permitted = answer.constants("permitted")
         self.permitted = [a for a in Action if a.value in permitted]
-        recommended = answer.constants("recommended")
-        self.recommended: Optional[Action] = next((a for a in RANK if a.value in recommended), None)
-        replacement = answer.constants("replacement")  # derived only when the proposal is forbidden
-        self.replacement: Optional[Action] = next((a for a in RANK if a.value in replacement), None)
+        self.recommended = _best_ranked(answer.constants("recommended"))
+        self.replacement = _best_ranked(answer.constants("replacement"))  # only where the proposal is forbidden
 
 
 @dataclass(frozen=True)
@@ -274,6 +272,10 @@ class Reasoner:
         if solved.answer.holds(applicable):
             rules.extend(r for r in prover.deriving_rules(applicable) if r not in rules)
         return rules
+
+
+def _best_ranked(names: set[str]) -> Optional[Action]:
+    return next((a for a in RANK if a.value in names), None)
 
 
 def _atom(name: str, action: Action) -> clingo.Symbol:

@@ -12,6 +12,7 @@ import numpy as np
 # a planner that misreads a sign could never speed and a shield could never slow behind slow traffic.
 # The closed loop widens them to 10..40 m/s in 5 m/s steps (Vehicle.MAX_SPEED is 40); nothing else changes.
 TARGET_SPEEDS = tuple(float(v) for v in np.linspace(10.0, 40.0, 7))
+SPEED_STEP = TARGET_SPEEDS[1] - TARGET_SPEEDS[0]  # what one FASTER or SLOWER moves the target speed by
 
 SUPPORTED = ("highway-fast-v0", "highway-v0", "merge-v0")
 
@@ -34,5 +35,4 @@ def policy_period(env) -> float:
 
 def speed_index(speed: float) -> int:
     """The index MDPVehicle maps a speed to (nearest target speed)."""
-    step = TARGET_SPEEDS[1] - TARGET_SPEEDS[0]
-    return int(np.clip(round((speed - TARGET_SPEEDS[0]) / step), 0, len(TARGET_SPEEDS) - 1))
+    return int(np.clip(round((speed - TARGET_SPEEDS[0]) / SPEED_STEP), 0, len(TARGET_SPEEDS) - 1))

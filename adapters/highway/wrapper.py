@@ -23,7 +23,7 @@ from discern.rules.verdict import Decision, Verdict
 from discern.sanity import WindowConfig
 
 from .actions import from_catalog, to_catalog
-from .envs import SUPPORTED, TARGET_SPEEDS, policy_period
+from .envs import SPEED_STEP, SUPPORTED, policy_period
 from .perception import Faults, Perceived, Perception
 from .scene import build_scene
 from .truth import VehicleIds, read_truth
@@ -34,7 +34,7 @@ from .truth import VehicleIds, read_truth
 # A FASTER aims one step of TARGET_SPEEDS above the target speed nearest the current speed, so it passes a
 # limit on that grid when the speed is less than half a step below it (at exactly half, numpy's rounding
 # decides): acc.at_limit's accel_step.
-VEHICLE_PARAMS = {"decel": 4.0, "accel_step": (TARGET_SPEEDS[1] - TARGET_SPEEDS[0]) / 2}
+VEHICLE_PARAMS = {"decel": 4.0, "accel_step": SPEED_STEP / 2}
 
 # The roads of envs.SUPPORTED; the scene conversion gets curved, two-way and exit geometry wrong.
 SUPPORTED_CLASSES = (HighwayEnv, HighwayEnvFast, MergeEnv)
