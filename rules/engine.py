@@ -22,7 +22,6 @@ from clingo import ast
 from .answer_set import AnswerSet, show_statements
 from .batch import BatchAnswers, FrameAnswers, FrameTagger
 from .catalog import Catalog, load_catalog
-from .controls import PreparedControls
 from .fact_text import FACT_NAME
 from .facts import Params, scene_facts
 from .justify import Prover, rule_ids
@@ -107,8 +106,8 @@ class Reasoner:
         self.providers = list(providers) if providers is not None else _default_providers()
         self._solve_hook = solve_hook
         self._tagger = FrameTagger(self.catalog, shared={"param"})
-        self._controls = PreparedControls(self.catalog.rules_within, self._param_facts)
-        self.slicer = PresenceSlicer(self.catalog, self._controls)
+        self.slicer = PresenceSlicer(self.catalog, self._param_facts)
+        self._controls = self.slicer.controls
         self._static_atoms: dict = {}  # shared by the proofs of all its frames (justify.Prover)
 
     def solve(self, scene: Scene, proposed: Action, history: Sequence[Scene] = ()) -> SolvedFrame:

@@ -178,6 +178,35 @@ def match(term: Term, sym: Symbol, env: Env, shape: Callable[[Symbol], Shape] = 
         return None
 
 
+ANY = ("v", "_")
+
+
+def pattern_of(atom: Term) -> Term:
+    """What every atom an atom term can match shares: its constants and functors, the rest anonymous."""
+    tag = atom[0]
+    if tag == "s":
+        return atom
+    if tag != "f" or not atom[1]:  # variables, arithmetic, tuples
+        return ANY
+    return ("f", atom[1], tuple(pattern_of(a) for a in atom[2]))
+
+
+def is_fixed(pattern: Term) -> bool:
+    """Whether a pattern says more about its atoms than their predicate: some argument is not anonymous."""
+    if pattern[0] == "s":
+        return bool(pattern[1].type == SymbolType.Function and pattern[1].arguments)
+    return any(a != ANY for a in pattern[2])
+
+
+def pattern_text(pattern: Term) -> str:
+    """A pattern in clingo syntax, `_` for its anonymous parts."""
+    if pattern[0] == "s":
+        return str(pattern[1])
+    if pattern[0] == "v":
+        return "_"
+    return f"{pattern[1]}({','.join(pattern_text(a) for a in pattern[2])})" if pattern[2] else pattern[1]
+
+
 def compare(op: int, a: Symbol, b: Symbol) -> bool:
     if op == _CMP.Equal:
         return a == b

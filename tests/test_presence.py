@@ -5,6 +5,7 @@ test_engine.py compares a long varied run's answer sets with the full program's.
 from discern.adapters.avcsr import read_dir
 from discern.rules.engine import Reasoner
 from discern.rules.scene import Action
+from discern.rules.terms import pattern_text
 from tests.scenes import obj, scene
 
 
@@ -17,11 +18,11 @@ def test_a_predicate_absent_from_earlier_frames_is_derived_when_a_frame_has_it()
     far, near = scene(objects=[obj("pedestrian", 0, 80, lane=1)]), scene(objects=[obj("pedestrian", 0, 6, lane=1)])
     assert fact_names(reasoner, far) == fact_names(reasoner, near)  # the same kinds of facts: one learned set
     reasoner.decide(far, "accelerate")
-    assert "hazard" not in reasoner.slicer.learned(fact_names(reasoner, far))
+    assert "hazard" not in reasoner.slicer.learned(fact_names(reasoner, far)).present
     verdict = reasoner.decide(near, "accelerate")
     assert verdict.model_dump(exclude={"latency_ms"}) == fresh.decide(near, "accelerate").model_dump(exclude={"latency_ms"})
     assert verdict.action.value == "brake" and "brake.obstacle_ahead" in verdict.rules
-    assert "hazard" in reasoner.slicer.learned(fact_names(reasoner, near))
+    assert "hazard" in reasoner.slicer.learned(fact_names(reasoner, near)).present
 
 
 def test_kitti_frames_ground_fewer_rules_than_their_slice_once_learned(avcsr_dir):
@@ -33,4 +34,23 @@ def test_kitti_frames_ground_fewer_rules_than_their_slice_once_learned(avcsr_dir
     for f in frames:
         names = fact_names(reasoner, f.scene, f.expected.value)
         learned = reasoner.slicer.learned(names)
-        assert len(catalog.rules_within(learned)) < len(catalog.program_for(names))
+        assert len(catalog.rules_within(learned.present, learned.absent)) < len(catalog.rules_within(learned.present))
+        assert len(catalog.rules_within(learned.present)) < len(catalog.program_for(names))
+
+
+def test_a_pattern_absent_from_earlier_frames_is_matched_when_a_frame_has_it():
+    reasoner, fresh = Reasoner(), Reasoner()
+    onward, merging = scene(lanes=2), scene(lanes=2, intent="merge_into_right_lane")
+    names = fact_names(reasoner, onward)
+    assert names == fact_names(reasoner, merging)  # intent(continue_in_lane), intent(merge_into_right_lane): one kind
+    reasoner.decide(onward, "cruise")
+    assert "intent(merge_into_right_lane)" in {pattern_text(p) for p in reasoner.slicer.learned(names).absent}
+    before = reasoner.slicer.regrounds
+    verdict = reasoner.decide(merging, "change_lane_right")
+    assert reasoner.slicer.regrounds == before + 1
+    assert verdict.model_dump(exclude={"latency_ms"}) == fresh.decide(merging, "change_lane_right").model_dump(exclude={"latency_ms"})
+    assert "clr.intent_merge" in verdict.rules  # the rule left out before: the intent calls for the lane change
+    assert "intent(merge_into_right_lane)" not in {pattern_text(p) for p in reasoner.slicer.learned(names).absent}
+    reasoner.decide(merging, "change_lane_right")
+    assert reasoner.slicer.regrounds == before + 1  # learned: the next such frame is grounded once
+
