@@ -105,7 +105,7 @@ def main() -> None:
         "frozen after warm-up, full collections only between cases, where a worker runs them while idle; "
         "otherwise, measured, each full collection took about 75 ms after a few thousand 200-object decisions, "
         "freeing nothing). Warm-up: each KITTI frame decided once; for the random scenes, "
-        f"{WARM_UP_SCENES} other scenes of the same size, so that the predicates seen with atoms (rules/presence.py) "
+        f"{WARM_UP_SCENES} other scenes of the same size, so that the predicates and patterns seen with atoms (rules/presence.py) "
         "are those of a worker that has run a while. Decisions grounded twice because a predicate or pattern first got atoms in "
         f"them, among the timed ones: KITTI {kitti_regrounds} of {len(fast) + len(readied) + len(approve_tree) + len(veto_tree)}, "
         + ", ".join(f"{n} objects {regrounds[n]} of {len(scaling[n]) + len(scaling_ready[n])}" for n in SCALING_TARGETS)

@@ -38,19 +38,19 @@ def git(*args: str) -> str:
     return done.stdout.strip()
 
 
-def tree_of(revision: str, workdir: Path) -> tuple[Path, str]:
-    """A folder to import this revision's Discern from, and the revision's name for the report."""
+def tree_of(revision: str, role: str, workdir: Path) -> tuple[Path, str]:
+    """A folder to import this revision's Discern from (`role`: base or head), and the revision's name."""
     source = REPO
     name = f"working tree (on {git('rev-parse', '--short', 'HEAD')})"
     if revision != WORKING_TREE:
         commit = git("rev-parse", "--short", "--verify", f"{revision}^{{commit}}")
-        source = workdir / commit
-        archive = workdir / f"{commit}.tar"
+        source = workdir / f"{role}-{commit}"
+        archive = workdir / f"{role}.tar"
         git("archive", "--output", str(archive), commit, *PARTS)
         with tarfile.open(archive) as tar:
             tar.extractall(source, filter="data")
         name = f"{commit} ({git('log', '-1', '--format=%cs %s', commit)[:60]})"
-    tree = workdir / f"tree-{source.name}"
+    tree = workdir / f"tree-{role}"
     (tree / "discern").mkdir(parents=True)
     for part in PARTS:
         (tree / "discern" / part).symlink_to(source / part)
@@ -68,7 +68,8 @@ def main() -> None:
     if os.cpu_count() is None or os.cpu_count() < 2:
         raise SystemExit("bench_revisions: needs 2 cores, one per revision")
     with tempfile.TemporaryDirectory(prefix="discern-bench-revisions-") as tmp:
-        (base_tree, base_name), (head_tree, head_name) = (tree_of(r, Path(tmp)) for r in (args.base, args.head))
+        (base_tree, base_name), (head_tree, head_name) = (
+            tree_of(revision, role, Path(tmp)) for revision, role in ((args.base, "base"), (args.head, "head")))
         variants = {"base": dict(os.environ, **{TREE: str(base_tree)}), "head": dict(os.environ, **{TREE: str(head_tree)})}
         results = [(case, readied, compare(variants, case, readied, args.seconds, args.rounds, Path(tmp)))
                    for case in args.cases for readied in (False, True)]

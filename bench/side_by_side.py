@@ -85,10 +85,11 @@ def worker(case: str, readied: bool, core: int, start: float, seconds: float, ou
     reasoner = Reasoner()
     if case == "kitti":
         frames = [(f.scene, f.expected) for f in read_dir(KITTI)]
-        warm = frames
+        warm = []
     else:
-        frames = [(random_scene(random.Random(2026), int(case), i), "cruise") for i in range(24)]
-        warm = [(random_scene(random.Random(7), int(case), i), "cruise") for i in range(WARM_UP_SCENES)]
+        rng, warm_rng = random.Random(2026), random.Random(7)
+        frames = [(random_scene(rng, int(case), i), "cruise") for i in range(24)]
+        warm = [(random_scene(warm_rng, int(case), i), "cruise") for i in range(WARM_UP_SCENES)]
     for scene, action in warm + frames:
         reasoner.decide(scene, action)
     defer_full_collections()

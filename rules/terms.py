@@ -195,7 +195,7 @@ def is_fixed(pattern: Term) -> bool:
     """Whether a pattern says more about its atoms than their predicate: some argument is not anonymous."""
     if pattern[0] == "s":
         return bool(pattern[1].type == SymbolType.Function and pattern[1].arguments)
-    return any(a != ANY for a in pattern[2])
+    return pattern[0] == "f" and any(a != ANY for a in pattern[2])
 
 
 def pattern_text(pattern: Term) -> str:

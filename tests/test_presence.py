@@ -3,6 +3,7 @@
 test_engine.py compares a long varied run's answer sets with the full program's."""
 
 from discern.adapters.avcsr import read_dir
+from discern.rules.catalog import load_catalog
 from discern.rules.engine import Reasoner
 from discern.rules.scene import Action
 from discern.rules.terms import pattern_text
@@ -54,3 +55,10 @@ def test_a_pattern_absent_from_earlier_frames_is_matched_when_a_frame_has_it():
     reasoner.decide(merging, "change_lane_right")
     assert reasoner.slicer.regrounds == before + 1  # learned: the next such frame is grounded once
 
+
+def test_a_rule_requires_the_constants_and_functors_of_its_positive_atoms_not_their_variables(tmp_path):
+    (tmp_path / "r.lp").write_text(
+        "%! rule x.a\n%! says A.\n%! source s\n"
+        "a(X) :- p(X, left, f(Y), Z+1), q(X), r(c), not s(d), X > 0.\n")
+    rule = load_catalog([tmp_path]).compiled[0]
+    assert {pattern_text(p) for p in rule.requires} == {"p(_,left,f(_),_)", "r(c)"}
