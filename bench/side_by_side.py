@@ -3,7 +3,9 @@
 The development VM's speed drifts by up to 3x within the hour, more than most changes move a decision,
 so two variants are never timed one after the other: two processes, one on each core, decide the same
 frames in blocks of 24; blocks that started within half a second of each other are paired, and the two
-swap cores every round. The ratio is the median of the paired blocks' median ratios. A variant is the
+swap cores every round. The ratio is taken per placement (which variant on which core), as the median of
+its paired blocks' median ratios, and the two placements' ratios are averaged geometrically: one core of
+the VM can be a tenth faster than the other, which a median over all pairs does not cancel. A variant is the
 environment its process runs in: a malloc (bench_allocator.py) or a source tree (bench_revisions.py).
 
 Run as a worker (what `compare` starts): python bench/side_by_side.py CASE READIED CORE START SECONDS OUT
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import bisect
 import json
+import math
 import os
 import random
 import statistics
@@ -35,10 +38,11 @@ def label(case: str, readied: bool) -> str:
 
 def compare(variants: Mapping[str, Mapping[str, str]], case: str, readied: bool, seconds: float, rounds: int,
             workdir: Path) -> dict:
-    """Run the two variants (name -> environment) side by side; their timings, and the second's / the first's."""
+    """Run the two variants (name -> environment) side by side: their timings, the paired blocks' ratios
+    (the second's / the first's), and `ratio`, the geometric mean of the two core placements' median ratios."""
     (first, _), (second, _) = variants.items()
     ms: dict[str, list[float]] = {first: [], second: []}
-    ratios: list[float] = []
+    ratios: dict[int, list[float]] = {0: [], 1: []}  # by placement: the first variant on core 0, or on core 1
     malloc: dict[str, str] = {}
     for round_ in range(2 * rounds):
         start = time.time() + 5  # both loaded and warm before it
@@ -60,10 +64,15 @@ def compare(variants: Mapping[str, Mapping[str, str]], case: str, readied: bool,
             near = [j for j in (i - 1, i) if 0 <= j < len(starts) and abs(starts[j] - began) < PAIRED_WITHIN_S]
             if near:
                 other = b["blocks"][min(near, key=lambda j: abs(starts[j] - began))][1]
-                ratios.append(statistics.median(other) / statistics.median(block))
+                ratios[round_ % 2].append(statistics.median(other) / statistics.median(block))
         ms[first] += [t for _, block in a["blocks"] for t in block]
         ms[second] += [t for _, block in b["blocks"] for t in block]
-    return {"ms": ms, "ratios": ratios, "malloc": malloc}
+    if not ratios[0] or not ratios[1]:
+        raise SystemExit(f"side_by_side: no paired blocks on one core placement of {label(case, readied)}")
+    placements = [statistics.median(r) for r in ratios.values()]
+    ratio = math.exp(statistics.mean(math.log(r) for r in placements))
+    return {"ms": ms, "pairs": len(ratios[0]) + len(ratios[1]), "ratio": ratio, "placements": placements,
+            "malloc": malloc}
 
 
 def worker(case: str, readied: bool, core: int, start: float, seconds: float, out: str) -> None:
