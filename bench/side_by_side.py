@@ -38,8 +38,9 @@ def label(case: str, readied: bool) -> str:
 
 def compare(variants: Mapping[str, Mapping[str, str]], case: str, readied: bool, seconds: float, rounds: int,
             workdir: Path) -> dict:
-    """Run the two variants (name -> environment) side by side: their timings, the paired blocks' ratios
-    (the second's / the first's), and `ratio`, the geometric mean of the two core placements' median ratios."""
+    """Run the two variants (name -> environment) side by side: their timings, how many blocks were paired,
+    each core placement's median ratio of paired blocks (the second's / the first's), and `ratio`, their
+    geometric mean."""
     (first, _), (second, _) = variants.items()
     ms: dict[str, list[float]] = {first: [], second: []}
     ratios: dict[int, list[float]] = {0: [], 1: []}  # by placement: the first variant on core 0, or on core 1
