@@ -40,9 +40,9 @@ def git(*args: str) -> str:
 
 def tree_of(revision: str, role: str, workdir: Path) -> tuple[Path, str]:
     """A folder to import this revision's Discern from (`role`: base or head), and the revision's name."""
-    source = REPO
-    name = f"working tree (on {git('rev-parse', '--short', 'HEAD')})"
-    if revision != WORKING_TREE:
+    if revision == WORKING_TREE:
+        source, name = REPO, f"working tree (on {git('rev-parse', '--short', 'HEAD')})"
+    else:
         commit = git("rev-parse", "--short", "--verify", f"{revision}^{{commit}}")
         source = workdir / f"{role}-{commit}"
         archive = workdir / f"{role}.tar"

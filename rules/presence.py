@@ -2,9 +2,9 @@
 
 clingo charges for every rule it is given, about 5 to 10 us each, whether or not the rule fires, and
 most rules of a frame's slice (`Catalog.program_for`) never do: on the KITTI frames, 45 to 168 of
-their 85 to 219 rule statements. A rule cannot fire when its positive body needs a predicate with no atoms in the answer
-set, or an atom of a pattern that none matches (`obj_lane(_,oncoming,_)`, `intent(turn_left)`). So a
-frame is grounded with the rules that need only predicates and patterns seen with atoms in earlier
+their 85 to 219 rule statements. A rule cannot fire when its positive body needs a predicate with no
+atoms in the answer set, or an atom of a pattern that none matches (`obj_lane(_,oncoming,_)`,
+`intent(merge_into_right_lane)`). So a frame is grounded with the rules that need only predicates and patterns seen with atoms in earlier
 frames whose facts used the same predicates (`Catalog.rules_within`), and its answer set is then
 checked: if none of the predicates those rules derive outside that set got atoms, and no atom matches
 a pattern left out (the frame's guard rules derive `__unseen` when one does), every rule left out has
@@ -23,7 +23,7 @@ from clingo import ast
 
 from .catalog import Catalog
 from .controls import PreparedControls
-from .terms import Term, match, pattern_text
+from .terms import Term, match, pattern_signature, pattern_text
 
 UNSEEN = clingo.Function("__unseen")  # derived by a frame's guard rules when an atom matches a pattern left out
 
@@ -95,15 +95,11 @@ class PresenceSlicer:
         return frozenset(name for name, arity in signatures if next(iter(atoms.by_signature(name, arity)), None) is not None)
 
 
-def _signature(pattern: Term) -> tuple[str, int]:
-    return (pattern[1].name, len(pattern[1].arguments)) if pattern[0] == "s" else (pattern[1], len(pattern[2]))
-
-
 def _matched(control: clingo.Control, patterns: frozenset[Term]) -> frozenset[Term]:
     """The patterns that some atom of the grounded program matches."""
     by_signature: dict[tuple[str, int], list[Term]] = {}
     for pattern in patterns:
-        by_signature.setdefault(_signature(pattern), []).append(pattern)
+        by_signature.setdefault(pattern_signature(pattern), []).append(pattern)
     found = set()
     for (name, arity), waiting in by_signature.items():
         for atom in control.symbolic_atoms.by_signature(name, arity):

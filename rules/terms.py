@@ -198,6 +198,11 @@ def is_fixed(pattern: Term) -> bool:
     return pattern[0] == "f" and any(a != ANY for a in pattern[2])
 
 
+def pattern_signature(pattern: Term) -> tuple[str, int]:
+    """The predicate and arity of an atom's pattern."""
+    return (pattern[1].name, len(pattern[1].arguments)) if pattern[0] == "s" else (pattern[1], len(pattern[2]))
+
+
 def pattern_text(pattern: Term) -> str:
     """A pattern in clingo syntax, `_` for its anonymous parts."""
     if pattern[0] == "s":
