@@ -79,17 +79,18 @@ def cmd_check(args: argparse.Namespace) -> int:
         if "frames" in data and "scene" not in data:
             raise UserError(f"{args.scene}: a scenario file, not a scene: `discern scenarios run {args.scene}` "
                             "decides its frames and checks their expected verdicts")
-        if "scene" in data:
+        kind = "proposal" if "scene" in data else "scene"
+        if kind == "proposal":
+            if args.proposed:  # the command line's action stands in for the file's, whatever that was
+                text = json.dumps({**data, "action": args.proposed})
             proposal = Proposal.model_validate_json(text, **JSON_AS_SCHEMA)
             scene, action, vehicle = proposal.scene, proposal.action, proposal.vehicle
-            if args.proposed:
-                action = Action(args.proposed)
         else:
             if not args.proposed:
                 raise UserError(f"{args.scene}: a bare scene needs --proposed ACTION")
             scene, action, vehicle = Scene.model_validate_json(text, **JSON_AS_SCHEMA), Action(args.proposed), "ego"
     except ValidationError as exc:
-        raise UserError(f"{args.scene}: invalid scene:\n{describe_errors(exc)}") from None
+        raise UserError(f"{args.scene}: invalid {kind}:\n{describe_errors(exc)}") from None
     verdict = _reasoner(args).decide(scene, action, explain=True, shadow=args.shadow, vehicle=vehicle)
     if args.explain == "json":
         output = render_json(verdict)

@@ -26,7 +26,10 @@ LANE_WIDTH = 3.5
 
 
 def highway_scene(frame_id: int, n_objects: int = 8, *, lanes: int = 3, seed: int = 0, dt: float = 0.05) -> Scene:
-    """A deterministic highway frame: the ego in the middle lane, `n_objects` cars around it."""
+    """A deterministic highway frame: the ego in the middle lane, `n_objects` cars around it.
+
+    `dt`: seconds of scene time per frame (its timestamp is 1 + frame_id * dt); `run` passes its frame period.
+    """
     rng = random.Random(seed * 1_000_003 + frame_id)
     t = frame_id * dt
     ego_lane = (lanes + 1) // 2
@@ -94,7 +97,9 @@ def run(
         for frame in range(frames):
             started = time.monotonic()
             proposed = planner_action(frame)
-            verdict = monitor.check(highway_scene(frame), proposed, explain=explain)
+            # the scene's clock runs at the frame rate, as a real planner's would: the audit's rates per hour and km
+            # and its odometry go by it
+            verdict = monitor.check(highway_scene(frame, dt=period), proposed, explain=explain)
             failsafes += verdict.failsafe
             print(
                 f"frame {frame:4d}: proposed {proposed.value:<18} -> {verdict.decision.value:<8} "

@@ -18,7 +18,7 @@ from typing import Iterable, Optional
 
 from pydantic import BaseModel, ValidationError
 
-from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, Action, Proposal, describe_errors, valid_id
+from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, MAX_ID_LENGTH, Action, Proposal, describe_errors, valid_id
 from discern.rules.verdict import Decision, Justification, Verdict
 
 
@@ -62,10 +62,15 @@ class InputError(ValueError):
 
 def describe_validation_error(exc: ValidationError) -> str:
     """The core's one-line-per-problem description, first few problems, on one line."""
-    lines = describe_errors(exc).splitlines()
-    if len(lines) > MAX_ERRORS_NAMED:
-        lines = lines[:MAX_ERRORS_NAMED] + [f"... and {len(lines) - MAX_ERRORS_NAMED} more"]
-    return "; ".join(lines)
+    return "; ".join(describe_errors(exc, limit=MAX_ERRORS_NAMED).splitlines())
+
+
+def invalid_vehicle(vehicle: str) -> str:
+    """Why a key's vehicle is no vehicle id, the id shown short: it may be thousands of characters."""
+    shown = repr(vehicle) if len(vehicle) <= 40 else f"{vehicle[:40]!r}... ({len(vehicle)} characters)"
+    if len(vehicle) > MAX_ID_LENGTH:
+        return f"vehicle {shown} in the key is not a valid vehicle id: longer than {MAX_ID_LENGTH} characters"
+    return f"vehicle {shown} in the key is not a valid vehicle id ({ID_RULE})"
 
 
 def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
@@ -75,16 +80,13 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     that names none takes the key's.
     """
     if not valid_id(key_vehicle):
-        raise InputError(
-            f"vehicle {key_vehicle[:140]!r} in the key is not a valid vehicle id ({ID_RULE})",
-            "vehicle",
-        )
+        raise InputError(invalid_vehicle(key_vehicle), "vehicle")
     try:
         proposal = Proposal.model_validate_json(payload, **JSON_AS_SCHEMA)
     except ValidationError as exc:
-        invalid_json = [e["msg"] for e in exc.errors() if e["type"] == "json_invalid"]
-        if invalid_json:
-            raise InputError(f"malformed JSON: {invalid_json[0].removeprefix('Invalid JSON: ')}", "json") from None
+        first = exc.errors(include_url=False, include_input=False)[0] if exc.error_count() == 1 else None
+        if first is not None and first["type"] == "json_invalid":  # malformed JSON is one error, never more
+            raise InputError(f"malformed JSON: {first['msg'].removeprefix('Invalid JSON: ')}", "json") from None
         raise InputError(f"schema violation: {describe_validation_error(exc)}", "schema") from None
     if "vehicle" not in proposal.model_fields_set:
         proposal.vehicle = key_vehicle

@@ -30,7 +30,7 @@ from typing import Optional
 
 import zenoh
 
-from discern.rules.scene import ID_RULE, Action, valid_id
+from discern.rules.scene import Action, valid_id
 
 from . import keys
 from .config import DEFAULT_ENDPOINT, MonitorConfig, listen_endpoints
@@ -38,7 +38,9 @@ from .decision_pool import DecisionPool
 from .decision_worker import Job, Outcome, WorkerSettings
 from .log import McapLogWriter, RejectedInput, vehicle_topic
 from .log.channels import STATUS_TOPIC
-from .protocol import RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, encode, failsafe_verdict, peek_frame
+from .protocol import (
+    RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, encode, failsafe_verdict, invalid_vehicle, peek_frame,
+)
 from .status import MonitorStatus, StatusCounters
 from .vehicle_state import EXPIRY_MARGIN_S, EXPIRY_SWEEP_S, PermittedMemory
 
@@ -236,7 +238,7 @@ class MonitorServer:
                 return
             refusal = (reason, "vehicle")
         elif not valid_id(vehicle):
-            refusal = (f"vehicle {vehicle[:140]!r} in the key is not a valid vehicle id ({ID_RULE})", "vehicle")
+            refusal = (invalid_vehicle(vehicle), "vehicle")
         elif data is None:
             refusal = (
                 (f"payload of {size} bytes exceeds the limit of {limit} bytes", "size")
@@ -349,7 +351,9 @@ class MonitorServer:
                     self._wake.wait(delay)
                 continue
             pending.popleft()
-            reason = f"no decision within the {self.config.budget_ms:g} ms budget"
+            # Not read yet: the monitor's process never parses a payload (see _AnswerLog), so a malformed one is
+            # named in the log's rejected record once its worker reads it, not here.
+            reason = f"no decision within the {self.config.budget_ms:g} ms budget: not yet read by a decision worker"
             if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
                 self.counters.count("deadline_misses")
 
@@ -514,8 +518,11 @@ def _direct(callback):
     return zenoh.handlers.Callback(callback, indirect=False)
 
 
+INVALID_VEHICLE = "@invalid"  # the log's name for what came on a key naming no vehicle: never a vehicle id itself
+
+
 def _topic_safe(vehicle: str) -> str:
-    return vehicle if valid_id(vehicle) else "_invalid"
+    return vehicle if valid_id(vehicle) else INVALID_VEHICLE
 
 
 def _quietly(fn) -> None:

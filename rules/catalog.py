@@ -27,7 +27,9 @@ from clingo import Control, Symbol, ast
 
 from .terms import Literal, Term, compile_literal, compile_term, is_fixed, pattern_of, term_vars
 
-_ANNOTATION = re.compile(r"^%!\s*(rule|says|source|pred|term|hide)\s+(.*?)\s*$")
+# Every line that starts with `%!` is an annotation: a keyword, then (after white space) its value.
+_ANNOTATION = re.compile(r"^%!\s*([A-Za-z_]*)(?:\s+(.*?))?\s*$")
+_ANNOTATION_KEYS = ("rule", "says", "source", "pred", "term", "hide")
 _PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
 # A template's placeholder: @(Var), @(Var:format), and either with |words to say when Var is unknown.
 PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
@@ -288,10 +290,18 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
             raise CatalogError(f"{path}:{start}: rule {current['rule']} has no {' and no '.join(missing)}")
 
     for number, line in enumerate(text.splitlines(), start=1):
-        match = _ANNOTATION.match(line.strip())
-        if not match:
+        line = line.strip()
+        if not line.startswith("%!"):
             continue
-        key, value = match.groups()
+        match = _ANNOTATION.match(line)
+        key, value = match.groups() if match else (None, None)
+        if key not in _ANNOTATION_KEYS:  # a misspelt keyword would leave its block to the rule before it
+            raise CatalogError(f"{path}:{number}: not an annotation: {line!r}"
+                               f" (a '%!' line is '%! <keyword> <value>', keyword one of {', '.join(_ANNOTATION_KEYS)})")
+        if not value:
+            raise CatalogError(f"{path}:{number}: '%! {key}' without its {'id' if key == 'rule' else 'value'}")
+        if key == "rule" and re.search(r"\s", value):
+            raise CatalogError(f"{path}:{number}: rule id {value!r} holds white space")
         if key == "hide":
             name, _, arity = value.partition("/")
             if not arity.isdigit():

@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass, fields
 
 from clingo import String
 
-from .scene import Action, Scene
+from .scene import MAX_RANGE_M, MAX_SPEED_MS, Action, Scene
 
 
 def cm(metres: float) -> int:
@@ -19,6 +19,20 @@ def cm(metres: float) -> int:
 
 
 MIN_PARAM = 0.01  # the smallest parameter value the facts (in cm and ms) do not round to 0
+# The largest value of each kind of parameter. The rules multiply speeds (cm/s, up to MAX_SPEED_MS) by times (ms) in
+# clingo's 32-bit integers: past a minute, a reaction time would wrap into a wrong, possibly permissive, verdict.
+MAX_PARAM_TIME_S = 60.0
+MAX_PARAM_DECEL = 100.0  # m/s², ten times gravity
+_TIMES = frozenset({"reaction_s", "headway_s", "turn_gap_s"})
+_SPEEDS = frozenset({"stopped_speed", "accel_step", "speed_margin", "turn_speed"})
+
+
+def _largest(name: str) -> float:
+    if name in _TIMES:
+        return MAX_PARAM_TIME_S
+    if name in _SPEEDS:
+        return MAX_SPEED_MS
+    return MAX_PARAM_DECEL if name == "decel" else MAX_RANGE_M
 
 
 @dataclass(frozen=True)
@@ -44,7 +58,7 @@ class Params:
     speed_margin: float = 2.2352  # m/s (5 mph), how far above the limit the ego may be before it must slow down
     turn_speed: float = 8.9408  # m/s (20 mph), the fastest the ego turns at an intersection
     turn_dist: float = 10.0  # m, a turn starts no farther than this before the stop line
-    move_over_dist: float = 150.0  # m, an emergency vehicle or a stopped school bus nearer than this ahead is acted on
+    move_over_dist: float = 150.0  # m, an emergency vehicle nearer than this (either way) or a stopped school bus ahead
 
     @classmethod
     def overrides(cls, pairs: list[str]) -> tuple[dict[str, float], list[str]]:
@@ -64,8 +78,9 @@ class Params:
                 number = None
             if name not in known:
                 problems.append(f"unknown --param {name!r} (known: {', '.join(sorted(known))})")
-            elif number is None or not (math.isfinite(number) and number >= MIN_PARAM):
-                problems.append(f"--param {name} needs a finite number of at least {MIN_PARAM:g}, got {value!r}")
+            elif number is None or not (math.isfinite(number) and MIN_PARAM <= number <= _largest(name)):
+                bound = f"from {MIN_PARAM:g} to {_largest(name):g}"
+                problems.append(f"--param {name} needs a number {bound}, got {value!r}")
             else:
                 values[name] = number
         return values, problems

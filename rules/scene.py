@@ -8,6 +8,7 @@ positions are relative to the ego: x to the right, y ahead, bumper to nearest fa
 from __future__ import annotations
 
 import re
+import reprlib
 from enum import Enum
 from typing import Annotated, Literal, Optional
 
@@ -145,6 +146,10 @@ MAX_RANGE_M = 10_000.0  # farther than any sensor sees
 MAX_SPEED_MS = 150.0  # faster than any road vehicle; a closing speed of 300 m/s squared in cm/s fits 32 bits
 MAX_ID = 2**31 - 1  # clingo's largest integer
 MAX_LANE_ID = 1_000  # lanes are counted from the left, and the rules look one lane beyond
+MAX_FRAME_ID = 2**63 - 1  # a signed 64-bit counter, as planners and MCAP keep them
+# More entries than any sensor suite reports in one frame. It also bounds what refusing a hostile payload costs:
+# a list of 340,000 empty objects took the monitor 13 s to describe, error by error.
+MAX_ITEMS = 1_000
 
 Metres = Annotated[float, Field(ge=-MAX_RANGE_M, le=MAX_RANGE_M, allow_inf_nan=False)]
 NonNegMetres = Annotated[float, Field(ge=0, le=MAX_RANGE_M, allow_inf_nan=False)]
@@ -217,7 +222,7 @@ class DetectedObject(Strict):
     indicator: Indicator = Indicator.none
     emergency_lights: bool = Field(False, description="flashing red/blue lights seen in this frame")
     predicted_path: Optional[PathId] = None
-    sources: list[Source] = Field(default_factory=lambda: [Source.camera])
+    sources: list[Source] = Field(default_factory=lambda: [Source.camera], max_length=len(Source))
     elevation: Optional[Metres] = Field(None, description="height of the object's base above the road, m")
     size: Optional[Size] = None
     track_age: Optional[int] = Field(None, ge=0, le=MAX_ID, description="frames this track has existed")
@@ -247,10 +252,18 @@ class Intersection(Strict):
     stop_controlled: bool = Field(False, description="map data: the ego's approach is stop-controlled")
 
 
+class RangeSensor(str, Enum):
+    """What measures a range: a map or a camera reports no distance reading."""
+
+    radar = "radar"
+    lidar = "lidar"
+    ultrasonic = "ultrasonic"
+
+
 class RangeReading(Strict):
     side: SensorSide
     distance: NonNegMetres
-    kind: Source = Source.radar
+    kind: RangeSensor = RangeSensor.radar
 
 
 class PathCrossing(Strict):
@@ -261,19 +274,19 @@ class PathCrossing(Strict):
 class Scene(Strict):
     """One frame of the world as the planner saw it."""
 
-    frame_id: int = Field(ge=0)
+    frame_id: int = Field(ge=0, le=MAX_FRAME_ID)
     timestamp: float = Field(0.0, allow_inf_nan=False, description="seconds")
     ego: Ego
     speed_limit: Optional[Speed] = Field(None, description="limit in force as perceived, m/s")
     map_speed_limit: Optional[Speed] = Field(None, description="limit from map data, m/s")
-    lanes: list[Lane] = Field(default_factory=list)
-    objects: list[DetectedObject] = Field(default_factory=list)
-    traffic_lights: list[TrafficLight] = Field(default_factory=list)
-    signs: list[TrafficSign] = Field(default_factory=list)
+    lanes: list[Lane] = Field(default_factory=list, max_length=MAX_ITEMS)
+    objects: list[DetectedObject] = Field(default_factory=list, max_length=MAX_ITEMS)
+    traffic_lights: list[TrafficLight] = Field(default_factory=list, max_length=MAX_ITEMS)
+    signs: list[TrafficSign] = Field(default_factory=list, max_length=MAX_ITEMS)
     intersection: Optional[Intersection] = None
-    sensors: list[RangeReading] = Field(default_factory=list)
-    path_crossings: list[PathCrossing] = Field(default_factory=list)
-    notes: list[str] = Field(default_factory=list, description="warnings from the adapter or validation")
+    sensors: list[RangeReading] = Field(default_factory=list, max_length=MAX_ITEMS)
+    path_crossings: list[PathCrossing] = Field(default_factory=list, max_length=MAX_ITEMS)
+    notes: list[str] = Field(default_factory=list, max_length=MAX_ITEMS, description="warnings from the adapter or validation")
 
     @field_validator("objects")
     @classmethod
@@ -310,7 +323,8 @@ class Scene(Strict):
         return sorted(l.id for l in self.lanes if l.kind is LaneKind.current)
 
 
-ID_RULE = "[A-Za-z0-9_-]{1,128}"  # a vehicle or monitor id: one zenoh key chunk
+MAX_ID_LENGTH = 128
+ID_RULE = f"[A-Za-z0-9_-]{{1,{MAX_ID_LENGTH}}}"  # a vehicle or monitor id: one zenoh key chunk
 _ID = re.compile(ID_RULE)
 
 
@@ -323,7 +337,7 @@ class Proposal(Strict):
     """What the planner asks the monitor to judge: one message, one frame."""
 
     version: Literal[1] = SCHEMA_VERSION
-    vehicle: str = Field("ego", min_length=1, max_length=128, pattern=f"^{ID_RULE}$")
+    vehicle: str = Field("ego", min_length=1, max_length=MAX_ID_LENGTH, pattern=f"^{ID_RULE}$")
     action: Action
     scene: Scene
     explain: bool = Field(False, description="ask for the full justification tree")
@@ -337,14 +351,28 @@ MAX_PROBLEM = 300
 MAX_VALUE_SHOWN = 60
 
 
+def _shown(value: object) -> str:
+    """An offending value in a few dozen characters, without writing out the whole of it first (a list of
+    thousands of objects)."""
+    brief = reprlib.Repr()
+    brief.maxlevel, brief.maxlist, brief.maxdict = 2, 3, 3
+    brief.maxstring = brief.maxother = brief.maxlong = MAX_VALUE_SHOWN
+    return brief.repr(value)[:MAX_VALUE_SHOWN]
+
+
 def _cut(text: str, limit: int) -> str:
     return text if len(text) <= limit else f"{text[:limit]}... (cut from {len(text)} characters)"
 
 
-def describe_errors(exc: ValidationError, root: str = "") -> str:
-    """One line per problem, naming the field path, the problem and the offending value; each line bounded."""
+def describe_errors(exc: ValidationError, root: str = "", limit: Optional[int] = None) -> str:
+    """One line per problem, naming the field path, the problem and the offending value; each line bounded.
+
+    `limit`: describe only the first problems and count the rest. A hostile payload can carry a hundred
+    thousand problems; the monitor names a few and moves on.
+    """
+    errors = exc.errors(include_url=False)
     lines = []
-    for err in exc.errors():
+    for err in errors[:limit]:
         # a whole-scene check names its fields itself
         path = ".".join(_cut(str(p), MAX_PATH_PART) for p in (root, *err["loc"]) if p != "")
         message = err["msg"].removeprefix("Value error, ")
@@ -352,11 +380,12 @@ def describe_errors(exc: ValidationError, root: str = "") -> str:
             pass
         elif err["type"] == "enum":
             expected = err.get("ctx", {}).get("expected", "")
-            message = f"unknown value {repr(err['input'])[:MAX_VALUE_SHOWN]} (expected one of {expected})"
+            message = f"unknown value {_shown(err['input'])} (expected one of {expected})"
         elif err["type"] in ("missing",):
             message = "is required but missing"
         elif "input" in err and err["type"] not in ("model_type", "dict_type"):
-            shown = repr(err["input"])
-            message = f"{message} (got {shown[:MAX_VALUE_SHOWN]})"
+            message = f"{message} (got {_shown(err['input'])})"
         lines.append(_cut(f"{path}: {message}" if path else message, MAX_PROBLEM))
+    if len(errors) > len(lines):
+        lines.append(f"... and {len(errors) - len(lines)} more")
     return "\n".join(lines)

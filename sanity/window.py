@@ -295,7 +295,9 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, interval: fl
             runs.pop()
     before = _believed(runs, confirm)
     if before is not None:
-        out.append(f"prior_limit({runs[before][0]}).")
+        value, length = runs[before]
+        # with its run, so that the rules can tell a settled limit from a one-frame lower reading
+        out.append(f"prior_limit({value}).prior_run({value},{length}).prior_time({value},{round(length * interval)}).")
     return out
 
 
@@ -542,7 +544,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         tracked = max(frames[oid], obj.track_age or 0)
         side = _side_of(x, y)
         reach = math.hypot(x, y) + config.sensor_margin
-        facing = [r for r in scene.sensors if r.side is side and r.kind in CONFIRMING]
+        facing = [r for r in scene.sensors if r.side is side]  # every range reading confirms (RangeSensor)
         reads = [r for r in facing if r.distance <= reach]
         if tracked < config.track_frames and not reads:
             continue

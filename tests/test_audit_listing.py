@@ -329,3 +329,27 @@ def test_a_users_mistake_is_named_in_one_line(capsys, logs, args, message):
     assert code == 2
     assert message in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_a_deadline_failsafe_takes_its_scene_time_from_its_logged_proposal(capsys, tmp_path, logs):
+    out = tmp_path / "slow.csv"
+    code, _, err = audit(capsys, str(logs["slow"]), "--csv", str(out), "--workers", "1", "-q")
+    assert code == 0, err
+    rows = [r for r in csv.DictReader(out.open()) if "monitor.deadline" in r["rules"]]
+    assert len(rows) == SLOW_FRAMES
+    # the fail-safe answered before the scene was read: its verdict has no timestamp, its logged proposal has
+    assert [float(r["scene_time"]) for r in rows] == [highway(int(r["frame_id"])).timestamp for r in rows]
+
+
+def test_the_example_planners_scene_time_follows_its_frame_rate(tmp_path):
+    import io
+
+    from discern.monitor.example_planner import run
+    from discern.monitor.log import read_log
+
+    rate_hz = 10.0
+    serve_log(tmp_path, "planner", lambda endpoint: run("ego", 4, rate_hz, [endpoint], out=io.StringIO()))
+    stamps = [r.proposal.scene.timestamp for r in read_log(tmp_path) if r.kind == "proposal"]
+    assert len(stamps) == 4
+    # one frame period of scene time per frame, as the frames really came: the audit's rates per hour go by it
+    assert [round(b - a, 6) for a, b in zip(stamps, stamps[1:])] == [1 / rate_hz] * 3

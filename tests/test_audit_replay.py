@@ -408,3 +408,11 @@ def test_a_replacement_rule_changed_alone_is_reported_though_permitted_and_recom
     code, doc, out = replay(capsys, tmp_path, log, "--rules", str(speeding_up), "--workers", "1")
     assert code == 1 and len(doc["changes"]) == 3
     assert "change_lane_left: override cruise -> override accelerate" in out
+
+
+def test_a_misspelt_rule_annotation_in_an_edited_catalog_is_refused_naming_its_file_and_line(capsys, tmp_path, logs):
+    text = ("%! rule x.a\n%! says A.\n%! source s\nforbidden(accelerate) :- action(accelerate).\n"
+            "%! rules x.b\n%! says B.\n%! source s\nforbidden(brake) :- action(brake).\n")
+    lp, err = refused_rules(capsys, tmp_path, logs, text)
+    assert err.startswith(f"discern audit: rules catalog: {lp}:5: not an annotation: '%! rules x.b'")
+    assert "Traceback" not in err

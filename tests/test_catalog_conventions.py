@@ -79,3 +79,31 @@ def test_rules_deriving_an_atom_skip_heads_about_another_constant_and_keep_catal
     assert brake == [r for r in every if r.head[2][0][0] != "s" or r.head[2][0][1] == Function("brake")]
     assert brake and len(brake) < len(every)
     assert catalog.rules_deriving("applicable", 1, None) == every
+
+
+@pytest.mark.parametrize("line, problem", [
+    ("%! rules x.b", r"r\.lp:5: not an annotation: '%! rules x\.b'"),
+    ("%! rule", r"r\.lp:5: '%! rule' without its id"),
+    ("%! rule   ", r"r\.lp:5: '%! rule' without its id"),
+    ("%! says", r"r\.lp:5: '%! says' without its value"),
+    ("%! source ", r"r\.lp:5: '%! source' without its value"),
+    ("%! sayz B.", r"r\.lp:5: not an annotation: '%! sayz B\.'"),
+    ("%!", r"r\.lp:5: not an annotation: '%!'"),
+    ("%! rule x.b c", r"r\.lp:5: rule id 'x\.b c' holds white space"),
+])
+def test_a_broken_annotation_line_is_an_error_naming_its_file_and_line_not_credited_to_the_rule_before(
+        tmp_path, line, problem):
+    # a misspelt `%! rule` line used to be passed over: the block's says and source then overwrote x.a's
+    text = "%! rule x.a\n%! says A.\n%! source s\na :- b.\n" + line + "\n%! says B.\n%! source t\nc :- d.\n"
+    with pytest.raises(CatalogError, match=problem):
+        load_catalog(write_rules(tmp_path, text))
+
+
+def test_every_shipped_catalog_loads_with_its_annotations_checked():
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    for directory in ("rules/catalog", "sanity/catalog", "rules/jurisdictions"):
+        catalog = load_catalog([root / directory])
+        assert catalog.rules, directory
+    assert len(load_catalog().rules) >= 35  # the default set, all together

@@ -139,7 +139,30 @@ def test_check_param_sets_a_reasoning_parameter_and_names_a_bad_one(tmp_path, ca
     assert out.startswith("override cruise with brake") and "the decel is 4 m/s²" in out
     assert main(["check", path, "--proposed", "cruise", "--param", "decel=0", "--param", "brakes=1"]) == 2
     err = capsys.readouterr().err
-    assert "--param decel needs a finite number of at least 0.01, got '0'" in err and "unknown --param 'brakes'" in err
+    assert "--param decel needs a number from 0.01 to 100, got '0'" in err and "unknown --param 'brakes'" in err
+
+
+def test_check_param_past_its_bound_is_refused_rather_than_wrapped_into_a_permissive_verdict(tmp_path, capsys):
+    """A reaction time of 800 s once wrapped clingo's 32-bit arithmetic and approved cruising at a stopped car."""
+    path = write(tmp_path, json.loads(scene(speed=30, limit=35, objects=[obj("car", 0, 60, lane=1, vy=0.0)])
+                                      .model_dump_json(by_alias=True)))
+    for setting in ("reaction_s=800", "headway_s=800", "accel_step=1000", "min_gap=1e7"):
+        assert main(["check", path, "--proposed", "cruise", "--param", setting]) == 2
+        err = capsys.readouterr().err
+        name, _, value = setting.partition("=")
+        assert f"--param {name} needs a number from 0.01 to" in err and f"got '{value}'" in err
+        assert "Traceback" not in err
+    assert main(["check", path, "--proposed", "cruise", "--param", "reaction_s=60"]) == 0
+    assert capsys.readouterr().out.startswith("override cruise with brake")
+
+
+def test_check_names_a_bad_proposal_as_a_proposal_and_proposed_stands_in_for_its_action(tmp_path, capsys):
+    data = {"action": "fly", "scene": json.loads(scene(speed=10, limit=15).model_dump_json(by_alias=True))}
+    path = write(tmp_path, data, "proposal.json")
+    assert main(["check", path]) == 2
+    assert "invalid proposal:\naction: unknown value 'fly'" in capsys.readouterr().err
+    assert main(["check", path, "--proposed", "cruise"]) == 0
+    assert capsys.readouterr().out.startswith("approve cruise")
 
 
 def test_scenarios_run_takes_single_files_of_either_kind_and_explains_each_verdict(avcsr_dir, capsys):

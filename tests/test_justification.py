@@ -431,7 +431,8 @@ def test_an_explained_approval_proves_every_rule_it_cites(reasoner):
 
 def test_a_headway_is_compared_in_metres_not_as_a_speed(reasoner):
     verdict = reasoner.decide(scene(speed=10, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate", explain=True)
-    assert "10.0 m ≤ 18.3 m" in verdict.justification.text and "m/s ≤ 18.3" not in verdict.justification.text
+    # the headway one accel_step on: 10.5 m/s for 1 s, against the 19.7 m needed to stop from 10.5 m/s
+    assert "10.5 m ≤ 19.7 m" in verdict.justification.text and "m/s ≤ 19.7" not in verdict.justification.text
 
 
 def test_two_different_numbers_never_read_alike_in_a_comparison(reasoner):

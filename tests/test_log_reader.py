@@ -9,6 +9,8 @@ import shutil
 import signal
 import time
 
+import pytest
+
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
@@ -316,3 +318,93 @@ def test_a_deleted_log_directory_is_noticed_recreated_and_its_lost_records_count
     errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR]
     assert len(errors) == 1 and f"{writer.files[0].name} was deleted or moved away" in errors[0]
     assert f"logging again, to {writer.files[1]}" in caplog.text
+
+
+def write_chunked(directory, frames: int) -> tuple[bytes, list[tuple[int, int]]]:
+    """A cleanly closed log of one proposal per chunk: (its bytes, each chunk record's (start, end))."""
+    writer = McapLogWriter(LogSettings(directory=directory, flush_seconds=0.02), "chunks")
+    for f in range(frames):
+        writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(vehicle="v", action="cruise", scene=highway_scene(f, 4)))
+        time.sleep(0.1)  # one chunk per proposal
+    writer.close()
+    [path] = directory.glob("*.mcap")
+    chunks = []
+    with open(path, "rb") as f:
+        from mcap.records import Chunk
+        from mcap.stream_reader import StreamReader
+
+        before = 8
+        for record in StreamReader(f, emit_chunks=True).records:
+            if isinstance(record, Chunk):
+                chunks.append((before, f.tell()))
+            before = f.tell()
+    return path.read_bytes(), chunks
+
+
+def test_a_damaged_chunk_is_skipped_and_named_and_the_chunks_after_it_are_read(tmp_path):
+    data, chunks = write_chunked(tmp_path, 8)
+    assert len(chunks) == 8, chunks
+    start, end = chunks[3]
+    damaged = bytearray(data)
+    damaged[(start + end) // 2] ^= 0x40  # one bit of the fourth chunk's compressed data
+    path = tmp_path / "damaged.mcap"
+    path.write_bytes(bytes(damaged))
+    report = RecoveryReport()
+    frames = [r.proposal.scene.frame_id for r in read_log(path, report)]
+    assert frames == [0, 1, 2, 4, 5, 6, 7]  # only the damaged chunk's proposal is lost
+    [f] = report.files
+    assert f.state == "damaged" and f.complete and f.stopped_by is None  # read to its footer: not truncated
+    [chunk] = f.damaged
+    assert (chunk.offset, chunk.length, chunk.kind, chunk.messages) == (start, end - start, "chunk", 1)
+    assert f.recovered_bytes == len(data) - (end - start)
+    assert f"damaged: chunk at byte {start} ({end - start} bytes, 1 message) skipped: " in report.summary()
+
+
+def test_a_damaged_chunk_of_a_cut_file_is_skipped_and_the_file_still_reads_as_truncated(tmp_path):
+    data, chunks = write_chunked(tmp_path, 6)
+    start, end = chunks[2]
+    damaged = bytearray(data[: chunks[5][0]])  # cut before the last chunk: no footer
+    damaged[(start + end) // 2] ^= 0x01
+    path = tmp_path / "cut.mcap"
+    path.write_bytes(bytes(damaged))
+    report = RecoveryReport()
+    frames = [r.proposal.scene.frame_id for r in read_log(path, report)]
+    assert frames == [0, 1, 3, 4]
+    [f] = report.files
+    assert f.state == "truncated" and [d.offset for d in f.damaged] == [start]
+    assert f.stopped_by.startswith("cut short ")
+
+
+def test_a_file_missing_its_closing_magic_is_truncated_not_complete(tmp_path):
+    write_session(tmp_path)
+    [whole] = tmp_path.glob("*.mcap")
+    data = whole.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    for missing in range(1, 9):
+        cut.write_bytes(data[:-missing])
+        with open(cut, "rb") as f, pytest.raises(Exception):
+            make_reader(f).get_summary()  # the standard reader (and Foxglove) cannot open it
+        report = RecoveryReport()
+        assert len(list(read_log(cut, report))) == 13  # every message is still read
+        [f] = report.files
+        assert f.state == "truncated" and not f.complete, missing
+        assert f.stopped_by == f"cut short after its footer, inside the closing magic at byte {len(data) - 8}"
+        assert f.recovered_bytes == len(data) - 8
+
+
+def test_a_file_cut_short_is_said_so_in_plain_words_wherever_the_cut_falls(tmp_path):
+    write_session(tmp_path, frames=2)
+    [whole] = tmp_path.glob("*.mcap")
+    data = whole.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    reasons = set()
+    for size in list(range(1, 64)) + list(range(64, len(data), 7)):
+        cut.write_bytes(data[:size])
+        report = RecoveryReport()
+        list(read_log(cut, report))
+        [f] = report.files
+        assert f.state in ("truncated", "unreadable") and f.stopped_by.startswith("cut short "), (size, f.stopped_by)
+        assert not any(word in f.stopped_by for word in ("unpack", "buffer", "Error", "EndOfFile")), f.stopped_by
+        reasons.add(f.stopped_by)
+    assert "cut short inside a record at byte 8" in reasons  # `head -c 10`: the magic and a piece of the header
+    assert "cut short inside its opening magic, at byte 4" in reasons

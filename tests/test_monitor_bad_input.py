@@ -155,9 +155,17 @@ def test_duplicate_and_out_of_order_frames_are_refused(session):
     assert not ask(session, key, json.dumps(proposal("replayer", frame=6)).encode()).failsafe
 
 
-def test_an_invalid_vehicle_in_the_key_is_answered_on_that_key(session):
+def test_an_invalid_vehicle_in_the_key_is_answered_on_that_key_and_logged_apart_from_every_vehicle(session, log_dir):
     verdict = ask(session, "discern/not.a.vehicle/check", json.dumps(proposal("x")).encode())
     assert verdict.failsafe and "not a valid vehicle id" in verdict.error
+    # `_invalid` is a valid vehicle id: its own records must not mix with those of keys naming no vehicle
+    assert not ask(session, "discern/_invalid/check", json.dumps(proposal("_invalid")).encode()).failsafe
+
+    def logged():
+        return {(r.vehicle, r.kind) for r in read_log(log_dir) if r.vehicle in ("@invalid", "_invalid")}
+
+    wait_until(lambda: {("@invalid", "rejected"), ("_invalid", "proposal")} <= logged())
+    assert ("_invalid", "rejected") not in logged()
 
 
 def test_an_oversized_payload_is_logged_with_an_excerpt_of_its_first_bytes(session, log_dir):

@@ -237,7 +237,13 @@ CASES = {
     ),
     "tl.yield_oncoming": (
         scene(intersection=at_stop, other_lanes=("oncoming",), objects=[obj("car", -3, 8, lane=1, kind="oncoming")]),
-        scene(intersection=at_stop, other_lanes=("oncoming",), objects=[obj("car", -3, 25, lane=1, kind="oncoming")]),
+        scene(intersection=at_stop, other_lanes=("oncoming",), objects=[obj("car", -3, 150, lane=1, kind="oncoming")]),
+    ),
+    "tl.oncoming_lane_blocked": (
+        scene(speed=0, intersection=at_stop, other_lanes=("oncoming",),
+              objects=[obj("pedestrian", -3.5, 3, lane=1, kind="oncoming", vy=0)]),
+        scene(speed=0, intersection=at_stop, other_lanes=("oncoming",),
+              objects=[obj("plastic_bag", -3.5, 3, lane=1, kind="oncoming", vy=0)]),
     ),
     "dec.actions": (scene(), None),
     "dec.permitted": (scene(), None),
@@ -289,7 +295,7 @@ def test_rule_does_not_fire_when_its_condition_or_exception_fails(rule_id):
 
 
 def test_every_driving_rule_has_a_case_or_a_jurisdiction_case():
-    uk_only = {"clr.overtake", "tr.yield_oncoming", "tl.kerb_side_user"}
+    uk_only = {"clr.overtake", "tr.yield_oncoming", "tl.kerb_side_user", "tr.oncoming_lane_blocked"}
     ids = {r.id for r in REASONER.catalog.driving_rules() if r.file.startswith(str(catalog_dirs()[0]))}
     assert ids - set(CASES) - uk_only == set()
 
@@ -579,3 +585,74 @@ def test_a_lane_change_leaves_the_time_headway_to_a_vehicle_at_its_speed_and_les
     falling_back = scene(speed=30, limit=35, lane=2, lanes=2, objects=[obj("car", -3.5, -20, lane=1, vy=20)])
     text = REASONER.decide(falling_back, "change_lane_left", explain=True).justification.text
     assert "moving in beside car 1 needs a headway gap of 0.0 m  [def.headway_gap]" in text
+
+
+at_green_to_turn_left = {"speed": 0, "intent": "enter_left_lane", "light": "green", "other_lanes": ("oncoming",),
+                         "intersection": {"type": "signaled", "stage": "at", "distance": 0}}
+
+
+def test_a_moving_oncoming_car_alongside_the_ego_blocks_the_turn_across_its_lane():
+    alongside = obj("car", -3.5, 0, lane=1, kind="oncoming", vy=-10)
+    verdict = decide(scene(**at_green_to_turn_left, objects=[alongside]), "turn_left")
+    assert verdict.decision.value == "override" and "tl.yield_oncoming" in verdict.rules
+    uk = Reasoner(jurisdiction="uk")
+    mirrored = scene(**{**at_green_to_turn_left, "intent": "enter_right_lane"},
+                     objects=[obj("car", 3.5, 0, lane=1, kind="oncoming", vy=-10)])
+    verdict = uk.decide(mirrored, "turn_right")
+    assert verdict.decision.value == "override" and "tr.yield_oncoming" in verdict.rules
+    passed = obj("truck", -3.5, -2, lane=1, kind="oncoming", vy=-8)  # behind the ego and driving away
+    assert decide(scene(**at_green_to_turn_left, objects=[passed]), "turn_left").decision.value == "approve"
+
+
+def test_an_oncoming_car_of_unknown_speed_near_enough_blocks_a_left_turn():
+    unknown = decide(scene(**at_green_to_turn_left, objects=[obj("car", -3.5, 12, lane=1, kind="oncoming")]), "turn_left")
+    assert unknown.decision.value == "override" and "tl.yield_oncoming" in unknown.rules
+    assert "def.oncoming_unknown_close" in unknown.justification.text
+    known = decide(scene(**at_green_to_turn_left, objects=[obj("car", -3.5, 12, lane=1, kind="oncoming", vy=-10)]), "turn_left")
+    assert known.decision.value == "override"  # unknown is not more permissive than known
+    far = decide(scene(**at_green_to_turn_left, objects=[obj("car", -3.5, 150, lane=1, kind="oncoming")]), "turn_left")
+    assert far.decision.value == "approve"
+    # inside the intersection AV-CSR's reading stands (KITTI 2011_09_26_drive_0022 frame 2 turns there)
+    inside = {**at_green_to_turn_left, "speed": 2, "intersection": {"type": "t_intersect", "stage": "enter"}}
+    turning = decide(scene(**inside, objects=[obj("car", -3, 12, lane=1, kind="oncoming")]), "turn_left")
+    assert turning.decision.value == "approve"
+
+
+def test_a_pedestrian_in_the_oncoming_lane_blocks_the_turn_across_it():
+    standing = obj("pedestrian", -3.5, 3, lane=1, kind="oncoming", vy=0)
+    verdict = decide(scene(**at_green_to_turn_left, objects=[standing]), "turn_left")
+    assert verdict.decision.value == "override" and "tl.oncoming_lane_blocked" in verdict.rules
+    assert "pedestrian 1 is in the oncoming lane a turn across it crosses" in verdict.justification.text
+    beyond_reach = obj("pedestrian", -3.5, 40, lane=1, kind="oncoming", vy=0)
+    assert decide(scene(**at_green_to_turn_left, objects=[beyond_reach]), "turn_left").decision.value == "approve"
+    uk = Reasoner(jurisdiction="uk")
+    mirrored = scene(**{**at_green_to_turn_left, "intent": "enter_right_lane"},
+                     objects=[obj("pedestrian", 3.5, 3, lane=1, kind="oncoming", vy=0)])
+    verdict = uk.decide(mirrored, "turn_right")
+    assert verdict.decision.value == "override" and "tr.oncoming_lane_blocked" in verdict.rules
+
+
+def test_accelerating_allows_for_the_gap_one_step_faster_needs():
+    # 18.4 m clears the 18.3 m stopping distance from 10 m/s, not the 19.7 m from 10.5 m/s one accel_step on
+    just_beyond = scene(speed=10, objects=[obj("pedestrian", 0, 18.4, lane=1)])
+    verdict = decide(just_beyond, "accelerate")
+    assert verdict.decision.value == "override" and "acc.lane_not_clear" in verdict.rules
+    assert verdict.recommended.value != "accelerate"
+    assert "19.7 m" in REASONER.decide(just_beyond, "accelerate", explain=True).justification.text
+    assert decide(scene(speed=10, objects=[obj("pedestrian", 0, 20, lane=1)]), "accelerate").decision.value == "approve"
+
+
+def test_a_follower_of_unknown_speed_in_the_next_lane_is_not_more_permissive_than_one_that_keeps_pace():
+    unknown = scene(speed=30, limit=31, zone="highway", lanes=2, objects=[obj("car", 3.5, -10.5, lane=2)])
+    keeps_pace = scene(speed=30, limit=31, zone="highway", lanes=2, objects=[obj("car", 3.5, -10.5, lane=2, vy=30)])
+    assert "clr.lane_taken" in decide(keeps_pace, "change_lane_right").rules
+    verdict = decide(unknown, "change_lane_right")
+    assert verdict.decision.value == "override" and "clr.lane_taken" in verdict.rules
+
+
+def test_a_traffic_cone_behind_is_not_a_tailgater():
+    cone = scene(objects=[obj("traffic_cone", 0, -3, lane=1)])
+    assert "brake.no_phantom_braking" not in fired(cone, "brake")
+    assert decide(cone, "brake").decision.value == "approve"
+    car = scene(objects=[obj("car", 0, -3, lane=1)])
+    assert "brake.no_phantom_braking" in decide(car, "brake").rules

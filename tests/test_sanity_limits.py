@@ -124,3 +124,73 @@ def test_a_higher_reading_is_confirmed_by_how_long_it_was_read_whatever_the_fram
     expected = 29.06 if raised else 20.12
     for last in (hz // 2 + frames_65, len(frames)):  # the last frame the 65 is read in, and 1 s after it
         assert limit_in_force(frames[last - 1], frames[:last - 1]) == expected, (hz, frames_65, last)
+
+
+# --- readings far below what the zone allows
+
+def _tailgated_highway(signs, frame: int = 1, timestamp: float = 0.1, **kw):
+    """30 m/s on a highway, a truck 5 m behind at the same speed."""
+    return scene(frame=frame, timestamp=timestamp, speed=30.0, zone="highway", signs=signs,
+                 objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0, sources=("radar",))], **{"limit": None, **kw})
+
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_a_one_frame_5_mph_reading_on_a_highway_does_not_make_the_tailgated_ego_brake(jurisdiction):
+    reasoner = reasoner_for(jurisdiction)
+    misread = _tailgated_highway([{"kind": "speed_limit", "value": 2.2, "source": "camera"}])
+    cruise = reasoner.decide(misread, "cruise", explain=True)
+    assert cruise.decision.value == "approve" and "san.limit.highway_floor" in cruise.rules
+    assert ("the limit reading of 2.2 m/s (4.9 mph) is doubted: far below any limit a highway posts"
+            in cruise.justification.text)
+    brake = reasoner.decide(misread, "brake")
+    assert brake.decision.value == "override" and "brake.no_phantom_braking" in brake.rules
+
+
+def test_a_speed_limit_of_0_on_a_highway_is_doubted():
+    zero = scene(speed=30.0, zone="highway", limit=0.0)
+    assert limit_in_force(zero) == 31.29  # the highway's usual 70 mph
+    verdict = US.decide(zero, "cruise")
+    assert verdict.decision.value == "approve" and "san.limit.highway_floor" in verdict.rules
+
+
+@pytest.mark.parametrize("zone", ["highway", "city"])
+def test_a_limit_of_0_read_in_every_frame_is_no_limit(zone):
+    frames = [scene(frame=i + 1, timestamp=0.1 * i, speed=10.0, zone=zone, limit=None, signs=[limit_sign(0)])
+              for i in range(10)]
+    assert limit_in_force(frames[-1], frames[:-1]) == {"highway": 31.29, "city": 15.65}[zone]
+    assert "san.limit.zero" in US.decide(frames[-1], "cruise", history=frames[:-1]).rules
+
+
+def test_a_5_mph_highway_reading_held_over_many_frames_is_still_doubted_without_the_map():
+    """A defaced or misread sign reads the same in every frame: only the map vouches for so low a highway limit."""
+    frames = [_tailgated_highway([limit_sign(5)], frame=i + 1, timestamp=0.1 * i) for i in range(10)]
+    assert limit_in_force(frames[-1], frames[:-1]) == 31.29
+    assert US.decide(frames[-1], "cruise", history=frames[:-1]).decision.value == "approve"
+    mapped = [f.model_copy(update={"map_speed_limit": 2.0}) for f in frames]
+    assert limit_in_force(mapped[-1], mapped[:-1]) == 2.0
+    assert US.decide(mapped[-1], "cruise", history=mapped[:-1]).decision.value == "override"
+
+
+def test_an_unusually_low_town_reading_is_believed_once_the_map_or_enough_frames_confirm_it():
+    assert limit_in_force(scene(speed=10.0, zone="city", limit=None, signs=[limit_sign(5)], map_speed_limit=2.0)) == 2.0
+    assert limit_in_force(scene(speed=10.0, zone="city", limit=None, signs=[limit_sign(5)])) == 15.65  # one frame
+    frames = [scene(frame=i + 1, timestamp=0.1 * i, speed=10.0, zone="city", limit=None, signs=[limit_sign(5)])
+              for i in range(3)]
+    assert limit_in_force(frames[-1], frames[:-1]) == 2.24  # read for 0.3 s: a sign, not a misread
+    assert US.decide(frames[-1], "cruise", history=frames[:-1]).decision.value == "override"
+
+
+@pytest.mark.parametrize("zone, mph", [("highway", 45), ("highway", 40), ("road", 25), ("city", 15), ("school", 10)])
+def test_a_work_zone_or_village_limit_takes_effect_at_once(zone, mph):
+    """A highway's work zone, a village on a fast road, a slow town street: low, but not unusually so."""
+    assert limit_in_force(scene(speed=10.0, zone=zone, limit=None, signs=[limit_sign(mph)])) == round(mph * MPH, 2)
+
+
+def test_a_one_frame_low_misread_between_two_settled_readings_is_no_limit_to_fall_back_on():
+    """70 mph for 0.3 s, 5 mph for one frame, 70 mph again: the 70 is a rise over the 5 read before, so it is
+    doubted until confirmed, but the one-frame 5 is no plausible limit to fall back on: the zone's 70 applies."""
+    frames = [_tailgated_highway([limit_sign(v)], frame=i + 1, timestamp=0.1 * i) for i, v in enumerate([70, 70, 70, 5, 70])]
+    assert limit_in_force(frames[-1], frames[:-1]) == 31.29
+    assert US.decide(frames[-1], "cruise", history=frames[:-1]).decision.value == "approve"
+    gone = frames[:4] + [_tailgated_highway([], frame=5, timestamp=0.4)]  # the 5 mph sign has left the view
+    assert limit_in_force(gone[-1], gone[:-1]) == 31.29

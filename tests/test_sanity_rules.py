@@ -437,3 +437,60 @@ def test_a_steady_yellow_hidden_for_0_4_s_is_still_a_yellow_and_no_flash_when_ba
         assert (verdict.decision, verdict.action) == (Decision.override, Action.brake), last
         assert "brake.yellow_light_can_stop" in verdict.rules, last
         assert ("san.memory.yellow_light" in verdict.rules) is (not lit[last - 1]), last
+
+
+# --- emergency vehicles: only one near and coming (or that the ego comes up to) calls for giving way
+
+def _ambulance(x: float, y: float, vy=None, speed: float = 20.0):
+    siren = obj(9, "emergency_vehicle", x, y, 1, vy=vy, emergency_lights=True, sources=("radar", "camera"))
+    return (scene(speed=speed, zone="road", limit=25.0, objects=[siren]),)
+
+
+def test_an_ambulance_ahead_pulling_away_is_not_pulled_over_for():
+    verdict = _decide(_ambulance(0.0, 120.0, vy=35.0), Action.cruise)
+    assert verdict.decision is Decision.approve and "san.emergency.give_way" not in verdict.rules
+
+
+def test_an_ambulance_far_behind_is_not_pulled_over_for():
+    verdict = _decide(_ambulance(0.0, -800.0), Action.cruise)
+    assert verdict.decision is Decision.approve and "san.emergency.give_way" not in verdict.rules
+
+
+@pytest.mark.parametrize("y, vy", [(-100.0, None), (-100.0, 30.0), (60.0, 0.0), (120.0, 15.0), (100.0, -10.0)])
+def test_an_ambulance_near_and_coming_or_being_caught_up_is_pulled_over_for(y, vy):
+    """Behind within the move-over distance and keeping pace or closing; ahead standing, slower, or coming back."""
+    verdict = _decide(_ambulance(0.0, y, vy=vy), Action.cruise)
+    assert verdict.decision is Decision.override and "san.emergency.give_way" in verdict.rules, (y, vy)
+    assert verdict.action in (Action.pull_over, Action.brake), (y, vy)  # head-on in the ego's lane, it brakes
+    assert "is an emergency vehicle on duty near the ego and not moving away from it" in verdict.justification.text
+
+
+# --- lane labels that contradict the measured position: the position wins, close ahead only
+
+def _labelled(x: float, y: float, lane: int, kind: str = "current", cls: str = "car", **kw):
+    return scene(speed=10.0, limit=15.0, objects=[obj(1, cls, x, y, lane, kind=kind, sources=("camera", "lidar"))], **kw)
+
+
+def test_an_object_straight_ahead_in_a_lane_the_scene_does_not_list_is_in_the_ego_lane():
+    verdict = _decide((_labelled(0.0, 5.0, 7),), Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert "san.lane.position_over_label" in verdict.rules
+    assert "the lane label of car 1 contradicts where it is measured: it names a lane the scene does not have" in verdict.justification.text
+
+
+def test_a_pedestrian_labelled_on_the_sidewalk_but_straight_ahead_is_in_the_ego_lane():
+    verdict = _decide((_labelled(0.0, 5.0, 1, "sidewalk_right", "pedestrian", other_lanes=("sidewalk_right",)),),
+                      Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert "the lane label of pedestrian 1 contradicts where it is measured: it is labelled off the road" in verdict.justification.text
+
+
+@pytest.mark.parametrize("case, frame", [
+    ("a car in the listed lane on the right, in line ahead on a curve", _labelled(0.0, 8.0, 2, lanes=2)),
+    ("a car in a lane the scene does not list, far ahead", _labelled(0.0, 30.0, 7)),
+    ("a car in a lane the scene does not list, beside the ego's lane", _labelled(3.5, 5.0, 7)),
+    ("a pedestrian on the sidewalk beside the lane", _labelled(5.5, 5.0, 1, "sidewalk_right", "pedestrian",
+                                                               other_lanes=("sidewalk_right",))),
+])
+def test_labels_that_fit_or_are_far_keep_their_lane(case, frame):
+    assert "san.lane.position_over_label" not in _decide((frame,), Action.accelerate).rules, case

@@ -236,7 +236,10 @@ class Tally:
                     vehicle=frame.vehicle,
                     file=frame.file,
                     frame_id=verdict.frame_id,
-                    scene_time=verdict.timestamp,
+                    # a fail-safe at the deadline answers before the scene is read: its proposal has the time
+                    scene_time=(
+                        verdict.timestamp if verdict.timestamp is not None or scene is None else scene.timestamp
+                    ),
                     kind=kind,
                     proposed=verdict.proposed.value if verdict.proposed else None,
                     executed=verdict.action.value,

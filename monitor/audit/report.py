@@ -46,6 +46,8 @@ def recovery_lines(files: list[FileRecovery]) -> list[str]:
             line += f", {f.recovered_bytes}/{f.size_bytes} bytes recovered ({share:.1f}%)"
         if f.skipped:
             line += f", {plural(f.skipped, 'message')} skipped (unknown channel or bad payload)"
+        if f.damaged:
+            line += f"; damaged: {f.damage}"
         if f.stopped_by:
             line += f"; stopped: {f.stopped_by}"
         out.append(line)
@@ -173,6 +175,10 @@ def files_json(files: list[FileRecovery]) -> list[dict]:
             "recovered_bytes": f.recovered_bytes,
             "skipped": f.skipped,
             "stopped_by": f.stopped_by,
+            "damaged": [
+                {"offset": d.offset, "length": d.length, "kind": d.kind, "messages": d.messages, "reason": d.reason}
+                for d in f.damaged
+            ],
         }
         for f in files
     ]
@@ -275,10 +281,13 @@ def page(title: str, body: str) -> str:
 
 def files_html(files: list[FileRecovery]) -> str:
     rows = [
-        [str(f.path), f.state, f.records, f"{f.recovered_bytes}/{f.size_bytes}", f.skipped, f.stopped_by or ""]
+        [
+            str(f.path), f.state, f.records, f"{f.recovered_bytes}/{f.size_bytes}", f.skipped, f.damage or "",
+            f.stopped_by or "",
+        ]
         for f in files
     ]
-    return table(["file", "state", "records", "bytes recovered", "skipped", "stopped by"], rows, {2, 4})
+    return table(["file", "state", "records", "bytes recovered", "skipped", "damaged", "stopped by"], rows, {2, 4})
 
 
 def render_html(tally: Tally, agg: Aggregates, filters: Filters, rule_text: dict[str, str]) -> str:

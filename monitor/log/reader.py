@@ -3,7 +3,11 @@
 `read_log(paths)` yields one `LogRecord` per message, typed with the same
 models the monitor wrote. A file without its summary (the monitor was killed)
 is read chunk by chunk up to the last complete one; `RecoveryReport` says how
-much of each file that was. Channels this log does not know are skipped with a
+much of each file that was. A damaged chunk (or other record) is skipped and
+named, and reading goes on after it: at the end of the record when its length
+is intact, else at the next chunk the file's summary indexes. A file is complete
+only when it ends with its footer and the closing magic, as the standard MCAP
+reader needs. Channels this log does not know are skipped with a
 warning, an empty file yields nothing. A file whose `discern` metadata names a
 schema version other than this reader's is not read at all (its messages would
 each fail the models, or worse, pass them meaning something else) and is
@@ -18,11 +22,14 @@ import heapq
 import json
 import logging
 import os
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Iterator, Optional, Union
 
-from mcap.records import Channel, Chunk, Footer, Header, Message, Metadata, Schema
+from mcap.opcode import Opcode
+from mcap.reader import make_reader
+from mcap.records import Channel, Chunk, Footer, Header, Message, MessageIndex, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from pydantic import ValidationError
 
@@ -37,6 +44,28 @@ log = logging.getLogger(__name__)
 PathLike = Union[str, os.PathLike]
 RECORD_SIZE_LIMIT = 1 << 30
 METADATA_NAME = "discern"  # the writer's metadata record: monitor_id, schema_version, pid, run, params
+MAGIC = b"\x89MCAP0\r\n"  # at both ends of an MCAP file
+RECORD_HEADER = 9  # opcode (1 byte) and record length (8)
+FOOTER_BYTES = RECORD_HEADER + 20  # the footer record: summary start, summary offset start, summary CRC
+OPCODES = {int(op) for op in Opcode}
+DAMAGE_SHOWN = 3  # damaged records named in a file's line; the rest are counted
+
+
+@dataclass(frozen=True)
+class DamagedRecord:
+    """A stretch of a file that could not be read and was skipped."""
+
+    offset: int  # where it starts in the file
+    length: int  # bytes skipped
+    reason: str
+    kind: str = "chunk"  # chunk | record | bytes (up to the next indexed chunk)
+    messages: Optional[int] = None  # messages a damaged chunk held, from its message index; None when unknown
+
+    def describe(self) -> str:
+        if self.kind == "bytes":
+            return f"bytes {self.offset}-{self.offset + self.length} skipped: {self.reason}"
+        held = f", {self.messages} message{'s' if self.messages != 1 else ''}" if self.messages is not None else ""
+        return f"{self.kind} at byte {self.offset} ({self.length} bytes{held}) skipped: {self.reason}"
 
 
 @dataclass(frozen=True)
@@ -60,18 +89,39 @@ class FileRecovery:
     size_bytes: int = 0
     recovered_bytes: int = 0  # up to the end of the last complete record
     records: int = 0
-    complete: bool = False  # the file ends with its footer: it was closed cleanly
+    complete: bool = False  # read through its footer and the closing magic: it was closed cleanly
+    closed: bool = False  # the file ends with a footer and the closing magic, whatever lies before them
     stopped_by: Optional[str] = None  # why reading stopped early, for a cut or damaged file
     skipped: int = 0  # messages on unknown channels or that failed validation
+    damaged: list[DamagedRecord] = field(default_factory=list)  # skipped, and read on after
+    stopped_by_damage: bool = False  # reading stopped at damage it could not read past
 
     @property
     def state(self) -> str:
-        """complete, truncated (cut short, read up to the cut), empty (zero bytes) or unreadable (nothing read)."""
-        if self.complete:
+        """complete, damaged, truncated, empty or unreadable.
+
+        complete: read whole, footer and closing magic included. damaged: closed (it ends with its
+        footer and magic) but some of it could not be read. truncated: cut short, read up to the cut.
+        empty: zero bytes. unreadable: nothing read.
+        """
+        if self.complete and not self.damaged:
             return "complete"
         if self.size_bytes == 0:
             return "empty" if self.stopped_by is None else "unreadable"
-        return "unreadable" if self.recovered_bytes == 0 else "truncated"
+        if self.recovered_bytes == 0:
+            return "unreadable"
+        if self.closed and (self.damaged or self.stopped_by_damage):
+            return "damaged"
+        return "truncated"
+
+    @property
+    def damage(self) -> Optional[str]:
+        """The damaged records skipped, one line's worth: the first few named, the rest counted."""
+        if not self.damaged:
+            return None
+        text = "; ".join(d.describe() for d in self.damaged[:DAMAGE_SHOWN])
+        more = len(self.damaged) - DAMAGE_SHOWN
+        return text + (f"; and {more} more" if more > 0 else "")
 
     def add_share(self, other: "FileRecovery") -> None:
         """Another reader's share of the same file (read_log's `vehicles`): records and skips add up.
@@ -81,9 +131,11 @@ class FileRecovery:
         """
         self.records += other.records
         self.skipped += other.skipped
+        seen = {d.offset for d in self.damaged}  # every share reads the whole file: the same damage
+        self.damaged = sorted(self.damaged + [d for d in other.damaged if d.offset not in seen], key=lambda d: d.offset)
         if other.recovered_bytes < self.recovered_bytes:
             self.recovered_bytes, self.complete = other.recovered_bytes, other.complete
-            self.stopped_by = other.stopped_by
+            self.stopped_by, self.stopped_by_damage = other.stopped_by, other.stopped_by_damage
 
 
 @dataclass
@@ -107,6 +159,8 @@ class RecoveryReport:
             )
             if f.skipped:
                 line += f", {f.skipped} skipped"
+            if f.damaged:
+                line += f" (damaged: {f.damage})"
             if f.stopped_by:
                 line += f" (stopped: {f.stopped_by})"
             lines.append(line)
@@ -237,19 +291,81 @@ def _read_file(
         recovery.stopped_by = f"cannot open: {exc.strerror or exc}"
         return
     with f:
-        recovery.size_bytes = os.fstat(f.fileno()).st_size
-        if recovery.size_bytes == 0:
+        size = recovery.size_bytes = os.fstat(f.fileno()).st_size
+        if size == 0:
             return
+        fd = f.fileno()
+        head = os.pread(fd, len(MAGIC), 0)
+        if head != MAGIC:
+            recovery.stopped_by = (
+                f"cut short inside its opening magic, at byte {len(head)}"
+                if MAGIC.startswith(head)
+                else "not an MCAP file: it does not start with the MCAP magic"
+            )
+            return
+        recovery.closed = _ends_closed(fd, size)
         decoder = _ChannelDecoder(path, recovery, vehicles)
-        records = StreamReader(f, emit_chunks=True, record_size_limit=RECORD_SIZE_LIMIT).records
+        summary = _Summary(path)
+        f.seek(len(MAGIC))
+        records = _records(f)
+        end = len(MAGIC)  # of the last record read whole
+        lost = 0  # bytes of damaged records skipped
+        pending: Optional[int] = None  # index in recovery.damaged of a damaged chunk whose message index may follow
+        start: Optional[int] = None  # of the last record read whole
+
+        def skip(offset: int, resume: int, reason: str, kind: str, restart: bool) -> None:
+            """Name the damage from `offset` to `resume` and read on from there (`restart`: with a new reader)."""
+            nonlocal records, end, lost
+            if not recovery.damaged:  # a lost chunk may have declared channels that later chunks use
+                summary.declare(decoder)
+            recovery.damaged.append(DamagedRecord(offset, resume - offset, reason, kind))
+            lost += resume - offset
+            if restart or f.tell() != resume:
+                f.seek(resume)
+                records = _records(f)
+            end = resume
+
         while True:
             try:
                 record = next(records)
             except StopIteration:
                 break
-            except Exception as exc:  # the tail of a killed writer: a record cut anywhere
-                recovery.stopped_by = _describe(exc)
-                break
+            except Exception as exc:  # a record cut short (the tail of a killed writer) or damaged
+                at_eof = f.tell() >= size
+                if at_eof and not recovery.closed:
+                    recovery.stopped_by = (
+                        f"cut short at byte {end}, before its footer"
+                        if end >= size
+                        else f"cut short inside a record at byte {end}"
+                    )
+                    break
+                reason = "the end of the file came before its footer" if at_eof else _describe(exc)
+                resume, kind = _resume_at(fd, end, size, summary)
+                offset = end
+                if resume is None and start is not None:
+                    # no record starts here: the last record's length ran past what it held (in a closed file, up
+                    # to its end), swallowing the records after it; read those from the next indexed chunk
+                    resume = next((o for o in summary.chunk_offsets() if o > start), None)
+                    if resume is not None:
+                        offset, kind, reason = start, "bytes", f"{reason}, at byte {end}"
+                if resume is None:
+                    recovery.stopped_by = f"damaged at byte {end}, not read past: {reason}"
+                    recovery.stopped_by_damage = True
+                    break
+                skip(offset, resume, reason, kind, restart=True)  # the reader that raised is spent
+                start = None
+                pending = len(recovery.damaged) - 1 if kind == "chunk" else None
+                continue
+            start, end = end, f.tell()
+            if isinstance(record, MessageIndex):
+                if pending is not None:  # the damaged chunk's index: how many messages it held
+                    damage = recovery.damaged[pending]
+                    recovery.damaged[pending] = DamagedRecord(
+                        damage.offset, damage.length, damage.reason, damage.kind,
+                        (damage.messages or 0) + len(record.records),
+                    )
+            else:
+                pending = None
             if isinstance(record, Metadata) and record.name == METADATA_NAME:
                 why = _unsupported_version(record.metadata)
                 if why is not None:
@@ -260,12 +376,18 @@ def _read_file(
                 try:
                     inner = breakup_chunk(record, validate_crc=True)
                 except Exception as exc:
-                    recovery.stopped_by = f"damaged chunk: {_describe(exc)}"
-                    break
+                    # its record length says where the next record starts, however the chunk inside is damaged
+                    resume, kind = _resume_at(fd, start, size, summary)
+                    if resume is None:  # what the reader took for the chunk
+                        resume, kind = end, "chunk"
+                    skip(start, resume, _describe(exc), kind, restart=False)
+                    pending = len(recovery.damaged) - 1
+                    recovery.recovered_bytes = end - lost
+                    continue
             else:
                 inner = [record]
             read_before = recovery.recovered_bytes
-            recovery.recovered_bytes = f.tell()
+            recovery.recovered_bytes = end - lost
             for item in inner:
                 if since_ns is not None and isinstance(item, Message) and item.log_time < since_ns:
                     continue
@@ -281,9 +403,76 @@ def _read_file(
                 recovery.recovered_bytes = read_before if recovery.records else 0
                 break
             if isinstance(record, Footer):
-                recovery.complete = True
-                recovery.recovered_bytes = recovery.size_bytes
+                rest = os.pread(fd, len(MAGIC) + 1, end)
+                if rest == MAGIC:
+                    recovery.complete = True
+                    recovery.recovered_bytes = size - lost
+                elif MAGIC.startswith(rest):
+                    recovery.stopped_by = f"cut short after its footer, inside the closing magic at byte {end}"
+                else:
+                    recovery.stopped_by = f"damaged after its footer: no closing MCAP magic alone at byte {end}"
                 break
+
+
+def _records(f) -> Iterator:
+    """The records of `f` from where it stands (past the opening magic), chunks whole."""
+    return StreamReader(f, skip_magic=True, emit_chunks=True, record_size_limit=RECORD_SIZE_LIMIT).records
+
+
+def _ends_closed(fd: int, size: int) -> bool:
+    """Whether the file ends with a footer record and the closing magic, as a cleanly closed file does."""
+    if size < 2 * len(MAGIC) + FOOTER_BYTES:
+        return False
+    tail = os.pread(fd, FOOTER_BYTES + len(MAGIC), size - FOOTER_BYTES - len(MAGIC))
+    opcode, length = struct.unpack_from("<BQ", tail)
+    return tail[-len(MAGIC):] == MAGIC and opcode == Opcode.FOOTER and length == FOOTER_BYTES - RECORD_HEADER
+
+
+def _resume_at(fd: int, offset: int, size: int, summary: "_Summary") -> tuple[Optional[int], str]:
+    """Where reading can go on past a damaged record at `offset` (None when nowhere is known), and what is skipped.
+
+    At the record's end when its header is whole (a known opcode, a length that fits in the file): a chunk
+    or another record; else at the next chunk the file's summary indexes: bytes.
+    """
+    header = os.pread(fd, RECORD_HEADER, offset)
+    if len(header) == RECORD_HEADER:
+        opcode, length = struct.unpack("<BQ", header)
+        if opcode in OPCODES and offset + RECORD_HEADER + length <= size:
+            return offset + RECORD_HEADER + length, "chunk" if opcode == Opcode.CHUNK else "record"
+    return next((o for o in summary.chunk_offsets() if o > offset), None), "bytes"
+
+
+class _Summary:
+    """A file's summary section, read only when damage calls for it (None when it has none or it is damaged too)."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self._summary = None
+        self._read = False
+
+    def get(self):
+        if not self._read:
+            self._read = True
+            try:
+                with open(self.path, "rb") as f:
+                    self._summary = make_reader(f).get_summary()
+            except Exception:  # cut short, or its summary is damaged as well
+                self._summary = None
+        return self._summary
+
+    def chunk_offsets(self) -> list[int]:
+        summary = self.get()
+        return sorted(c.chunk_start_offset for c in summary.chunk_indexes) if summary is not None else []
+
+    def declare(self, decoder: "_ChannelDecoder") -> None:
+        """Declare the summary's schemas and channels, so a lost chunk's declarations do not lose later messages."""
+        summary = self.get()
+        if summary is None:
+            return
+        for schema in summary.schemas.values():
+            decoder.feed(schema)
+        for channel in summary.channels.values():
+            decoder.feed(channel)
 
 
 def _other_version(data: bytes) -> Optional[str]:
