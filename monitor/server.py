@@ -351,9 +351,9 @@ class MonitorServer:
                     self._wake.wait(delay)
                 continue
             pending.popleft()
-            # Not read yet: the monitor's process never parses a payload (see _AnswerLog), so a malformed one is
-            # named in the log's rejected record once its worker reads it, not here.
-            reason = f"no decision within the {self.config.budget_ms:g} ms budget: not yet read by a decision worker"
+            # Perhaps not read yet: the monitor's process never parses a payload (see _AnswerLog), so a malformed one
+            # is named in the log's rejected record once its worker reads it, not here.
+            reason = f"no decision within the {self.config.budget_ms:g} ms budget"
             if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
                 self.counters.count("deadline_misses")
 

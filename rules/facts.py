@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass, fields
 
 from clingo import String
 
-from .scene import MAX_RANGE_M, MAX_SPEED_MS, Action, Scene
+from .scene import MAX_RANGE_M, Action, Scene
 
 
 def cm(metres: float) -> int:
@@ -23,6 +23,7 @@ MIN_PARAM = 0.01  # the smallest parameter value the facts (in cm and ms) do not
 # clingo's 32-bit integers: past a minute, a reaction time would wrap into a wrong, possibly permissive, verdict.
 MAX_PARAM_TIME_S = 60.0
 MAX_PARAM_DECEL = 100.0  # m/s², ten times gravity
+MAX_PARAM_SPEED = 50.0  # m/s: a closing speed (up to twice MAX_SPEED_MS) raised by accel_step, times a minute, still fits
 _TIMES = frozenset({"reaction_s", "headway_s", "turn_gap_s"})
 _SPEEDS = frozenset({"stopped_speed", "accel_step", "speed_margin", "turn_speed"})
 
@@ -31,7 +32,7 @@ def _largest(name: str) -> float:
     if name in _TIMES:
         return MAX_PARAM_TIME_S
     if name in _SPEEDS:
-        return MAX_SPEED_MS
+        return MAX_PARAM_SPEED
     return MAX_PARAM_DECEL if name == "decel" else MAX_RANGE_M
 
 

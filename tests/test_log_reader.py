@@ -360,6 +360,39 @@ def test_a_damaged_chunk_is_skipped_and_named_and_the_chunks_after_it_are_read(t
     assert f"damaged: chunk at byte {start} ({end - start} bytes, 1 message) skipped: " in report.summary()
 
 
+def test_a_chunk_whose_opcode_is_damaged_is_named_from_the_summary_not_passed_over(tmp_path):
+    """mcap's StreamReader passes over a record of an unknown opcode without a word."""
+    data, chunks = write_chunked(tmp_path, 6)
+    start, end = chunks[2]
+    damaged = bytearray(data)
+    damaged[start] = 0x7F  # no opcode MCAP knows
+    path = tmp_path / "opcode.mcap"
+    path.write_bytes(bytes(damaged))
+    report = RecoveryReport()
+    frames = [r.proposal.scene.frame_id for r in read_log(path, report)]
+    assert frames == [0, 1, 3, 4, 5]
+    [f] = report.files
+    assert f.state == "damaged"
+    [chunk] = f.damaged
+    assert (chunk.offset, chunk.length, chunk.kind) == (start, end - start, "chunk")
+    assert "indexed in the file's summary but not read" in report.summary()
+
+
+def test_a_last_chunk_of_an_impossible_length_is_where_reading_stops_not_the_record_before_it(tmp_path):
+    data, chunks = write_chunked(tmp_path, 4)
+    start, _ = chunks[-1]
+    damaged = bytearray(data)
+    damaged[start + 1: start + 9] = (1 << 40).to_bytes(8, "little")  # past any record the reader takes
+    path = tmp_path / "length.mcap"
+    path.write_bytes(bytes(damaged))
+    report = RecoveryReport()
+    frames = [r.proposal.scene.frame_id for r in read_log(path, report)]
+    assert frames == [0, 1, 2]
+    [f] = report.files
+    assert f.damaged == [] and f.state == "damaged"  # the intact records before it are not named as damage
+    assert f.stopped_by.startswith(f"damaged at byte {start}, not read past")
+
+
 def test_a_damaged_chunk_of_a_cut_file_is_skipped_and_the_file_still_reads_as_truncated(tmp_path):
     data, chunks = write_chunked(tmp_path, 6)
     start, end = chunks[2]

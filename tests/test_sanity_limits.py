@@ -12,8 +12,8 @@ from discern.sanity.jurisdiction import reasoner_for
 US = reasoner_for("us")
 
 
-def limit_in_force(sc, history=()) -> float:
-    answer = US.solve(sc, "cruise", history).answer
+def limit_in_force(sc, history=(), reasoner=US) -> float:
+    answer = reasoner.solve(sc, "cruise", history).answer
     (limit,) = answer.of("effective_limit", 1)
     return limit.arguments[0].number / 100
 
@@ -140,7 +140,7 @@ def test_a_one_frame_5_mph_reading_on_a_highway_does_not_make_the_tailgated_ego_
     misread = _tailgated_highway([{"kind": "speed_limit", "value": 2.2, "source": "camera"}])
     cruise = reasoner.decide(misread, "cruise", explain=True)
     assert cruise.decision.value == "approve" and "san.limit.highway_floor" in cruise.rules
-    assert ("the limit reading of 2.2 m/s (4.9 mph) is doubted: far below any limit a highway posts"
+    assert ("the limit reading of 2.2 m/s (4.9 mph) is doubted: below any limit a highway posts"
             in cruise.justification.text)
     brake = reasoner.decide(misread, "brake")
     assert brake.decision.value == "override" and "brake.no_phantom_braking" in brake.rules
@@ -169,6 +169,16 @@ def test_a_5_mph_highway_reading_held_over_many_frames_is_still_doubted_without_
     mapped = [f.model_copy(update={"map_speed_limit": 2.0}) for f in frames]
     assert limit_in_force(mapped[-1], mapped[:-1]) == 2.0
     assert US.decide(mapped[-1], "cruise", history=mapped[:-1]).decision.value == "override"
+
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_a_30_mph_highway_limit_read_steadily_is_believed_without_the_map(jurisdiction):
+    """Dual carriageways and work zones post 30 mph: unusually low for a highway, but confirmed by being read on."""
+    frames = [_tailgated_highway([limit_sign(30)], frame=i + 1, timestamp=0.1 * i) for i in range(20)]
+    reasoner = reasoner_for(jurisdiction)
+    assert "san.limit.unusually_low" in reasoner.decide(frames[0], "cruise").rules  # one frame: doubted
+    assert limit_in_force(frames[-1], frames[:-1], reasoner) == 13.41
+    assert reasoner.decide(frames[-1], "cruise", history=frames[:-1]).decision.value == "override"
 
 
 def test_an_unusually_low_town_reading_is_believed_once_the_map_or_enough_frames_confirm_it():

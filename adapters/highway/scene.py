@@ -18,9 +18,9 @@ from discern.rules.scene import (
     LaneRef,
     ObjectClass,
     RangeReading,
+    RangeSensor,
     Scene,
     Size,
-    Source,
     Vec2,
     Velocity,
     Zone,
@@ -86,5 +86,5 @@ def build_scene(
         lanes=lanes,
         objects=objects,
         signs=[perceived.sign.visible] if perceived.sign.visible is not None else [],
-        sensors=[RangeReading(side=side, distance=dist, kind=Source.radar) for side, dist in perceived.ranges.items()],
+        sensors=[RangeReading(side=side, distance=dist, kind=RangeSensor.radar) for side, dist in perceived.ranges.items()],
     )

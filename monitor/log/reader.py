@@ -58,10 +58,12 @@ class DamagedRecord:
     offset: int  # where it starts in the file
     length: int  # bytes skipped
     reason: str
-    kind: str = "chunk"  # chunk | record | bytes (up to the next indexed chunk)
+    kind: str = "chunk"  # chunk | record | bytes (up to the next indexed chunk) | messages (where, unknown)
     messages: Optional[int] = None  # messages a damaged chunk held, from its message index; None when unknown
 
     def describe(self) -> str:
+        if self.kind == "messages":  # missed somewhere unknown: only the summary's count tells
+            return self.reason
         if self.kind == "bytes":
             return f"bytes {self.offset}-{self.offset + self.length} skipped: {self.reason}"
         held = f", {self.messages} message{'s' if self.messages != 1 else ''}" if self.messages is not None else ""
@@ -312,6 +314,8 @@ def _read_file(
         lost = 0  # bytes of damaged records skipped
         pending: Optional[int] = None  # index in recovery.damaged of a damaged chunk whose message index may follow
         start: Optional[int] = None  # of the last record read whole
+        chunks_read: set[int] = set()  # where the chunks read (whole or damaged) start
+        messages = 0  # message records read, on any channel
 
         def skip(offset: int, resume: int, reason: str, kind: str, restart: bool) -> None:
             """Name the damage from `offset` to `resume` and read on from there (`restart`: with a new reader)."""
@@ -345,7 +349,7 @@ def _read_file(
                 if resume is None and start is not None:
                     # no record starts here: the last record's length ran past what it held (in a closed file, up
                     # to its end), swallowing the records after it; read those from the next indexed chunk
-                    resume = next((o for o in summary.chunk_offsets() if o > start), None)
+                    resume = next((o for o in summary.chunk_offsets() if start < o < end), None)
                     if resume is not None:
                         offset, kind, reason = start, "bytes", f"{reason}, at byte {end}"
                 if resume is None:
@@ -373,14 +377,12 @@ def _read_file(
                     recovery.recovered_bytes = 0  # nothing of it is read: an unreadable file
                     break
             if isinstance(record, Chunk):
+                chunks_read.add(start)
                 try:
                     inner = breakup_chunk(record, validate_crc=True)
                 except Exception as exc:
                     # its record length says where the next record starts, however the chunk inside is damaged
-                    resume, kind = _resume_at(fd, start, size, summary)
-                    if resume is None:  # what the reader took for the chunk
-                        resume, kind = end, "chunk"
-                    skip(start, resume, _describe(exc), kind, restart=False)
+                    skip(start, end, _describe(exc), "chunk", restart=False)
                     pending = len(recovery.damaged) - 1
                     recovery.recovered_bytes = end - lost
                     continue
@@ -389,6 +391,7 @@ def _read_file(
             read_before = recovery.recovered_bytes
             recovery.recovered_bytes = end - lost
             for item in inner:
+                messages += isinstance(item, Message)
                 if since_ns is not None and isinstance(item, Message) and item.log_time < since_ns:
                     continue
                 out = decoder.feed(item)
@@ -403,6 +406,7 @@ def _read_file(
                 recovery.recovered_bytes = read_before if recovery.records else 0
                 break
             if isinstance(record, Footer):
+                lost += _unread(summary, chunks_read, messages, recovery) if summary.get() is not None else 0
                 rest = os.pread(fd, len(MAGIC) + 1, end)
                 if rest == MAGIC:
                     recovery.complete = True
@@ -412,6 +416,29 @@ def _read_file(
                 else:
                     recovery.stopped_by = f"damaged after its footer: no closing MCAP magic alone at byte {end}"
                 break
+
+
+def _unread(summary: "_Summary", chunks_read: set[int], messages: int, recovery: FileRecovery) -> int:
+    """Name what a closed file's summary indexes or counts but the read never met; returns the bytes lost.
+
+    mcap's StreamReader passes over a record of an unknown opcode without a word, so a chunk whose opcode
+    byte is damaged would vanish from a file that still reads as complete.
+    """
+    damaged_at = {d.offset for d in recovery.damaged}
+    lost = 0
+    for index in summary.get().chunk_indexes:
+        if index.chunk_start_offset not in chunks_read and index.chunk_start_offset not in damaged_at:
+            recovery.damaged.append(DamagedRecord(
+                index.chunk_start_offset, index.chunk_length,
+                "indexed in the file's summary but not read: its record header is damaged", "chunk"))
+            lost += index.chunk_length
+    statistics = summary.get().statistics
+    if not recovery.damaged and statistics is not None and messages < statistics.message_count:
+        missing = statistics.message_count - messages
+        recovery.damaged.append(DamagedRecord(
+            0, 0, f"{missing} of the {statistics.message_count} messages its summary counts were not read", "messages"))
+    recovery.damaged.sort(key=lambda d: d.offset)
+    return lost
 
 
 def _records(f) -> Iterator:
