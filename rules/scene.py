@@ -351,13 +351,15 @@ MAX_PROBLEM = 300
 MAX_VALUE_SHOWN = 60
 
 
+# An offending value in a few dozen characters, without writing out the whole of it first (a list of thousands
+# of objects). Set attribute by attribute: Repr takes no arguments before Python 3.12.
+_BRIEF = reprlib.Repr()
+_BRIEF.maxlevel, _BRIEF.maxlist, _BRIEF.maxdict = 2, 3, 3
+_BRIEF.maxstring = _BRIEF.maxother = _BRIEF.maxlong = MAX_VALUE_SHOWN
+
+
 def _shown(value: object) -> str:
-    """An offending value in a few dozen characters, without writing out the whole of it first (a list of
-    thousands of objects)."""
-    brief = reprlib.Repr()
-    brief.maxlevel, brief.maxlist, brief.maxdict = 2, 3, 3
-    brief.maxstring = brief.maxother = brief.maxlong = MAX_VALUE_SHOWN
-    return brief.repr(value)[:MAX_VALUE_SHOWN]
+    return _BRIEF.repr(value)[:MAX_VALUE_SHOWN]
 
 
 def _cut(text: str, limit: int) -> str:
