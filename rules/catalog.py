@@ -40,6 +40,7 @@ TEMPLATE_FORMATS = frozenset({
     "obj", "ordinal", "ms",  # "car 3"; "2nd"; milliseconds as seconds
     "frames",  # a count of frames: "1 frame", "3 frames"
     "lane", "detail", "paren",  # "lane 2", ": reason", " (kind)": words that go when the value is unknown
+    "id",  # a name the scene gave (a path id): as given, never read as a catalog word
 })
 
 

@@ -43,9 +43,20 @@ def _ordinal(n: int) -> str:
 _LOOSE_SPACE = re.compile(r" +(?=[,.;:)]|$)| (?= )")  # left where an unknown value reads as no words
 # "a" before a value: "an" before a vowel sound; none before a mass noun ("debris can be swerved around")
 _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8|1[18]\b))")
-_PARAM_UNITS = {"reaction_ms": ("s", 1000), "headway_ms": ("s", 1000), "turn_gap_ms": ("s", 1000),
-                "decel": ("m/s²", 100), "accel_step": ("m/s", 100), "speed_margin": ("m/s", 100),
-                "turn_speed": ("m/s", 100), "stopped_speed": ("m/s", 100)}
+# Settings (param/2 and the sanity window's window_param/2) by name: the words, unit and scale of each. A name
+# not here is a distance in cm, its words its name ("crossing_dist": "the crossing distance is 15 m").
+_SETTINGS = {
+    "reaction_ms": ("reaction time", "s", 1000), "headway_ms": ("headway kept", "s", 1000),
+    "turn_gap_ms": ("time a turn takes to clear", "s", 1000), "decel": ("firm braking deceleration", "m/s²", 100),
+    "accel_step": ("speed one accelerate adds", "m/s", 100),
+    "speed_margin": ("margin allowed over the limit", "m/s", 100), "turn_speed": ("fastest turning speed", "m/s", 100),
+    "stopped_speed": ("speed under which the ego has stopped", "m/s", 100), "min_gap": ("minimum gap", "m", 100),
+    "range_match": ("distance within which a range reading is an object's", "m", 100),
+    "confirm_frames": ("number of frames that confirm a reading", "", 1),
+    "confirm_ms": ("time that confirms a reading", "s", 1000),
+    "track_frames": ("number of frames that establish a track", "", 1),
+    "track_ms": ("time that establishes a track", "s", 1000),
+}
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "limit": "some speed", "ms": "some time",
             "ahead": "somewhere", "right": "somewhere", "along": "some speed", "across": "some speed",
             "closing": "some speed", "lane": "a lane", "detail": "", "paren": ""}
@@ -70,6 +81,8 @@ class Phrasebook:
         if fmt in _WRAPPED:
             return _WRAPPED[fmt].format(self.value(sym, None, param))
         kind = sym.type
+        if fmt == "id":
+            return sym.string if kind == SymbolType.String else str(sym)
         if kind != SymbolType.Number:
             args = sym.arguments if kind == SymbolType.Function else ()
             if args and (sym.name, len(args)) in self.catalog.templates:  # a term with words of its own
@@ -93,6 +106,8 @@ class Phrasebook:
         if fmt == "limit":
             return f"{n / 100:.{digits}f} m/s" + self._in_sign_unit(n)
         if fmt == "ms":
+            if 0 < abs(n) < 100:  # a 40 ms reading is "0.04 s", not "0.0 s"
+                return f"{n / 1000:g} s"
             return f"{n / 1000:.{digits}f} s"
         if fmt == "ordinal":
             return _ordinal(n)
@@ -118,10 +133,10 @@ class Phrasebook:
         return f" ({shown:g} {self._sign_unit})"
 
     def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
-        if name == "param" and len(args) == 2 and args[0] is not None and args[1] is not None:
-            unit, scale = _PARAM_UNITS.get(args[0].name, ("m", 100))
-            label = args[0].name.removesuffix("_ms").replace("_dist", "_distance").replace("_", " ")
-            return f"the {label} is {args[1].number / scale:g} {unit}"
+        if name in ("param", "window_param") and len(args) == 2 and args[0] is not None and args[1] is not None:
+            setting = args[0].name
+            label, unit, scale = _SETTINGS.get(setting, (setting.replace("_dist", "_distance").replace("_", " "), "m", 100))
+            return f"the {label} is {args[1].number / scale:g} {unit}".rstrip()
         template = self.catalog.templates.get((name, len(args)))
         if template is None:
             inner = ", ".join("_" if a is None else str(a) for a in args)
@@ -176,15 +191,19 @@ class Phrasebook:
         if fmt in _AXES and len(numbers) == len(values):
             if len(terms) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
                 return self._against_zero(terms, values, ops[0], fmt)
-            if not any(n < 0 for n in numbers):
+            # A variable that is no position on this axis (a distance parameter) has no side: "15.0 m ahead"
+            # would be false of it, so such a comparison reads as signed numbers, "-1.0 m < 15.0 m".
+            off_axis = any(t[0] == "v" and formats.get(t[1]) != fmt for t in terms)
+            if off_axis or not any(n < 0 for n in numbers):
                 fmt = "m"  # distances ahead, all of them: "5.0 m < 8.0 m" reads plainly
             else:
                 # Signed positions: each with its side, and the comparison as words, since "-5.2 m ≤ -3.5 m"
                 # contradicts "5.2 m to the left" said just above it. A value computed from the position
                 # (a gap, |X|) is a distance and keeps plain metres.
                 axis = {v for v, f in formats.items() if f == fmt}
+                digits = _digits_to_tell_apart(numbers, fmt)
                 shown = ["the ego" if v.number == 0 else
-                         self.value(v, "m" if t[0] not in ("v", "s") and term_vars(t) & axis else fmt, "")
+                         self.value(v, "m" if t[0] not in ("v", "s") and term_vars(t) & axis else fmt, "", digits)
                          for t, v in zip(terms, values)]
                 return " ".join([shown[0]] + [w for op, value in zip(ops, shown[1:]) for w in (_AXES[fmt][op], value)])
         digits = _digits_to_tell_apart(numbers, fmt)

@@ -20,30 +20,50 @@ def _line(node: JustificationNode, again: bool = False) -> str:
     return text
 
 
-def _key(node: JustificationNode) -> tuple:
-    return node.kind, node.text, node.rule, node.holds
+class _Shown:
+    """The reasons a page has argued, by what they say all the way down: two reasons worded alike whose
+    own reasons differ are both shown ("50.0 m < 10.0 m" once for the gap, once for the headway)."""
+
+    def __init__(self) -> None:
+        self._ids: dict[tuple, int] = {}  # a node's line and its children's ids -> its id: shallow to hash
+        self._of: dict[int, int] = {}  # id(node) -> its id, for nodes the proof shares
+        self._argued: set[int] = set()
+
+    def _id(self, node: JustificationNode) -> int:
+        found = self._of.get(id(node))
+        if found is None:
+            key = (node.kind, node.literal, node.text, node.rule, node.holds, tuple(self._id(c) for c in node.children))
+            found = self._of[id(node)] = self._ids.setdefault(key, len(self._ids))
+        return found
+
+    def again(self, node: JustificationNode) -> bool:
+        """Whether this reason, with reasons of its own, was argued before; notes it as argued now."""
+        if not node.children:
+            return False
+        key = self._id(node)
+        if key in self._argued:
+            return True
+        self._argued.add(key)
+        return False
 
 
 def render_text(justification: Justification) -> str:
     """Each reason is argued once: where the same conclusion comes up again, the line points back to it
     instead of repeating its whole subtree, so a proof that leans on one fact five times stays readable."""
     lines = [justification.summary]
-    shown: set[tuple] = set()
+    shown = _Shown()
     for root in justification.tree:
         _walk(root, 1, lines, shown)
     return "\n".join(lines)
 
 
-def _walk(node: JustificationNode, depth: int, lines: list[str], shown: set[tuple]) -> None:
+def _walk(node: JustificationNode, depth: int, lines: list[str], shown: _Shown) -> None:
     # A module function, not a closure that calls itself: that is a reference cycle per verdict, the only
     # garbage a decision worker left for the full collections it now keeps to a minimum (decision_worker.py).
-    key = _key(node)
-    again = bool(node.children) and key in shown
+    again = shown.again(node)
     lines.append("  " * depth + "- " + _line(node, again))
     if again:
         return
-    if node.children:
-        shown.add(key)
     for child in node.children:
         _walk(child, depth + 1, lines, shown)
 
@@ -76,22 +96,20 @@ _FOLDED_KINDS = ("negation", "blocked")
 def tree_html(nodes: list[JustificationNode], open_depth: Optional[int] = None) -> str:
     """Nested <details>, open down to open_depth (all when None) except the reasons why something did not
     happen; the verdict page and the audit share it."""
-    shown: set[tuple] = set()
+    shown = _Shown()
     return "".join(_html_node(node, shown, open_depth, 0) for node in nodes)
 
 
-def _html_node(node: JustificationNode, shown: set[tuple], open_depth: Optional[int], depth: int) -> str:
+def _html_node(node: JustificationNode, shown: _Shown, open_depth: Optional[int], depth: int) -> str:
     cls = "holds" if node.holds else "fails"
     rule = f'<span class="rule">{html.escape(node.rule)}</span>' if node.rule and node.kind != "blocked" else ""
-    key = _key(node)
-    again = bool(node.children) and key in shown
+    again = shown.again(node)
     text = html.escape(_line(node, again).split("  [")[0])
     label = f'<span class="{cls}{" again" if again else ""}">{text}</span>{rule}<span class="kind">{node.kind}</span>'
     if not node.children:
         return f'<div class="leaf">{label}</div>'
     # A reason argued earlier on the page stays folded where it comes up again: one click opens it.
     opened = not again and node.kind not in _FOLDED_KINDS and (open_depth is None or depth < open_depth)
-    shown.add(key)
     inner = "".join(_html_node(c, shown, open_depth, depth + 1) for c in node.children)
     return f"<details{' open' if opened else ''}><summary>{label}</summary>{inner}</details>"
 

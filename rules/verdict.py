@@ -49,7 +49,7 @@ class Verdict(BaseModel):
     action: Action = Field(description="the action to execute")
     recommended: Optional[Action] = None
     permitted: list[Action] = Field(default_factory=list)
-    rules: list[str] = Field(default_factory=list, description="ids of the rules that decided")
+    rules: list[str] = Field(default_factory=list, description="ids of the rules that decided (the forbidding proofs' rules, or dec.permitted and what called for the action), then those of the sanity layer's notes: what it doubted or set aside in this frame")
     justification: Justification
     latency_ms: Optional[float] = None
     failsafe: bool = False

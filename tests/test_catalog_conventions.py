@@ -17,6 +17,14 @@ def test_every_predicate_in_a_rule_head_has_an_english_template(reasoner):
     assert missing == set()
 
 
+def test_every_hazard_a_rule_names_by_a_constant_has_words_of_its_own(reasoner):
+    """'there is a hazard: front range obstacle' was its constant's name with the underscores spaced out."""
+    catalog = reasoner.catalog
+    named = {rule.head[2][0][1].name for rule in catalog.compiled
+             if rule.head[:2] == ("f", "hazard") and rule.head[2][0][0] == "s"}
+    assert named and named - set(catalog.words) == set()
+
+
 def write_rules(tmp_path, text):
     (tmp_path / "r.lp").write_text(text)
     return [tmp_path]

@@ -512,3 +512,58 @@ def test_class_words_say_what_the_object_is(reasoner):
     slow_bicycle = scene(speed=10, lanes=2, lane=2, objects=[obj("bicycle", 0, 30, lane=2, vy=3)])
     text = reasoner.decide(slow_bicycle, "change_lane_left", explain=True).justification.text
     assert "a bicycle is a kind of vehicle  [ent.hierarchy]" in text
+
+
+def test_a_scenes_path_ids_read_as_given_not_as_catalog_words(reasoner):
+    """'stop_sign' named a path, not 'the approach is stop-controlled'; 'path_1' is not 'path 1'."""
+    sc = scene(speed=10, path="stop_sign", crossings=[("stop_sign", "path_1")],
+               objects=[obj("truck", 3.5, 20, lane=1, vy=5, predicted_path="path_1")])
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    assert "the ego's predicted path is stop_sign" in text
+    assert "truck 1 is predicted to follow path path_1" in text
+    assert "path stop_sign crosses path path_1" in text
+
+
+def test_a_position_compared_with_a_distance_setting_gives_the_setting_no_side(reasoner):
+    """'-Y < W' with W the crossing distance read '-4.0 m is behind 15.0 m ahead'."""
+    sc = scene(speed=5, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"),
+               intersection={"type": "t_intersect", "stage": "at"},
+               objects=[obj("bicycle", 2.5, 4, lane=1, kind="shoulder", vy=5)])
+    text = reasoner.decide(sc, "turn_right", explain=True).justification.text
+    assert "tr.kerb_side_user" in text
+    assert "-4.0 m < 15.0 m" in text and "15.0 m ahead" not in text
+
+
+def test_signed_positions_that_differ_never_read_alike(reasoner):
+    sc = scene(speed=10, lane=2, lanes=2, objects=[obj("car", -1.76, 4)])
+    text = reasoner.decide(sc, "change_lane_left", explain=True).justification.text
+    assert "1.76 m to the left is left of 1.75 m to the left" in text
+
+
+def test_a_reading_of_a_few_hundredths_of_a_second_is_not_zero_seconds(reasoner):
+    scenario = load(Path(__file__).resolve().parents[1] / "scenarios" / "sanity"
+                    / "flicker_65_at_50hz_does_not_raise_the_limit.json")
+    history = [f.scene for f in scenario.frames[:-1]]
+    last = scenario.frames[-1]
+    text = reasoner.decide(last.scene, last.proposed, history=history, explain=True).justification.text
+    assert "has been read for 0.04 s in a row" in text and "for 0.0 s" not in text
+    assert "the time that confirms a reading is 0.2 s" in text and "confirm ms" not in text
+
+
+def test_settings_read_by_their_meaning_not_their_parameter_names(reasoner):
+    text = reasoner.decide(scene(speed=10, objects=[obj("car", 0, 12, lane=1, vy=0)]), "cruise",
+                              explain=True).justification.text
+    assert "the reaction time is 1 s" in text and "the firm braking deceleration is 6 m/s²" in text
+    assert "the reaction is" not in text and "the decel is" not in text
+
+
+def test_reasons_worded_alike_are_both_argued_when_their_own_reasons_differ(reasoner):
+    """The gap's '50.0 m < 10.0 m' and the headway's were folded into one, the headway's reason never shown."""
+    sc = scene(speed=10, lane=2, lanes=2, intent="merge_into_left_lane", objects=[
+        obj("car", -3.5, 50, lane=1, vy=10), obj("car", -3.5, -40, lane=1, vy=12), obj("truck", -3.5, 30, lane=1, vy=11)])
+    verdict = reasoner.decide(sc, "change_lane_left", explain=True)
+    text = verdict.justification.text
+    assert "the ego needs 10.0 m of gap to car 1  [def.gap_needed]" in text
+    assert "moving in beside car 1 needs a headway gap of 10.0 m  [def.headway_gap]" in text
+    html_page = render_html(verdict)
+    assert "moving in beside car 1 needs a headway gap of 10.0 m" in html_page
