@@ -14,9 +14,10 @@ in the rules, where they are justified.
 from __future__ import annotations
 
 import math
+import statistics
 import weakref
 from dataclasses import dataclass
-from typing import Iterable, Optional, Sequence
+from typing import Iterable, NamedTuple, Optional, Sequence
 
 from discern.rules.facts import cm
 from discern.rules.scene import (DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour, ObjectClass,
@@ -46,6 +47,9 @@ FOOTPRINT = {
 DEFAULT_FOOTPRINT = (1.0, 1.0)
 FLASH_MIN_PHASE_S = 0.25  # s: the shortest on or off phase of a flashing signal (about 0.3 s at 60 a minute)
 FLASH_MAX_PHASE_S = 1.0  # s: the longest (0.8 s lit at 50 a minute), with a frame of slack
+LINE_EVIDENCE = "a_stop_line_and_no_traffic_lights"
+STAGES = list(IntersectionStage)  # in the order the ego goes through them
+APPROACH_SLACK = 2.0  # m the distance to the stop line may grow, as perception wavers, on the same approach
 
 
 @dataclass(frozen=True)
@@ -144,18 +148,19 @@ class WindowProvider:
                 f"window_frames({len(window) + 1}).window_param(confirm_frames,{c.confirm_frames})."
                 f"window_param(track_frames,{c.track_frames})."
             )
-            # how long a frame lasts here, in ms: the window's mean frame interval (without timestamps, the nominal
-            # one); so many frames of a reading or a track last that many intervals
-            interval = (scene.timestamp - window[0].timestamp) * 1000 / len(window)
-            if not interval > 0:
-                interval = c.untimed_frame_s * 1000
             out.append(f"window_param(confirm_ms,{round(c.confirm_s * 1000)}).window_param(track_ms,{round(c.track_s * 1000)}).")
             now, past = self._summary(scene), [self._summary(s) for s in window]
-            out.extend(_limit_facts(now, past, c.confirm_frames, interval))
             times = [s.timestamp for s in window] + [scene.timestamp]
+            clock = _Clock.of(times, c.untimed_frame_s)
+            # a traffic light seen on the way to the intersection ahead shows it signalised after it leaves the view
+            approach = _approaches([*window, scene])
+            lit = {a for a, f in zip(approach, [*past, now]) if a is not None and f.lights}
+            if approach[-1] is not None and any(a == approach[-1] and f.lights for a, f in zip(approach, past)):
+                out.append("light_seen_on_approach.")
+            out.extend(_limit_facts(now, past, c.confirm_frames, clock, [a in lit for a in approach[:-1]]))
             out.extend(_light_facts(now, past, times, c))
             out.extend(_sign_facts(now, past))
-            out.extend(_memory_facts(scene, now, window, past, c, interval))
+            out.extend(_memory_facts(scene, now, window, past, c, clock))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
         return "".join(out)
 
@@ -220,16 +225,19 @@ def _readings(scene: Scene) -> set[int]:
 
 def _misread(scene: Scene) -> tuple[tuple[int, str], ...]:
     """Limits read from a picture while the ego came up to, or stood at, an intersection whose approach the map or
-    a stop line without traffic lights showed stop-controlled (san.stop.evidence_map, san.stop.evidence_line): where
-    the rules took the sign for a stop sign. Cross traffic and a vehicle ahead stopping are the rules' own evidence,
-    worked out in the frame; they are not remembered."""
+    a stop line without traffic lights showed stop-controlled (san.stop.evidence_map, san.stop.evidence_line), and
+    no stop sign was read: where the rules took the sign for a stop sign. Cross traffic and a vehicle ahead stopping
+    are the rules' own evidence, worked out in the frame; they are not remembered. Lights seen in other frames of
+    the approach are the window's to weigh (`_limit_facts`)."""
     x = scene.intersection
     if x is None or x.stage not in (IntersectionStage.arriving, IntersectionStage.at):
         return ()
+    if any(s.kind is SignKind.stop for s in scene.signs):
+        return ()  # the stop sign is read as one: the limit sign beside it is another sign (san.stop.misread_sign)
     lit = any(l.colour is not LightColour.none for l in scene.traffic_lights)
     evidence = ["the_map_marks_it_stop_controlled"] if x.stop_controlled else []
     if x.stop_line and not lit and x.type is not IntersectionType.signaled:
-        evidence.append("a_stop_line_and_no_traffic_lights")
+        evidence.append(LINE_EVIDENCE)
     values = sorted({cm(s.value) for s in scene.signs
                      if s.kind is SignKind.speed_limit and s.value is not None and s.source in PICTURE})
     return tuple((v, e) for v in values for e in evidence)
@@ -243,61 +251,95 @@ def _primary(scene: Scene) -> Optional[int]:
     return min(signs) if signs else None
 
 
-def _runs(values: Iterable[Optional[int]]) -> list[tuple[int, int]]:
-    """Runs of equal readings, oldest first, skipping frames that read nothing."""
-    runs: list[tuple[int, int]] = []
-    for value in values:
-        if value is None:
-            continue
-        if runs and runs[-1][0] == value:
-            runs[-1] = (value, runs[-1][1] + 1)
+class _Run(NamedTuple):
+    value: Optional[int]  # None: frames that read nothing
+    frames: int
+    first: int  # the indices of its first and last frames
+    last: int
+
+
+def _runs(values: Iterable[Optional[int]]) -> list[_Run]:
+    """Runs of equal readings in consecutive frames, oldest first. Frames that read nothing are runs of None, which
+    part the readings either side: two one-frame misreads a second apart are no reading in two frames in a row."""
+    runs: list[_Run] = []
+    for i, value in enumerate(values):
+        if runs and runs[-1].value == value:
+            runs[-1] = runs[-1]._replace(frames=runs[-1].frames + 1, last=i)
         else:
-            runs.append((value, 1))
+            runs.append(_Run(value, 1, i, i))
     return runs
 
 
-def _believed(runs: list[tuple[int, int]], confirm: int) -> Optional[int]:
+def _believed(runs: list[_Run], confirm: int) -> Optional[int]:
     """The index of the run whose limit held at the end of `runs`: the last run read in enough frames in a row, or a
-    lower run read since it (a lower limit takes effect at once; a rise since, read in too few frames, does not)."""
-    settled = [i for i, (_, length) in enumerate(runs) if length >= confirm]
+    lower run read since it (a lower limit takes effect at once; a rise since, read in too few frames, does not).
+    The settled limit read again after a gap is the settled run still, not a new one-frame reading."""
+    settled = [i for i, run in enumerate(runs) if run.value is not None and run.frames >= confirm]
     if not settled:
         return None
-    since = runs[settled[-1]:]
-    lowest = min(value for value, _ in since)
-    return max(i for i, (value, _) in enumerate(since) if value == lowest) + settled[-1]
+    since = [(i, run.value) for i, run in enumerate(runs[settled[-1]:], settled[-1]) if run.value is not None]
+    lowest = min(value for _, value in since)
+    if lowest == runs[settled[-1]].value:
+        return settled[-1]
+    return max(i for i, value in since if value == lowest)
 
 
-def _run_facts(value: int, frames: int, interval: float) -> str:
+@dataclass(frozen=True)
+class _Clock:
+    """The window's frame times, in whole ms, and how long one frame lasts."""
+
+    ms: tuple[int, ...]
+    frame_ms: int
+
+    @classmethod
+    def of(cls, times: Sequence[float], untimed_frame_s: float) -> "_Clock":
+        """A frame lasts the window's median frame interval (the lower middle one): the frame rate's, which a dropout
+        does not stretch as it does the mean. Frames without timestamps come `untimed_frame_s` apart."""
+        ms = [round(t * 1000) for t in times]
+        if not ms[-1] > ms[0]:
+            ms = [round(i * untimed_frame_s * 1000) for i in range(len(times))]
+        return cls(tuple(ms), statistics.median_low([b - a for a, b in zip(ms, ms[1:]) if b > a]))
+
+    def lasted(self, first: int, last: int) -> int:
+        """How long something seen from the frame at index `first` to the one at `last` lasted: from the first to the
+        last and through the last, so that so many evenly spaced frames last so many frame intervals. Its own
+        timestamps, not a count of frames: a 40 ms flicker after a second without frames lasts 60 ms, not a second."""
+        return self.ms[last] - self.ms[first] + self.frame_ms
+
+
+def _run_facts(value: int, run: _Run, clock: _Clock) -> str:
     """A reading's run: in how many frames in a row, and for how long."""
-    return f"reading_run({value},{frames}).reading_time({value},{round(frames * interval)})."
+    return f"reading_run({value},{run.frames}).reading_time({value},{clock.lasted(run.first, run.last)})."
 
 
-def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, interval: float) -> list[str]:
-    out = sorted({f"misread_before({v},{e})." for p in past for v, e in p.misread})
+def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Clock, signalled: list[bool]) -> list[str]:
+    """Limits read over the window. `signalled`: whether each past frame was on an approach where a traffic light was
+    seen, whose stop line is no evidence of a stop sign."""
+    out = sorted({f"misread_before({v},{e})." for p, lit in zip(past, signalled) for v, e in p.misread
+                  if not (lit and e == LINE_EVIDENCE)})
+    here = len(past)  # the current frame's index
     for value in sorted(now.readings):
-        run = 1
-        for frame in reversed(past):
-            if value not in frame.readings:
-                break
-            run += 1
-        out.append(_run_facts(value, run, interval))
+        first = here
+        while first > 0 and value in past[first - 1].readings:
+            first -= 1
+        out.append(_run_facts(value, _Run(value, here - first + 1, first, here), clock))
     primary = now.primary
     runs = _runs(p.primary for p in past)
     if primary is None:  # no limit read now: the one read last is still a reading, with what held before it
         last = _believed(runs, confirm)
         if last is None:
             return out
-        value, length = runs[last]
-        out.append(f"remembered_limit({value}).{_run_facts(value, length, interval)}")
+        run = runs[last]
+        out.append(f"remembered_limit({run.value}).{_run_facts(run.value, run, clock)}")
         runs = runs[:last]
-    else:
-        while runs and runs[-1][0] == primary:  # the current reading's own run
-            runs.pop()
+    elif runs and runs[-1].value == primary:  # the current reading's own run
+        runs.pop()
     before = _believed(runs, confirm)
     if before is not None:
-        value, length = runs[before]
+        run = runs[before]
         # with its run, so that the rules can tell a settled limit from a one-frame lower reading
-        out.append(f"prior_limit({value}).prior_run({value},{length}).prior_time({value},{round(length * interval)}).")
+        out.append(f"prior_limit({run.value}).prior_run({run.value},{run.frames})."
+                   f"prior_time({run.value},{clock.lasted(run.first, run.last)}).")
     return out
 
 
@@ -378,6 +420,30 @@ def _sign_facts(now: _Summary, past: list[_Summary]) -> list[str]:
     if not now.stop_sign and any(p.stop_sign for p in past):
         return ["sign_seen_recently(stop)."]
     return []
+
+
+def _approaches(scenes: Sequence[Scene]) -> list[Optional[int]]:
+    """Which approach to an intersection each frame is on, numbered oldest first (None: no intersection ahead).
+
+    An approach goes on while each frame shows an intersection of the same type as the frame before, at a stage no
+    earlier and, where both tell it, no farther from its stop line (give or take `APPROACH_SLACK`): anything else is
+    the next intersection, whose lights are its own.
+    """
+    out: list[Optional[int]] = []
+    count, before = 0, None
+    for scene in scenes:
+        x = scene.intersection
+        if x is None:
+            out.append(None)
+        else:
+            same = (before is not None and x.type is before.type
+                    and STAGES.index(x.stage) >= STAGES.index(before.stage)
+                    and (x.distance is None or before.distance is None or x.distance <= before.distance + APPROACH_SLACK))
+            if not same:
+                count += 1
+            out.append(count)
+        before = x
+    return out
 
 
 # --- objects -------------------------------------------------------------------
@@ -484,15 +550,27 @@ def _inside(position: float, speed: float, reach: float) -> Optional[tuple[float
     return (min(a, b), max(a, b))
 
 
-def _runs_into_ego(obj: DetectedObject, vx: float, vy: float, age: float) -> bool:
-    """Whether the track of a lost object, from where it was last seen and at the velocity relative to the ego it had,
-    overlaps the ego's own footprint within `age` seconds: an object cannot be where the ego is."""
+def _legs(scenes: Sequence[Scene]) -> list[tuple[float, float]]:
+    """The ego's drive between each frame and the next: how long (s), and at what speed, its mean over the leg (the
+    speed taken to change evenly between frames)."""
+    return [(max(b.timestamp - a.timestamp, 0.0), (a.ego.speed + b.ego.speed) / 2) for a, b in zip(scenes, scenes[1:])]
+
+
+def _track(obj: DetectedObject, legs: Sequence[tuple[float, float]]) -> Optional[tuple[float, float]]:
+    """Where the track of a lost object puts it now, (x, y), from where it was last seen, at the velocity it had,
+    while the ego drove the legs since as it did (slowing down, it leaves a pedestrian ahead of it, not under it).
+    None if on the way the track overlaps the ego's own footprint: an object cannot be where the ego is."""
     length, width = _footprint(obj)
-    span_x = _inside(obj.position.x, vx, (EGO_WIDTH + width) / 2)
-    span_y = _inside(_to_centre(obj.position.y, length), vy, (EGO_LENGTH + length) / 2)
-    if span_x is None or span_y is None:
-        return False
-    return max(span_x[0], span_y[0], 0.0) < min(span_x[1], span_y[1], age)
+    x, y = obj.position.x, _to_centre(obj.position.y, length)
+    for seconds, ego_speed in legs:
+        vx, vy = _relative_velocity(obj, ego_speed)
+        span_x = _inside(x, vx, (EGO_WIDTH + width) / 2)
+        span_y = _inside(y, vy, (EGO_LENGTH + length) / 2)
+        if span_x is not None and span_y is not None and \
+                max(span_x[0], span_y[0], 0.0) < min(span_x[1], span_y[1], seconds):
+            return None
+        x, y = x + vx * seconds, y + vy * seconds
+    return x, _to_gap(y, length)
 
 
 def _side_of(x: float, y: float) -> SensorSide:
@@ -508,21 +586,23 @@ def _side_of(x: float, y: float) -> SensorSide:
 
 
 def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: list[_Summary],
-                  config: WindowConfig, interval: float) -> list[str]:
+                  config: WindowConfig, clock: _Clock) -> list[str]:
     """Objects the camera lost, where their track puts them now, and what says they are still there;
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
     present = now.objects
     unconfirmed = now.ids.difference(oid for oid, _ in now.confirmed)
-    last: dict[int, tuple[Scene, DetectedObject]] = {}
+    last: dict[int, tuple[int, DetectedObject]] = {}  # lost objects: the index of the frame last seen in, as seen
+    first: dict[int, int] = {}
     frames: dict[int, int] = {}
     lights: dict[int, list[float]] = {}  # when each object showed emergency lights, oldest first
     earlier: dict[int, set[Source]] = {}
     echoed: dict[int, set[Source]] = {}  # lost objects: the confirming sources that reported them in the window
     # a frame sits in some twenty windows: set operations on its summary, not a pass over its objects
-    for past, summary in zip(window, summaries):
+    for index, (past, summary) in enumerate(zip(window, summaries)):
         for oid in sorted(summary.ids - now.ids):
-            last[oid] = (past, summary.objects[oid])
+            last[oid] = (index, summary.objects[oid])
+            first.setdefault(oid, index)
             frames[oid] = frames.get(oid, 0) + 1
         for oid, confirming in summary.confirmed:
             if oid in unconfirmed:
@@ -534,13 +614,13 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     for oid, found in earlier.items():
         out.extend(f"obj_source_before({oid},{s.value})." for s in sorted(found, key=lambda s: s.value))
     kept: set[int] = set()
+    legs = _legs([*window, scene])
     for oid, (seen, obj) in last.items():
-        age = max(scene.timestamp - seen.timestamp, 0.0)
-        vx, vy = _relative_velocity(obj, seen.ego.speed)
-        length = _footprint(obj)[0]
-        if _runs_into_ego(obj, vx, vy, age):
+        age = max(scene.timestamp - window[seen].timestamp, 0.0)
+        placed = _track(obj, legs[seen:])
+        if placed is None:
             continue  # the ego would have hit it: it did not keep that course, and where it is is not known
-        x, y = obj.position.x + vx * age, _to_gap(_to_centre(obj.position.y, length) + vy * age, length)
+        x, y = placed
         tracked = max(frames[oid], obj.track_age or 0)
         side = _side_of(x, y)
         reach = math.hypot(x, y) + config.sensor_margin
@@ -551,17 +631,19 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         kept.add(oid)
         out.append(f"remembered({oid},{int(round(age * 1000))}).remembered_object({oid},{obj.cls.value}).")
         out.append(f"remembered_pos({oid},{cm(x)},{cm(y)}).track_frames({oid},{tracked}).")
-        out.append(f"track_time({oid},{round(tracked * interval)}).")
+        # from its first frame in the window to its last, or as many frames as its tracker has followed it
+        out.append(f"track_time({oid},{max(clock.lasted(first[oid], seen), (obj.track_age or 0) * clock.frame_ms)}).")
         if obj.lane is not None and obj.lane.kind is not LaneKind.current:
             # the ego's road's lanes: placed by its tracked offset (the rules), as a car cutting in moves across
             out.append(f"remembered_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")
         if obj.velocity is not None:
             out.append(f"remembered_velocity({oid},{cm(obj.velocity.x)},{cm(obj.velocity.y)}).")
         out.extend(f"remembered_source({oid},{source.value})." for source in obj.sources)
-        if reads:
-            out.append(f"sensor_still_reads({oid},{reads[0].side.value}).")
-        elif facing:  # it reads clear road past where the object should be (the rules say whether that clears it)
-            out.append(f"sensor_reads_past({oid},{side.value}).")
+        # each reading with its kind and distance: the rules doubt one beyond its sensor's reach (san.range.beyond_reach)
+        for r in reads:
+            out.append(f"sensor_still_reads({oid},{r.side.value},{r.kind.value},{cm(r.distance)}).")
+        if facing and not reads:  # it reads clear road past where the object should be (the rules say whether that clears it)
+            out.extend(f"sensor_reads_past({oid},{r.side.value},{r.kind.value},{cm(r.distance)})." for r in facing)
             out.extend(f"reported_before({oid},{s.value})." for s in sorted(echoed.get(oid, ()), key=lambda s: s.value))
         found = _conflict(obj, x, y, scene.ego.speed, config.horizon_s)
         if found is not None:

@@ -12,7 +12,7 @@ from clingo import Function, Number
 from discern.rules.scene import Action
 from discern.rules.verdict import Decision
 from discern.sanity import examples
-from discern.sanity.examples import EXAMPLES, fired, obj, scene
+from discern.sanity.examples import EXAMPLES, fired, obj, scene, sensor
 from discern.sanity.jurisdiction import reasoner_for
 
 BY_RULE = {e.rule: e for e in EXAMPLES}
@@ -283,8 +283,62 @@ def test_a_range_confirmed_trailer_above_the_road_is_an_obstacle_and_a_bridge_is
     assert trailer.action is Action.brake and "brake.obstacle_ahead" in trailer.rules
     bridge = cruise_past(5.0, ("camera", "radar", "lidar"))
     assert bridge.decision is Decision.approve and "san.world.elevated" in bridge.rules
-    advert = cruise_past(1.2, ("camera",))
+
+
+def _past_a_floating_object(y: float, speed: float, radar: bool, cls: str = "truck"):
+    """A camera-only object in the ego's lane whose base the camera puts 1.2 m up; with `radar`, the radar reports a car
+    in the next lane, so it runs ahead."""
+    floating = obj(3, cls, 0.0, y, 2, vx=-4.0 if cls == "truck" else 0.0, vy=0.0, sources=("camera",), elevation=1.2)
+    lead = [obj(8, "car", -3.5, 90.0, 1, vy=speed)] if radar else []
+    return _decide((scene(speed=speed, zone="highway", limit=29.0, lane=2, lanes=2, objects=[floating, *lead]),),
+                   Action.cruise)
+
+
+@pytest.mark.parametrize("radar", [False, True])
+@pytest.mark.parametrize("y, speed, cls", [(35.0, 29.0, "truck"), (10.0, 20.0, "car")])
+def test_a_camera_only_object_above_the_road_is_an_obstacle_without_a_running_radar_or_room_to_stop(y, speed, cls, radar):
+    """NTSB HAR-17/02: a trailer crossing 35 m ahead at 29 m/s that only the camera sees, its base 1.2 m up, was set
+    aside as an advert with no radar running and well inside the 99 m the ego needs to stop."""
+    verdict = _past_a_floating_object(y, speed, radar, cls)
+    assert verdict.decision is Decision.override and "brake.obstacle_ahead" in verdict.rules
+    assert "san.world.elevated" not in verdict.rules
+
+
+def test_a_camera_only_advert_above_the_road_is_set_aside_only_while_a_running_radar_misses_it_with_room_to_stop():
+    """At 12 m/s the ego stops in 24 m: an advert 30 m ahead is set aside, one 20 m ahead only doubted (slow down)."""
+    advert = _past_a_floating_object(30.0, 12.0, radar=True)
     assert advert.decision is Decision.approve and "san.world.elevated" in advert.rules
+    assert "san.world.elevated" not in _past_a_floating_object(30.0, 12.0, radar=False).rules
+    # a person's radar echo is weak: a missing one does not set a pedestrian aside
+    assert "san.world.elevated" not in _past_a_floating_object(30.0, 12.0, radar=True, cls="pedestrian").rules
+    nearer = _past_a_floating_object(20.0, 12.0, radar=True)
+    assert nearer.action is Action.brake and "san.radar.phantom_caution" in nearer.rules
+    assert "san.world.elevated" not in nearer.rules
+
+
+# --- range readings: within their sensor's reach
+
+
+def _cruise_with_front_readings(*readings: tuple[float, str], objects: tuple = ()):
+    """At 29 m/s on a highway (the ego needs 99 m to stop), a car 90 m ahead that the radar reports."""
+    car = obj(8, "car", 0.0, 90.0, 1, vy=29.0)
+    return scene(speed=29.0, zone="highway", limit=29.0, objects=[car, *objects],
+                 sensors=[sensor("front", d, kind) for d, kind in readings])
+
+
+def test_an_ultrasonic_reading_at_60_m_does_not_brake_the_ego_where_the_front_radar_reads_the_lane_clear():
+    """Ultrasonic sensors reach a few metres: a reading of 60 m is a fault, and the verdict says so."""
+    fault = _decide((_cruise_with_front_readings((60.0, "ultrasonic"), (90.0, "radar")),), Action.cruise)
+    assert fault.decision is Decision.approve and "san.range.beyond_reach" in fault.rules
+    assert "the front ultrasonic sensor's reading of 60.0 m is beyond its reach" in fault.justification.text
+    # within its reach it still brakes; a radar reading of the same 60 m still does
+    for readings in [((6.0, "ultrasonic"), (90.0, "radar")), ((60.0, "ultrasonic"), (60.0, "radar"))]:
+        verdict = _decide((_cruise_with_front_readings(*readings),), Action.cruise)
+        assert verdict.action is Action.brake and "brake.front_range_obstacle" in verdict.rules, readings
+    # nor does the faulty reading confirm a camera-only car at 60 m: it may be a phantom
+    ghost = obj(9, "car", 0.0, 60.0, 1, vy=20.0, sources=("camera",))
+    doubted = reasoner_for("us").solve(_cruise_with_front_readings((60.0, "ultrasonic"), objects=(ghost,)), Action.cruise)
+    assert Function("doubtful", [Number(9)]) in doubted.answer.of("doubtful", 1)
 
 
 def test_a_front_reading_confirms_a_camera_object_within_the_range_match_parameter():

@@ -251,7 +251,7 @@ def test_a_lost_object_is_remembered_where_its_track_puts_it():
 
 def test_a_lost_object_a_range_sensor_still_reads_is_kept():
     glimpse = at(0.0, speed=10.0, objects=[obj(7, "car", -3.5, -10.0, 1, vy=20.0)])
-    assert "sensor_still_reads(7,rear_left)." in facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("rear_left", 9.0)])])
+    assert "sensor_still_reads(7,rear_left,radar,900)." in facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("rear_left", 9.0)])])
 
 
 def test_a_one_frame_glimpse_with_no_sensor_is_forgotten():
@@ -320,7 +320,7 @@ def test_a_lost_object_ahead_of_the_bumper_is_read_by_the_sensor_facing_it():
     glimpse = at(0.0, speed=10.0, objects=[obj(7, "car", -3.5, 1.0, 1, vy=10.0)])
     front = facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("front_left", 3.0)])])
     beside = facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("left", 1.0)])])
-    assert "sensor_still_reads(7,front_left)." in front and not any("sensor_still_reads" in f for f in beside)
+    assert "sensor_still_reads(7,front_left,radar,300)." in front and not any("sensor_still_reads" in f for f in beside)
 
 
 def test_whether_the_ego_stopped_in_the_window_is_the_rules_call_with_their_parameter():
@@ -376,3 +376,89 @@ def test_a_yellow_lit_again_after_one_dark_gap_is_not_yet_seen_flashing():
     flashing = [(i // 5) % 2 == 0 for i in range(21)]  # 1 Hz: a whole lit and a whole dark phase seen
     frames = [at(round(0.1 * i, 1), lights=YELLOW if on else []) for i, on in enumerate(flashing)]
     assert "light_flashes(yellow)." in facts(frames)
+
+
+SIGN_45, SIGN_65 = [limit_sign(45)], [limit_sign(65)]
+CM_45, CM_65 = round(45 * MPH * 100), round(65 * MPH * 100)
+
+
+def test_one_frame_readings_apart_are_no_run_once_the_sign_has_left_the_view():
+    """65 misread in two single frames 0.9 s apart, nothing read between: no reading in two frames in a row, so
+    the 45 read before is the limit that held, not a settled 65."""
+    signs = [SIGN_45] * 3 + [SIGN_65] + [[]] * 8 + [SIGN_65, []]
+    found = facts([at(round(0.1 * i, 1), limit=None, signs=s) for i, s in enumerate(signs)])
+    assert f"remembered_limit({CM_45})." in found and f"reading_run({CM_45},3)." in found
+    assert not any(f.startswith((f"remembered_limit({CM_65})", f"reading_run({CM_65},")) for f in found)
+
+
+def test_a_limit_read_again_after_a_gap_is_still_the_settled_limit():
+    signs = [SIGN_65] * 3 + [[]] + [SIGN_65] + [[]]
+    found = facts([at(round(0.1 * i, 1), limit=None, signs=s) for i, s in enumerate(signs)])
+    assert {f"remembered_limit({CM_65}).", f"reading_run({CM_65},3)."} <= found
+
+
+def test_readings_and_tracks_last_by_their_own_timestamps_not_the_windows_mean_interval():
+    """At 50 Hz, after 1.8 s without frames: a 65 read in three frames lasted 60 ms, not three mean intervals of the
+    window (742 ms); a car seen in two frames was tracked for 40 ms."""
+    times = [0.0, 0.02, 0.04, 0.06, 0.08, 0.1, 1.94, 1.96, 1.98]
+    frames = [at(t, limit=None, signs=SIGN_65 if t > 1 else SIGN_45,
+                 objects=[obj(7, "car", 0.0, 20.0, 1)] if t in (1.94, 1.96) else []) for t in times]
+    found = facts(frames)
+    assert {f"reading_run({CM_65},3).", f"reading_time({CM_65},60).", "track_frames(7,2).", "track_time(7,40)."} <= found
+    # and a prior read before the dropout lasted its own frames: six at 50 Hz, 120 ms
+    assert {f"prior_limit({CM_45}).", f"prior_time({CM_45},120)."} <= found
+
+
+def test_a_pedestrian_lost_in_front_of_a_braking_ego_stays_ahead_of_it():
+    """Lost 1.4 m ahead while the ego brakes from 2 m/s to a stop: the ego covers 0.4 m, not 2 m/s for 0.8 s, so
+    the pedestrian is still 1 m ahead and not taken for one the ego would have run into."""
+    speeds = [3.0, 2.5, 2.0, 1.5, 1.0, 0.5, 0.0, 0.0, 0.0]
+    times = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0]
+    walker = [obj(4, "pedestrian", 0.3, y, vy=0.0, vx=-0.3, sources=("camera",)) for y in (1.9, 1.6, 1.4)]
+    frames = [at(t, speed=v, objects=[walker[i]] if i < 3 else []) for i, (t, v) in enumerate(zip(times, speeds))]
+    found = facts(frames)
+    assert {"remembered(4,800).", "remembered_pos(4,6,100)."} <= found
+
+
+INTERSECTION = {"type": "four_way", "stage": "arriving", "stop_line": True}
+
+
+def _approach(lit: list[bool], distances: list[float], **kw):
+    return [at(round(0.1 * i, 1), lights=[{"colour": "green"}] if on else [], **kw,
+               intersection={**INTERSECTION, "distance": d}) for i, (on, d) in enumerate(zip(lit, distances))]
+
+
+def test_a_traffic_light_seen_on_the_approach_is_remembered_once_out_of_view():
+    assert "light_seen_on_approach." in facts(_approach([True, True, False, False], [40.0, 38.7, 37.4, 36.1]))
+    # the next intersection's approach (the line farther again, or an earlier stage) is not the lit one's
+    assert "light_seen_on_approach." not in facts(_approach([True, True, False], [20.0, 18.7, 60.0]))
+    entered = [at(0.0, lights=[{"colour": "green"}], intersection={**INTERSECTION, "stage": "enter"}),
+               at(0.1, intersection={**INTERSECTION, "distance": 30.0})]
+    assert "light_seen_on_approach." not in facts(entered)
+
+
+def test_a_limit_read_at_a_stop_line_with_a_light_seen_on_the_approach_is_no_misread_stop_sign():
+    frames = _approach([True, False, False], [30.0, 28.7, 27.4], limit=None, signs=SIGN_45)
+    assert not any(f.startswith("misread_before") for f in facts(frames))
+    unlit = _approach([False, False, False], [30.0, 28.7, 27.4], limit=None, signs=SIGN_45)
+    assert f"misread_before({CM_45},a_stop_line_and_no_traffic_lights)." in facts(unlit)
+
+
+def test_a_limit_sign_read_beside_a_stop_sign_is_no_misread_stop_sign():
+    mapped = {"type": "four_way", "stage": "arriving", "distance": 70.0, "stop_controlled": True}
+    beside = [at(round(0.1 * i, 1), limit=None, signs=[limit_sign(25), {"kind": "stop"}], intersection=mapped)
+              for i in range(3)]
+    assert not any(f.startswith("misread_before") for f in facts(beside))
+    alone = [at(round(0.1 * i, 1), limit=None, signs=[limit_sign(25)], intersection=mapped) for i in range(3)]
+    assert any(f.startswith("misread_before") for f in facts(alone))
+
+
+def test_an_ultrasonic_reading_beyond_its_reach_neither_clears_nor_keeps_a_lost_car(reasoner):
+    """A front ultrasonic sensor reading 60 m is no clear road past a lost car 20 m ahead; a radar reading is."""
+    seen = [at(0.1 * i, speed=10.0, objects=[obj(7, "car", 0.0, 20.0, 1, vy=10.0)]) for i in range(3)]
+
+    def lost_car_kept(kind: str) -> bool:
+        now = at(0.3, speed=10.0, sensors=[sensor("front", 60.0, kind)])
+        return bool(reasoner.solve(now, "accelerate", history=seen).answer.of("still_there", 2))
+
+    assert lost_car_kept("ultrasonic") and not lost_car_kept("radar")
