@@ -202,6 +202,8 @@ def read_file(path: Union[str, Path]) -> list[AvcsrFrame]:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise AvcsrError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:  # a broken symlink or a directory named x.pl, found in a directory given
+        raise AvcsrError(f"{path}: cannot read: {exc.strerror or exc}") from None
     environment, zone, file_notes = _environment(text)
     headers = [(m.start(), int(m.group(1))) for m in _HEADER.finditer(text)]
     line_starts = [0] + [i + 1 for i, c in enumerate(text) if c == "\n"]

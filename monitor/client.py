@@ -23,7 +23,7 @@ from typing import Callable, Iterable, Optional, Union
 import zenoh
 from pydantic import ValidationError
 
-from discern.rules.scene import ID_RULE, SCHEMA_VERSION, Action, Proposal, Scene, valid_id
+from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, SCHEMA_VERSION, Action, Proposal, Scene, valid_id
 from discern.rules.verdict import Verdict
 
 from . import keys
@@ -182,19 +182,33 @@ class Monitor:
     def _encode(
         self, scene: Union[Scene, dict], action: Union[Action, str], explain: bool
     ) -> tuple[Optional[Proposal], bytes, Optional[str]]:
-        """The proposal, its JSON, and why it is invalid (proposal None); ValueError if it cannot be JSON."""
-        try:
-            proposal = Proposal(vehicle=self.vehicle, action=action, scene=scene, explain=explain)
-            return proposal, encode(proposal), None
-        except ValidationError as exc:
-            problem = f"schema violation: {describe_validation_error(exc)}"
+        """The proposal, its JSON, and why it is invalid (proposal None); ValueError if it cannot be JSON.
+
+        The JSON is checked as the monitor reads it (JSON_AS_SCHEMA): a dict's "25" for a speed is sent
+        as it is and refused by name, never converted here into a valid proposal the planner did not write.
+        """
         if isinstance(scene, Scene):
+            if isinstance(explain, bool):
+                try:  # typed already: nothing left to convert, no need to write it and read it back
+                    proposal = Proposal(vehicle=self.vehicle, action=action, scene=scene, explain=explain)
+                    return proposal, encode(proposal), None
+                except ValidationError:
+                    pass  # an unknown action: sent as it is below, and refused by name
             scene = scene.model_dump(mode="json", by_alias=True)
         data = dict(version=SCHEMA_VERSION, vehicle=self.vehicle, action=action, scene=scene, explain=explain)
         try:
-            return None, json.dumps(data).encode(), problem
+            text = json.dumps(data, default=_numpy_value)
         except (TypeError, ValueError) as exc:
-            raise ValueError(f"{problem}; not sent: it cannot be written as JSON: {exc}") from None
+            try:  # name the field that holds it, where the schema can
+                Proposal(vehicle=self.vehicle, action=action, scene=scene, explain=explain)
+                problem = ""
+            except ValidationError as invalid:
+                problem = f"schema violation: {describe_validation_error(invalid)}; "
+            raise ValueError(f"{problem}not sent: it cannot be written as JSON: {exc}") from None
+        try:
+            return Proposal.model_validate_json(text, **JSON_AS_SCHEMA), text.encode(), None
+        except ValidationError as exc:
+            return None, text.encode(), f"schema violation: {describe_validation_error(exc)}"
 
     def _query(self, payload: bytes, timeout: float) -> Union[Verdict, str]:
         """The first verdict that arrives, else why none did."""
@@ -258,6 +272,13 @@ class Monitor:
             slot[0].set()
         if self._on_verdict is not None:
             self._on_verdict(verdict)
+
+
+def _numpy_value(value):
+    """A numpy scalar or array, which a planner's scene dict may well hold, as the JSON of its Python value."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"Object of type {type(value).__name__} is not JSON serializable")
 
 
 def _too_late(key: str, timeout: float) -> str:

@@ -191,7 +191,7 @@ def cmd_serve(args) -> int:
     )
     try:
         config = MonitorConfig(
-            monitor_id=args.monitor_id or default_monitor_id(),
+            monitor_id=default_monitor_id() if args.monitor_id is None else args.monitor_id,
             zenoh=_zenoh_settings(args),
             vehicles=args.vehicles,
             budget_ms=args.budget_ms,
@@ -302,12 +302,13 @@ def _status_text(s) -> str:
 def cmd_router(args) -> int:
     import zenoh
 
-    from .config import listen_endpoints
+    from .config import check_listen_ports, listen_endpoints
     from .router import router_config
 
     try:
         config = router_config(_zenoh_settings(args, mode="router"))
         listen = listen_endpoints(config)
+        check_listen_ports(listen)
         session = zenoh.open(config)
     except ValueError as exc:
         return _fail("router", str(exc))

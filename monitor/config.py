@@ -34,6 +34,7 @@ LOG_FLUSH_MIN_S, LOG_FLUSH_MAX_S = 0.05, 60.0
 LOG_ROTATE_MIN_S = 1.0
 LOG_ROTATE_MIN_BYTES = 64 * 1024
 MIB = 1024 * 1024
+TEST_DELAY_MAX_MS = 10 * BUDGET_MAX_MS  # past any budget; time.sleep overflows on far more
 
 
 def default_monitor_id() -> str:
@@ -63,7 +64,7 @@ class ZenohSettings:
             try:
                 config = zenoh.Config.from_file(str(self.config_file))
             except zenoh.ZError as exc:
-                raise ValueError(f"zenoh config {self.config_file}: {exc}") from None
+                raise ValueError(f"zenoh config {self.config_file}: {config_file_problem(str(exc))}") from None
             from_file = True
         else:
             config = zenoh.Config()
@@ -102,8 +103,36 @@ def listen_endpoints(config: zenoh.Config) -> list[str]:
     return list(value or [])
 
 
+_IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
+
+
+def check_listen_ports(endpoints: list[str]) -> None:
+    """Refuse port 0: zenoh would take some free port without telling which, so no one could be told to connect."""
+    for endpoint in endpoints:
+        address = re.split(r"[?#]", endpoint, maxsplit=1)[0]  # without zenoh's ?metadata and #config
+        protocol = address.partition("/")[0]
+        if protocol in _IP_PROTOCOLS and address.rpartition(":")[2] == "0":
+            raise ValueError(f"listen endpoint {endpoint!r}: port 0 is not supported, as zenoh does not say "
+                             "which free port it takes: name a port")
+
+
 _RUST_LOCATION = re.compile(r" at /\S+?\.rs:\d+\.?")
 _JSON5_MESSAGE = re.compile(r'msg: "((?:[^"\\]|\\.)*)"')
+_JSON5_LOCATION = re.compile(r"Location \{ line: (\d+), column: (\d+) \}")
+_PARSER_POSITION = re.compile(r"-->\s*(\d+):(\d+)")
+_PARSER_EXPECTED = re.compile(r"^\s*= (.+)$", re.MULTILINE)
+
+
+def config_file_problem(text: str) -> str:
+    """One line from zenoh's error on a config file: its position and reason, not the parser's diagram of them."""
+    text = without_rust_locations(text)
+    message, position = _JSON5_MESSAGE.search(text), _JSON5_LOCATION.search(text)
+    if message is None:
+        message, position = _PARSER_EXPECTED.search(text), _PARSER_POSITION.search(text)
+    if message is None:
+        return " ".join(text.split())
+    reason = message.group(1)
+    return f"line {position.group(1)} column {position.group(2)}: {reason}" if position else reason
 
 
 def without_rust_locations(text: str) -> str:
@@ -173,6 +202,8 @@ class MonitorConfig:
 
     def validate(self) -> "MonitorConfig":
         """Refuse, by flag, what the monitor cannot run with, before anything starts."""
+        if not self.monitor_id:
+            raise ValueError("monitor id is empty: give one with --id, or leave --id out for host-pid")
         if not valid_id(self.monitor_id):
             raise ValueError(f"monitor id {self.monitor_id!r} must match {ID_RULE}")
         check_number("--budget-ms", self.budget_ms, 0, BUDGET_MAX_MS, unit=" ms", above=True)
@@ -186,4 +217,6 @@ class MonitorConfig:
             raise ValueError(f"unknown jurisdiction {self.jurisdiction!r}: choose from {', '.join(JURISDICTIONS)}")
         if not 1 <= self.workers <= 64:
             raise ValueError(f"--workers must be between 1 and 64, got {self.workers}")
+        # A negative sleep would crash every decision worker at its first batch.
+        check_number("--test-only-decision-delay-ms", self.test_decision_delay_ms, 0, TEST_DELAY_MAX_MS, unit=" ms")
         return self

@@ -121,8 +121,18 @@ def closed_loop(out: Path, episodes: int) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    from .cli import UserError
+
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    # Refused before anything runs: the closed loop would refuse these only after minutes of the rest.
+    if args.episodes < 1:
+        raise UserError(f"--episodes must be at least 1, got {args.episodes}")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"--out {out}: cannot create: {exc.strerror or exc}") from None
     reasoner = Reasoner()
     ok = paper(reasoner, Path(args.kitti))
     verdict(reasoner)

@@ -66,7 +66,9 @@ def _chunk_selector(pattern: str, what: str) -> str:
     both spellings work on the command line.
     """
     pattern = pattern.strip()
-    if not pattern or "/" in pattern:
+    if not pattern:  # an unset shell variable, most likely
+        raise ValueError(f"{what} is empty: give one key chunk, or '*' for all")
+    if "/" in pattern:
         raise ValueError(f"{what} {pattern!r} must be one key chunk (no '/')")
     if "**" in pattern:  # zenoh's '**' spans any number of chunks: discern/a/b/check would match it
         raise ValueError(f"{what} {pattern!r} must be one key chunk: '**' matches several, use '*'")

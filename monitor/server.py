@@ -33,7 +33,7 @@ import zenoh
 from discern.rules.scene import Action, valid_id
 
 from . import keys
-from .config import DEFAULT_ENDPOINT, MonitorConfig, listen_endpoints
+from .config import DEFAULT_ENDPOINT, MonitorConfig, check_listen_ports, listen_endpoints
 from .decision_pool import DecisionPool
 from .decision_worker import Job, Outcome, WorkerSettings
 from .log import McapLogWriter, RejectedInput, vehicle_topic
@@ -138,9 +138,10 @@ class MonitorServer:
         return self
 
     def _open_all(self) -> None:
-        self.pool.start()  # workers load the rules before zenoh starts any thread
         zenoh_config = self.config.zenoh.to_zenoh(default_listen=[DEFAULT_ENDPOINT])
         self.listen_endpoints = listen_endpoints(zenoh_config)
+        check_listen_ports(self.listen_endpoints)
+        self.pool.start()  # workers load the rules before zenoh starts any thread
         self.session = zenoh.open(zenoh_config)
         if self.config.log is not None:
             self.log = McapLogWriter(self.config.log, self.config.monitor_id)

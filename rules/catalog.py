@@ -563,6 +563,8 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
             text = path.read_text(encoding="utf-8")
         except UnicodeDecodeError as exc:
             raise CatalogError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+        except OSError as exc:  # a broken symlink or a directory named x.lp
+            raise CatalogError(f"{path}: cannot read: {exc.strerror or exc}") from None
         _compile_file(str(path), text, catalog)
     _check_stratified(catalog)
     seen: dict[str, RuleInfo] = {}

@@ -385,6 +385,15 @@ def test_a_rules_directory_without_driving_rules_is_refused_as_check_refuses_it(
                    "(no `%! rule` other than def.* and ent.*)\n")
 
 
+def test_a_rules_file_that_cannot_be_read_is_named(capsys, tmp_path, logs):
+    rules = tmp_path / "rules"
+    rules.mkdir()
+    (rules / "zz.lp").symlink_to(tmp_path / "gone.lp")
+    code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(rules), "--workers", "1")
+    assert code == 2 and out == ""
+    assert err == f"discern audit: rules catalog: {rules / 'zz.lp'}: cannot read: No such file or directory\n"
+
+
 def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
     lp, err = refused_rules(capsys, tmp_path, logs, "%! rule x.bad\n%! says Nothing.\n%! source none\nforbidden(A) :- action(A\n")
     assert err.startswith(f"discern audit: rules catalog: {lp}: cannot parse: ")

@@ -111,6 +111,46 @@ def test_a_file_that_is_not_utf8_is_named_without_a_traceback(tmp_path, capsys, 
     assert f"{files / name}: not UTF-8 text (invalid start byte at byte 16)" in capsys.readouterr().err
 
 
+def unreadable(path: Path, kind: str) -> None:
+    """A file name that cannot be read: a broken symlink, or a directory."""
+    if kind == "broken symlink":
+        path.symlink_to(path.parent / "gone")
+    else:
+        path.mkdir()
+
+
+UNREADABLE = {"broken symlink": "No such file or directory", "directory": "Is a directory"}
+
+
+@pytest.mark.parametrize("kind", UNREADABLE)
+@pytest.mark.parametrize("command", [
+    ["check", "{good}", "--proposed", "brake", "--rules", "{dir}"],
+    ["catalog", "--rules", "{dir}"],
+    ["scenarios", "run", "{scenario}", "--rules", "{dir}"],
+])
+def test_a_rules_file_that_cannot_be_read_is_named_without_a_traceback(tmp_path, capsys, command, kind):
+    import shutil
+
+    rules = tmp_path / "rules"
+    shutil.copytree(ROOT / "rules" / "catalog", rules)
+    unreadable(rules / "zz.lp", kind)
+    scenario = ROOT / "scenarios" / "rules" / "acc.cut_in.json"
+    argv = [a.format(good=write(tmp_path, good_dict()), dir=rules, scenario=scenario) for a in command]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == f"discern: error: {rules / 'zz.lp'}: cannot read: {UNREADABLE[kind]}\n"
+
+
+@pytest.mark.parametrize("kind", UNREADABLE)
+def test_scenarios_run_names_a_frame_file_in_a_directory_that_cannot_be_read(avcsr_dir, tmp_path, capsys, kind):
+    import shutil
+
+    frames = tmp_path / "frames"
+    shutil.copytree(avcsr_dir, frames)
+    unreadable(frames / "zz.pl", kind)
+    assert main(["scenarios", "run", str(frames), "--repeats", "1"]) == 2
+    assert capsys.readouterr().err == f"discern: error: {frames / 'zz.pl'}: cannot read: {UNREADABLE[kind]}\n"
+
+
 def test_catalog_lists_rules_with_english_and_source(capsys):
     assert main(["catalog"]) == 0
     out = capsys.readouterr().out
@@ -136,7 +176,7 @@ def test_check_param_sets_a_reasoning_parameter_and_names_a_bad_one(tmp_path, ca
     assert capsys.readouterr().out.startswith("approve cruise")
     assert main(["check", path, "--proposed", "cruise", "--param", "decel=4"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("override cruise with brake") and "the decel is 4 m/s²" in out
+    assert out.startswith("override cruise with brake") and "the firm braking deceleration is 4 m/s²" in out
     assert main(["check", path, "--proposed", "cruise", "--param", "decel=0", "--param", "brakes=1"]) == 2
     err = capsys.readouterr().err
     assert "--param decel needs a number from 0.01 to 100, got '0'" in err and "unknown --param 'brakes'" in err
@@ -307,12 +347,23 @@ def test_a_rules_directory_without_driving_rules_is_refused(tmp_path, capsys, fi
     (["check", "{good}", "--proposed", "cruise", "--out", "{target}"], "", "cannot write: Is a directory"),
     (["schema", "--out", "{target}"], "scene.json", "not a directory (the schemas are written into one)"),
     (["schema", "--out", "{target}"], "scene.json/sub", "cannot write the schemas: Not a directory"),
+    (["demo", "--out", "{target}"], "scene.json", "not a directory"),
+    (["demo", "--out", "{target}"], "scene.json/sub", "cannot create: Not a directory"),
 ])
 def test_an_out_path_that_cannot_be_written_is_one_error_line(tmp_path, capsys, command, target, message):
     good = write(tmp_path, good_dict())
     path = tmp_path / target
     assert main([a.format(good=good, target=path) for a in command]) == 2
     assert capsys.readouterr().err == f"discern: error: --out {path}: {message}\n"
+
+
+def test_demo_refuses_no_episodes_before_running_anything(tmp_path, capsys, monkeypatch):
+    from discern.monitor import demo
+
+    monkeypatch.setattr(demo, "paper", lambda *a: pytest.fail("the demo ran before refusing --episodes 0"))
+    assert main(["demo", "--episodes", "0", "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err == "discern: error: --episodes must be at least 1, got 0\n"
+    assert not (tmp_path / "out").exists()
 
 
 def test_check_says_a_json_file_nested_too_deeply_is_no_scene(tmp_path, capsys):

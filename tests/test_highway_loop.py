@@ -160,7 +160,35 @@ def test_cli_says_a_weights_file_that_holds_no_weights_is_not_the_planners(tmp_p
     code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "planner", "--faults", "none", "--quiet",
                      "--weights", str(wrong), "--duration", "1", "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
-    assert code == 2 and f"{wrong} does not hold this planner's weights" in err and "Traceback" not in err
+    assert code == 2 and f"{wrong} is not a planner weights file" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("weights, message", [
+    ("{tmp}", "planner weights {tmp}: a directory, not a weights file"),
+    ("{tmp}/scene.json", "{tmp}/scene.json is not a planner weights file (a torch state dict from the trainer)"),
+])
+def test_cli_says_a_weights_path_that_is_no_weights_file_is_not_one(tmp_path, capsys, weights, message):
+    (tmp_path / "scene.json").write_text('{"frame_id": 1}')
+    weights, message = weights.format(tmp=tmp_path), message.format(tmp=tmp_path)
+    code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "planner", "--faults", "none", "--quiet",
+                     "--weights", weights, "--duration", "1", "--out", str(tmp_path / "out")])
+    assert code == 2 and capsys.readouterr().err == f"discern eval: error: {message}\n"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--steps", "0", "--out", "{tmp}/x.pt"], "argument --steps: must be at least 1, got 0"),
+    (["--steps", "1", "--out", "{tmp}/scene.json/x.pt"], "--out {tmp}/scene.json/x.pt: {tmp}/scene.json is not a directory"),
+    (["--steps", "1", "--out", "{tmp}"], "--out {tmp}: a directory, not a weights file"),
+])
+def test_training_refuses_what_it_could_not_train_or_save_before_it_starts(tmp_path, argv, message):
+    import subprocess
+    import sys
+
+    (tmp_path / "scene.json").write_text("{}")
+    done = subprocess.run([sys.executable, "-m", "discern.adapters.highway.train", *[a.format(tmp=tmp_path) for a in argv]],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path)  # never near the packaged weights
+    assert done.returncode == 2 and done.stdout == "", done.stdout
+    assert done.stderr.splitlines()[-1] == f"train.py: error: {message.format(tmp=tmp_path)}", done.stderr
 
 
 def test_cli_refuses_a_monitor_that_does_not_answer(capsys):

@@ -85,6 +85,12 @@ def test_misread_limit_is_the_perceived_limit_and_the_map_keeps_the_true_one():
     assert scene.speed_limit == 80.0 and scene.map_speed_limit == 30.0
 
 
+@pytest.mark.parametrize("kinds", ["none,all", "signs,none", "all,missed"])
+def test_none_and_all_are_refused_in_a_list_of_kinds_as_standing_alone(kinds):
+    with pytest.raises(ValueError, match=f"^fault set '{kinds}': 'none' and 'all' stand alone, not with other kinds$"):
+        Faults.preset(kinds)
+
+
 def test_unknown_fault_kind_is_named_in_the_error():
     with pytest.raises(ValueError, match="unknown fault kind.*gremlins"):
         Faults.preset("signs,gremlins")

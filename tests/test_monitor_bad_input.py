@@ -266,6 +266,24 @@ def test_the_client_sends_a_bad_scene_on_so_the_monitor_refuses_counts_and_logs_
     assert [expected in r.error for r, (_, _, expected) in zip(wait_until(rejected), cases)] == [True] * len(cases)
 
 
+def test_the_client_sends_wrongly_typed_fields_as_they_are_so_the_monitor_refuses_them_by_name(monitor):
+    ep, _ = monitor
+    good = json.loads(highway_scene(1, 3).model_dump_json(by_alias=True))
+    cases = [  # (scene, explain, expected error): strings for numbers are not converted on the way
+        (good | {"ego": good["ego"] | {"speed": "25"}}, False, "scene.ego.speed: Input should be a valid number (got '25')"),
+        (good | {"ego": good["ego"] | {"lane": "2"}}, False, "scene.ego.lane: Input should be a valid integer (got '2')"),
+        (good | {"frame_id": "7"}, False, "scene.frame_id: Input should be a valid integer (got '7')"),
+        (good, "yes", "explain: Input should be a valid boolean (got 'yes')"),
+    ]
+    with Monitor("client_typed", connect=[ep], timeout=5) as client:
+        assert client.wait_for_monitor(timeout=5)
+        verdicts = [client.check(scene, "cruise", explain=explain) for scene, explain, _ in cases]
+    for verdict, (_, _, expected) in zip(verdicts, cases):
+        assert verdict.failsafe and verdict.rules == ["monitor.bad_input"], verdict
+        assert verdict.error == f"schema violation: {expected}"
+        assert verdict.latency_ms is not None  # the monitor's refusal, not the client's
+
+
 def test_failsafe_picks_the_most_cautious_permitted_action():
     assert most_cautious([Action.accelerate, Action.change_lane_left, Action.cruise]) is Action.cruise
     assert most_cautious([Action.accelerate]) is Action.accelerate

@@ -60,6 +60,10 @@ def test_the_documented_bounds_are_accepted(tmp_path):
         (["--connect", "nonsense"], "bad zenoh endpoint 'nonsense': Endpoints must be of the form"),
         (["--vehicles", "car_[12]"], "vehicle filter 'car_[12]' may hold only letters, digits, '_', '-' and the wildcard '*'"),
         (["--vehicles", "**"], "vehicle filter '**' must be one key chunk: '**' matches several, use '*'"),
+        (["--vehicles", ""], "vehicle filter is empty: give one key chunk, or '*' for all"),
+        (["--id", ""], "monitor id is empty: give one with --id, or leave --id out for host-pid"),
+        (["--test-only-decision-delay-ms", "-1"], "--test-only-decision-delay-ms must be a finite number at least 0 ms"),
+        (["--listen", "tcp/127.0.0.1:0"], "listen endpoint 'tcp/127.0.0.1:0': port 0 is not supported"),
     ],
 )
 def test_serve_refuses_bad_settings_in_one_line_with_status_2(tmp_path, flags, message):
@@ -70,6 +74,36 @@ def test_serve_refuses_bad_settings_in_one_line_with_status_2(tmp_path, flags, m
         proc.stop()
     assert code == 2 and len(proc.lines) == 1, proc.output
     assert proc.lines[0].startswith(f"discern serve: error: {message}"), proc.output
+
+
+def test_a_router_refuses_to_listen_on_port_0_which_it_could_not_name(tmp_path):
+    proc = DiscernProcess("router", "--listen", "tcp/127.0.0.1:0")
+    try:
+        code = proc.proc.wait(START_TIMEOUT_S)
+    finally:
+        proc.stop()
+    assert code == 2 and proc.lines == [
+        "discern router: error: listen endpoint 'tcp/127.0.0.1:0': port 0 is not supported, "
+        "as zenoh does not say which free port it takes: name a port"
+    ], proc.output
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("{ mode: \n", "line 2 column 1: expected array, boolean, null, number, object, or string"),
+        ('{ mode: "pear" }\n', "line 1 column 9: unknown variant `pear`, expected one of `router`, `peer`, `client`"),
+    ],
+)
+def test_a_malformed_zenoh_config_is_one_line_naming_its_position(tmp_path, text, message):
+    path = tmp_path / "bad.json5"
+    path.write_text(text)
+    proc = DiscernProcess("serve", "--zenoh-config", str(path))
+    try:
+        code = proc.proc.wait(START_TIMEOUT_S)
+    finally:
+        proc.stop()
+    assert code == 2 and proc.lines == [f"discern serve: error: zenoh config {path}: {message}"], proc.output
 
 
 @pytest.mark.parametrize("pattern", ["**", "fleet_**", "**_a", "a**b"])

@@ -104,6 +104,8 @@ class Planner:
     def load(cls, path: Path | str | None = None, follow_signs: bool = True) -> "Planner":
         torch.set_num_threads(1)
         path = Path(path) if path else default_weights()
+        if path.is_dir():
+            raise IsADirectoryError(f"planner weights {path}: a directory, not a weights file")
         if not path.is_file():
             raise FileNotFoundError(
                 f"planner weights not found at {path}: train them with "
@@ -111,8 +113,15 @@ class Planner:
             )
         network = QNetwork()
         try:
-            network.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
-        except (pickle.UnpicklingError, RuntimeError, EOFError, OSError) as exc:  # not weights, or another network's
+            state = torch.load(path, map_location="cpu", weights_only=True)
+        except (pickle.UnpicklingError, RuntimeError, EOFError):
+            # torch's own reason advises weights_only=False, which would run whatever code the file holds
+            raise RuntimeError(f"{path} is not a planner weights file (a torch state dict from the trainer)") from None
+        except OSError as exc:
+            raise RuntimeError(f"planner weights {path}: cannot read: {exc.strerror or exc}") from None
+        try:
+            network.load_state_dict(state)
+        except (RuntimeError, TypeError) as exc:  # another network's weights, or no state dict at all
             raise RuntimeError(f"{path} does not hold this planner's weights: {str(exc).splitlines()[0]}") from None
         network.eval()
         return cls(network=network, follow_signs=follow_signs)

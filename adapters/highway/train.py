@@ -100,18 +100,39 @@ def train(steps: int, seed: int, out: Path, log_every: int = 1000) -> None:
                 f"elapsed {time.time() - started:.0f}s",
                 flush=True,
             )
-            out.parent.mkdir(parents=True, exist_ok=True)
             torch.save(q.state_dict(), out)
     torch.save(q.state_dict(), out)
     print(f"saved {out} after {steps} steps, {episode} episodes, {time.time() - started:.0f}s", flush=True)
 
 
+def _at_least(low: int):
+    def whole(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be at least {low}, got {value}")
+        return value
+
+    return whole
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=24000)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--steps", type=_at_least(1), default=24000, help="training steps, at least 1")
+    parser.add_argument("--seed", type=_at_least(0), default=0, help="seed, at least 0 (the environment's seeds are)")
     parser.add_argument("--out", type=Path, default=Path("adapters/highway/weights/dqn_highway_fast.pt"))
     args = parser.parse_args(argv)
+    # Checked before training, which would otherwise fail at its first save, minutes or hours in.
+    if args.out.is_dir():
+        parser.error(f"--out {args.out}: a directory, not a weights file")
+    if args.out.parent.exists() and not args.out.parent.is_dir():
+        parser.error(f"--out {args.out}: {args.out.parent} is not a directory")
+    try:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        parser.error(f"--out {args.out}: cannot create its folder: {exc.strerror or exc}")
     train(args.steps, args.seed, args.out)
 
 
