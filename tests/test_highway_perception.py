@@ -1,5 +1,7 @@
 """Perception faults between highway-env's truth and the facts Discern and the planner get."""
 
+from dataclasses import replace
+
 import pytest
 
 pytest.importorskip("highway_env")
@@ -94,3 +96,19 @@ def test_none_and_all_are_refused_in_a_list_of_kinds_as_standing_alone(kinds):
 def test_unknown_fault_kind_is_named_in_the_error():
     with pytest.raises(ValueError, match="unknown fault kind.*gremlins"):
         Faults.preset("signs,gremlins")
+
+
+def test_a_visible_signs_position_is_a_gap_from_the_bumper_and_stands_right_of_the_road():
+    """It was measured from the ego's centre, and stood 8 m right of the ego's lane: inside the road from lane 1."""
+    env = make_env("highway-fast-v0")
+    env.reset(seed=7)
+    perception = Perception(Faults(seed=0))
+    truth = read_truth(env, VehicleIds())
+    perception.reset(7, truth)
+    lanes = max(l.id for l in truth.lanes)
+    for lane, position in ((1, 150.0), (lanes, 170.0)):  # the sign at 200 m is 50 and 30 m ahead of the ego's centre
+        ego = replace(truth.ego, lane=lane, road_position=position)
+        sign = perception.step(replace(truth, ego=ego)).sign.visible
+        assert sign.position.y == pytest.approx(200.0 - position - ego.length / 2)
+        right_edge = (lanes - lane + 0.5) * ego.lane_width - ego.lateral
+        assert right_edge < sign.position.x < right_edge + 5.0

@@ -61,7 +61,8 @@ def _options(parser: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=VALUE",
         help="override one of Discern's reasoning parameters (discern.rules.facts.Params); "
-        "the closed loop sets decel=4 (what highway-env's vehicle can brake), e.g. --param headway_s=2",
+        "the closed loop sets decel=4 (what highway-env's vehicle can brake) and accel_step=2.5 (half a step of "
+        "its speed grid), e.g. --param headway_s=2",
     )
     parser.add_argument("--jobs", type=int, default=1, help="worker processes")
     parser.add_argument(

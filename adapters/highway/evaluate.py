@@ -27,6 +27,7 @@ from .planner import Planner
 from .wrapper import VEHICLE_PARAMS, DiscernWrapper
 
 VARIANTS = ("planner", "discern", "rss")
+NAN = float("nan")
 SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
 
 
@@ -182,6 +183,7 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
             rules.update(r.rules)
         decide = [ms for r in group for ms in r.decide_ms]
         vetoes = sum(r.vetoes for r in group)
+        checked = variant != "planner"  # the planner alone vetoes nothing: its figures are missing, not 0 (NaN)
         rows.append(
             {
                 "faults": faults,
@@ -192,15 +194,15 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
                 "collisions_per_km": sum(r.collided for r in group) / km if km else 0.0,
                 "km": km,
                 "mean_speed": (km * 1000.0 / hours) if hours else 0.0,
-                "vetoes_per_km": vetoes / km if km else 0.0,
-                "overrides_per_km": sum(r.overrides for r in group) / km if km else 0.0,
+                "vetoes_per_km": (vetoes / km if km else 0.0) if checked else NAN,
+                "overrides_per_km": (sum(r.overrides for r in group) / km if km else 0.0) if checked else NAN,
                 "false_vetoes": sum(r.false_vetoes for r in group),
-                "false_vetoes_per_km": sum(r.false_vetoes for r in group) / km if km else 0.0,
-                "false_veto_share": sum(r.false_vetoes for r in group) / vetoes if vetoes else 0.0,
+                "false_vetoes_per_km": (sum(r.false_vetoes for r in group) / km if km else 0.0) if checked else NAN,
+                "false_veto_share": (sum(r.false_vetoes for r in group) / vetoes if vetoes else 0.0) if checked else NAN,
                 "speeding_s": sum(r.speeding_s for r in group),
                 # by nearest rank, as the monitor's status, the audit and the benchmarks report them
-                "decide_ms_p50": percentile(sorted(decide), 50) if decide else float("nan"),
-                "decide_ms_p99": percentile(sorted(decide), 99) if decide else float("nan"),
+                "decide_ms_p50": percentile(sorted(decide), 50) if decide else NAN,
+                "decide_ms_p99": percentile(sorted(decide), 99) if decide else NAN,
                 "top_rules": ", ".join(f"{rule} ({n})" for rule, n in rules.most_common(4)),
             }
         )

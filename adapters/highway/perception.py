@@ -198,9 +198,15 @@ class Perception:
             truth=truth,
             detections=detections,
             ranges=self._ranges(truth),
-            sign=self.signs.read(truth.ego.road_position, truth.lane_limit(truth.ego.lane)),
+            sign=self._sign(truth),
             missed=missed,
         )
+
+    def _sign(self, truth: Truth) -> SignReading:
+        ego = truth.ego
+        lanes_right = max((l.id for l in truth.lanes), default=ego.lane) - ego.lane  # lane 1 is the leftmost
+        right_edge = (lanes_right + 0.5) * ego.lane_width - ego.lateral
+        return self.signs.read(ego.road_position, truth.lane_limit(ego.lane), right_edge, ego.length / 2)
 
     def _ranges(self, truth: Truth) -> dict[SensorSide, float]:
         """Nearest return per side from the range sensors (real objects only; phantoms have no echo)."""

@@ -16,7 +16,7 @@ import numpy as np
 from discern.rules.scene import SignKind, Source, TrafficSign, Vec2
 
 SIGN_VIEW = 60.0  # m: the camera reads a sign from this far
-SIGN_OFFSET = 8.0  # m right of the ego lane's centre (roadside)
+SIGN_MARGIN = 2.0  # m beyond the right edge of the road: where the sign post stands
 
 
 @dataclass
@@ -51,8 +51,10 @@ class SignLayer:
             return False
         return bool(np.random.default_rng([self.seed, self.episode_seed, 7, index]).random() < self.misread_rate)
 
-    def read(self, position: float, limit: float | None) -> SignReading:
-        """`position`: the ego's distance along the road; `limit`: the true limit of its lane."""
+    def read(self, position: float, limit: float | None, right_edge: float = 0.0, front: float = 0.0) -> SignReading:
+        """`position`: the ego's centre's distance along the road; `limit`: the true limit of its lane;
+        `right_edge`: m from the ego's centre to the road's right edge; `front`: from its centre to its front
+        bumper. The sign's position is then the scene's: a gap from the bumper, right of the ego's centre."""
         index = int(np.floor(position / self.spacing)) + 1
         ahead = index * self.spacing - position
         visible = None
@@ -63,7 +65,7 @@ class SignLayer:
                 kind=SignKind.speed_limit,
                 value=value,
                 source=Source.camera,
-                position=Vec2(x=SIGN_OFFSET, y=ahead),
+                position=Vec2(x=round(right_edge + SIGN_MARGIN, 3), y=round(max(ahead - front, 0.0), 3)),
                 confidence=0.9,
             )
             self._believed, self._misread = value, misread
