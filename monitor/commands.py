@@ -157,12 +157,12 @@ def _fail(command: str, message: str) -> int:
     return 2
 
 
-def _wait_for_signal() -> None:
+def _stop_on_signal() -> threading.Event:
+    """Set on SIGTERM or SIGINT: from before the monitor starts, so that a stop while it starts is a clean one."""
     stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
-    while not stop.wait(0.5):
-        pass
+    return stop
 
 
 def _log_settings(args) -> Optional[LogSettings]:
@@ -189,6 +189,7 @@ def cmd_serve(args) -> int:
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
+    stop = _stop_on_signal()
     try:
         config = MonitorConfig(
             monitor_id=default_monitor_id() if args.monitor_id is None else args.monitor_id,
@@ -219,7 +220,8 @@ def cmd_serve(args) -> int:
             + (f"; logging to {config.log.directory}" if config.log else ""),
             flush=True,
         )
-        _wait_for_signal()
+        while not stop.wait(0.5):
+            pass
     finally:
         server.stop()
     s = server.status()
@@ -316,7 +318,8 @@ def cmd_router(args) -> int:
         return _fail("router", _zenoh_refused(args, exc))
     try:
         print(f"discern router: zenoh router {session.zid()} ready; listening on {', '.join(listen)}", flush=True)
-        _wait_for_signal()
+        while not stop.wait(0.5):
+            pass
     finally:
         session.close()
     return 0

@@ -103,7 +103,10 @@ class Outcome:
 
 
 def worker_main(conn, settings: WorkerSettings) -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the monitor stops us
+    # Ctrl-C, and a service manager's SIGTERM (systemd signals the whole group), reach us too: the monitor stops us
+    # once we have decided what it sent, so that no proposal in flight loses its decision or its log record.
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
     try:
         judge = Judge(settings)
     except Exception as exc:
@@ -120,7 +123,8 @@ def worker_main(conn, settings: WorkerSettings) -> None:
                 stopping = _take_waiting(conn, backlog, idle, judge)
             for outcome in judge.next_batch(backlog):
                 conn.send(outcome)
-            judge.forget_silent(backlog)  # a worker that is never idle must drop them too
+            if not conn.poll(0):  # a job that came during the batch is taken first: its vehicle's window kept
+                judge.forget_silent(backlog)  # a worker that is never idle must drop them too
         except (EOFError, OSError):  # the monitor is gone
             return
 

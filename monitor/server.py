@@ -277,7 +277,8 @@ class MonitorServer:
             self._read_late(outcome)
             return
         if req is None or req.answered:
-            self.counters.count("late_decisions")
+            if _decided(outcome):
+                self.counters.count("late_decisions")
             self._read_late(outcome)
             return
         not_proposal = None if outcome.decoded else (outcome.error or outcome.no_verdict)
@@ -310,7 +311,8 @@ class MonitorServer:
             not_proposal=not_proposal,
         )
         if not self._answer(req, answer):
-            self.counters.count("late_decisions")
+            if _decided(outcome):
+                self.counters.count("late_decisions")
             self._read_late(outcome)
 
     def _read_late(self, outcome: Outcome) -> None:
@@ -531,3 +533,8 @@ def _quietly(fn) -> None:
         fn()
     except Exception as exc:
         log.debug("ignored during shutdown: %s", exc)
+
+
+def _decided(outcome: Outcome) -> bool:
+    """Whether the rules judged it: a shed proposal or a refused payload is no decision, late or not."""
+    return outcome.verdict is not None and outcome.error_kind is None

@@ -35,11 +35,13 @@ def endpoint(port: int) -> str:
 class DiscernProcess:
     """One `discern <command>` child; its output is collected for assertions and failure messages."""
 
-    def __init__(self, *args: str):
+    def __init__(self, *args: str, own_group: bool = False):
+        """`own_group`: in a process group of its own, as a service manager starts it (see `stop_group`)."""
         self.args = [sys.executable, "-m", "discern.monitor.commands", *args]
         env = dict(os.environ, PYTHONUNBUFFERED="1", RUST_LOG="error")
         self.proc = subprocess.Popen(
-            self.args, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+            self.args, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            start_new_session=own_group,
         )
         self.lines: list[str] = []
         self._ready = threading.Event()
@@ -73,6 +75,17 @@ class DiscernProcess:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+        self._reader.join(5)
+        return self.proc.returncode
+
+    def stop_group(self, timeout: float = 15) -> Optional[int]:
+        """SIGTERM to its whole process group, workers included, as systemd stops a service; returns the exit code."""
+        os.killpg(self.proc.pid, signal.SIGTERM)
+        try:
+            self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait()
         self._reader.join(5)
         return self.proc.returncode
 

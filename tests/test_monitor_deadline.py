@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 import threading
 
 import pytest
@@ -17,7 +18,7 @@ from discern.monitor.vehicle_state import PERMITTED_MEMORY_S, PermittedMemory
 from discern.rules.scene import Action, Proposal
 from discern.rules.verdict import Decision, Verdict
 from tests.audit_logs import audit, flashing
-from tests.monitor_process import serve, status, wait_until
+from tests.monitor_process import DiscernProcess, endpoint, free_port, serve, status, wait_until
 
 BUDGET_MS = 50
 DELAY_MS = 400  # test-only hook: every decision sleeps this long first
@@ -188,3 +189,61 @@ def test_a_shadow_monitors_failsafe_keeps_the_proposed_action_where_it_can_read_
     assert replayed.error.startswith("frame_id: duplicate frame 0")
     assert garbage.decision is Decision.override and garbage.action is Action.brake and garbage.proposed is None
     assert garbage.justification.summary.endswith("(shadow mode, but no proposed action could be read to keep)")
+
+
+def test_only_a_rules_verdict_that_comes_after_its_failsafe_counts_as_a_late_decision():
+    """Under overload most outcomes behind an answered proposal are sheds: no decision, late or not."""
+    from discern.monitor.config import MonitorConfig
+    from discern.monitor.decision_worker import Outcome
+    from discern.monitor.server import MonitorServer
+
+    server = MonitorServer(MonitorConfig(monitor_id="late", zenoh=ZenohSettings(listen=["tcp/127.0.0.1:7447"])))
+    # none of these requests is open any more: the watchdog answered them at their deadlines
+    server._on_outcome(Outcome(rid=1, no_verdict="shed: too little of its budget left", decoded=True))
+    server._on_outcome(Outcome(rid=2, verdict=b"{}", failsafe=True, error_kind="order", error="duplicate frame 3"))
+    assert server.status().late_decisions == 0
+    server._on_outcome(Outcome(rid=3, verdict=b"{}", decision="approve", decoded=True))
+    assert server.status().late_decisions == 1
+
+
+def test_a_frame_waiting_behind_a_long_decision_finds_its_vehicles_window():
+    """The window was swept after the batch while the replay waited in the worker's pipe: it then started afresh."""
+    proc, ep = serve("--id", "stall", "--window-s", "0.5", "--budget-ms", "8000",
+                     "--test-only-decision-delay-ms", "2000")  # a batch longer than the window and its margin
+    session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
+    try:
+        first = ask(session, "stalled", proposal("stalled", highway_scene(1, 2)))
+        time.sleep(0.2)
+        replay = ask(session, "stalled", proposal("stalled", highway_scene(1, 2)))
+        first, replay = answer(first), answer(replay)
+    finally:
+        session.close()
+        assert proc.stop() == 0, proc.output
+    assert not first.failsafe and first.frame_id == 1
+    assert replay.failsafe and replay.error.startswith("frame_id: duplicate frame 1")
+
+
+def test_a_sigterm_to_the_whole_group_lets_the_workers_decide_what_they_were_sent(tmp_path):
+    """systemd signals every process of a service: the workers died with their proposals, logged as unread."""
+    ep = endpoint(free_port())
+    proc = DiscernProcess("serve", "--listen", ep, "--id", "grouped", "--budget-ms", "5000",
+                          "--test-only-decision-delay-ms", "1000", "--log-dir", str(tmp_path), own_group=True)
+    proc.wait_ready()
+    session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
+    try:
+        pending = ask(session, "termed", proposal("termed", highway_scene(1, 2)))
+        time.sleep(0.3)  # the worker has it and is deciding
+        code = proc.stop_group()
+        verdict = answer(pending)
+    finally:
+        session.close()
+    assert code == 0, proc.output
+    assert not verdict.failsafe and verdict.frame_id == 1, verdict.error
+    assert [r.kind for r in read_log(tmp_path) if r.vehicle == "termed"] == ["proposal", "verdict"]
+
+
+def test_a_sigterm_while_the_monitor_starts_stops_it_cleanly():
+    proc = DiscernProcess("serve", "--listen", endpoint(free_port()), "--id", "early", own_group=True)
+    time.sleep(1.0)  # its decision workers are loading the rules
+    code = proc.stop_group()
+    assert code == 0 and "Traceback" not in proc.output, proc.output
