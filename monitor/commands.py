@@ -307,6 +307,7 @@ def cmd_router(args) -> int:
     from .config import check_listen_ports, listen_endpoints
     from .router import router_config
 
+    stop = _stop_on_signal()
     try:
         config = router_config(_zenoh_settings(args, mode="router"))
         listen = listen_endpoints(config)
