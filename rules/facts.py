@@ -113,6 +113,8 @@ def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
         out.append(f"speed_limit({cm(scene.speed_limit)}).")
     if scene.map_speed_limit is not None:
         out.append(f"map_speed_limit({cm(scene.map_speed_limit)}).")
+    if scene.divided_road:
+        out.append("road_divided.")
     for lane in scene.lanes:
         out.append(f"lane({lane.kind.value},{lane.id}).")
         if lane.ends_in is not None and lane.kind.value == "current":

@@ -279,6 +279,9 @@ class Scene(Strict):
     ego: Ego
     speed_limit: Optional[Speed] = Field(None, description="limit in force as perceived, m/s")
     map_speed_limit: Optional[Speed] = Field(None, description="limit from map data, m/s")
+    divided_road: bool = Field(
+        False, description="a median or barrier divides the ego's road into separate roadways (map data)"
+    )
     lanes: list[Lane] = Field(default_factory=list, max_length=MAX_ITEMS)
     objects: list[DetectedObject] = Field(default_factory=list, max_length=MAX_ITEMS)
     traffic_lights: list[TrafficLight] = Field(default_factory=list, max_length=MAX_ITEMS)

@@ -455,6 +455,18 @@ def _footprint(obj: DetectedObject) -> tuple[float, float]:
     return FOOTPRINT.get(obj.cls, DEFAULT_FOOTPRINT)
 
 
+def _extent(obj: DetectedObject) -> tuple[float, float]:
+    """How far the object reaches along y (ahead) and along x (to the right). Its length lies along its course:
+    across the ego's road for one moving more across it than along it, or standing in a crossing lane."""
+    length, width = _footprint(obj)
+    v = obj.velocity
+    if v is not None and (v.x or v.y):
+        across = abs(v.x) > abs(v.y)
+    else:
+        across = obj.lane is not None and obj.lane.kind in (LaneKind.cross_left, LaneKind.cross_right)
+    return (width, length) if across else (length, width)
+
+
 def _relative_velocity(obj: DetectedObject, ego_speed: float) -> tuple[float, float]:
     """Velocity relative to the ego; an unknown speed as the catalog assumes it (MOTOR_VEHICLES)."""
     if obj.velocity is not None:
@@ -483,7 +495,7 @@ def _world_facts(scene: Scene) -> list[str]:
     camera_only = [o for o in scene.objects if o.sources == [Source.camera]]
     if not camera_only:
         return out
-    outlines = [(o.id, o.position.x, o.position.y, *_footprint(o))
+    outlines = [(o.id, o.position.x, o.position.y, *_extent(o))
                 for o in scene.objects if CONFIRMING.intersection(o.sources)]
     if not outlines:
         return out
@@ -523,7 +535,7 @@ def _conflict(obj: DetectedObject, x: float, y: float, ego_speed: float, horizon
     it does not within the horizon, is in it already, or its velocity is unknown."""
     if obj.velocity is None:
         return None
-    length, width = _footprint(obj)
+    length, width = _extent(obj)  # along y, along x
     reach_x = (EGO_WIDTH + width) / 2 + 0.3
     reach_y = (EGO_LENGTH + length) / 2 + 0.5
     y = _to_centre(y, length)
@@ -560,7 +572,7 @@ def _track(obj: DetectedObject, legs: Sequence[tuple[float, float]]) -> Optional
     """Where the track of a lost object puts it now, (x, y), from where it was last seen, at the velocity it had,
     while the ego drove the legs since as it did (slowing down, it leaves a pedestrian ahead of it, not under it).
     None if on the way the track overlaps the ego's own footprint: an object cannot be where the ego is."""
-    length, width = _footprint(obj)
+    length, width = _extent(obj)  # along y, along x
     x, y = obj.position.x, _to_centre(obj.position.y, length)
     for seconds, ego_speed in legs:
         vx, vy = _relative_velocity(obj, ego_speed)

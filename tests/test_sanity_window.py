@@ -462,3 +462,20 @@ def test_an_ultrasonic_reading_beyond_its_reach_neither_clears_nor_keeps_a_lost_
         return bool(reasoner.solve(now, "accelerate", history=seen).answer.of("still_there", 2))
 
     assert lost_car_kept("ultrasonic") and not lost_car_kept("radar")
+
+
+def test_a_truck_driving_across_the_road_reaches_the_ego_path_with_its_length_not_its_width():
+    """Its 10 m length lies across the ego's road: its front enters the corridor 0.87 s from now, not 1.25 s."""
+    crossing = scene(speed=8.0, objects=[obj(3, "truck", -15.0, 5.0, 1, kind="cross_left", vy=0.0, vx=10.0)])
+    (conflict,) = [f for f in facts([crossing]) if f.startswith("predicted_conflict")]
+    assert conflict.startswith("predicted_conflict(3,870,")
+
+
+def test_the_windows_footprints_have_the_catalogs_typical_lengths(reasoner):
+    """The rules place a vehicle across the road by its typical length (ent.typical_length), the window's predicted
+    courses by FOOTPRINT: two copies of one table, kept equal."""
+    from discern.sanity.window import FOOTPRINT
+
+    lengths = {sym.arguments[0].name: sym.arguments[1].number for sym in reasoner.catalog.fact_rule
+               if sym.name == "typical_length"}
+    assert lengths and {c: round(FOOTPRINT[ObjectClass(c)][0] * 100) for c in lengths} == lengths

@@ -1,0 +1,120 @@
+"""Review of the geometry rules: what lies across the ego's path, who walks in its lane, who comes along the cross road."""
+
+from __future__ import annotations
+
+from discern.rules.engine import Reasoner
+from tests.scenes import obj, scene
+
+REASONER = Reasoner()
+CROSS = ("oncoming", "cross_left", "cross_right")
+STANDING = {"x": 0.0, "y": 0.0}
+
+
+def decide(sc, proposed: str, reasoner: Reasoner = REASONER):
+    return reasoner.decide(sc, proposed)
+
+
+def green_3m_before_the_line(*objects):
+    return scene(speed=10, limit=15.6, light="green", other_lanes=CROSS, objects=list(objects),
+                 intersection={"type": "signaled", "stage": "arriving", "distance": 3})
+
+
+def test_a_truck_standing_across_the_box_in_front_of_the_ego_is_an_obstacle_though_its_centre_is_to_the_side():
+    # 12 m long, centred 5 m to the left: its body reaches 1 m to the right of the ego's line (UVC 11-202(a)(1))
+    truck = obj("truck", -5, 9, lane=1, kind="cross_left", velocity=STANDING, size={"length": 12, "width": 2.5})
+    for proposed in ("accelerate", "cruise"):
+        verdict = decide(green_3m_before_the_line(truck), proposed)
+        assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+        assert "brake.obstacle_ahead" in verdict.rules
+    # the same truck 8 m long, centred 6.5 m to the left, ends 2.5 m to the left of the ego's line: not in its way
+    short = obj("truck", -6.5, 9, lane=1, kind="cross_left", velocity=STANDING, size={"length": 8, "width": 2.5})
+    assert decide(green_3m_before_the_line(short), "accelerate").decision.value == "approve"
+
+
+def test_a_vehicle_of_no_reported_size_across_the_path_is_as_long_as_its_class_typically_is():
+    car = obj("car", -3, 8, lane=1, kind="cross_left", velocity=STANDING)  # 4.5 m: -5.25 m to -0.75 m
+    verdict = decide(green_3m_before_the_line(car), "accelerate")
+    assert verdict.action.value == "brake" and "brake.obstacle_ahead" in verdict.rules
+    text = REASONER.decide(green_3m_before_the_line(car), "cruise", explain=True).justification.text
+    assert "car 1 is 4.5 m long" in text
+    # a typical truck (10 m) centred 6.5 m to the left reaches 1.5 m to the left of the ego's line: in its corridor
+    truck = obj("truck", -6.5, 9, lane=1, kind="cross_left", velocity=STANDING)
+    assert decide(green_3m_before_the_line(truck), "accelerate").action.value == "brake"
+    # one waiting at its own line, to the side of the ego's road, is not in the way
+    waiting = obj("car", -8, 8, lane=1, kind="cross_left", velocity=STANDING)
+    assert decide(green_3m_before_the_line(waiting), "accelerate").decision.value == "approve"
+
+
+def test_a_bus_standing_across_the_path_inside_the_intersection_stops_the_ego():
+    bus = obj("bus", -4, 6, lane=1, kind="cross_left", velocity=STANDING, size={"length": 12, "width": 2.5})
+    inside = scene(speed=10, limit=15.6, light="green", other_lanes=CROSS, objects=[bus],
+                   intersection={"type": "signaled", "stage": "enter"})
+    for proposed in ("accelerate", "cruise"):
+        assert decide(inside, proposed).action.value == "brake"
+
+
+def test_the_ego_does_not_speed_up_towards_a_pedestrian_standing_in_its_lane_30_m_ahead():
+    def ahead(*objects):
+        return scene(speed=10, limit=15.6, other_lanes=CROSS, objects=list(objects))
+
+    pedestrian = obj("pedestrian", 0, 30, lane=1)
+    verdict = decide(ahead(pedestrian), "accelerate")
+    assert verdict.decision.value == "override" and verdict.action.value == "cruise"
+    assert "acc.lane_not_clear" in verdict.rules
+    # beyond its stopping distance the ego may hold its speed
+    assert decide(ahead(pedestrian), "cruise").decision.value == "approve"
+    # the same holds for an animal or a cyclist of unknown speed
+    for cls in ("animal", "bicycle"):
+        assert decide(ahead(obj(cls, 0, 30, lane=1)), "accelerate").action.value == "cruise"
+    # beyond the overtaking distance (40 m), or a cyclist riding away faster than the ego, does not hold it back
+    assert decide(ahead(obj("pedestrian", 0, 45, lane=1)), "accelerate").decision.value == "approve"
+    assert decide(ahead(obj("bicycle", 0, 25, lane=1, vy=12)), "accelerate").decision.value == "approve"
+    # a car 30 m ahead keeps pace with the traffic: only the following gap counts for it
+    assert decide(ahead(obj("car", 0, 30, lane=1)), "accelerate").decision.value == "approve"
+
+
+def stopped_at_the_minor_road(intent: str, *objects):
+    return scene(speed=0, limit=15.6, intent=intent, sign="stop", other_lanes=CROSS, objects=list(objects),
+                 intersection={"type": "t_intersect", "road": "minor", "stage": "at", "distance": 0})
+
+
+def test_at_a_stop_sign_cross_traffic_of_unknown_speed_is_taken_to_come_at_the_limit():
+    # 25 m to the side at 15.6 m/s is 1.6 s away, well inside the 5 s turn gap (UVC 11-403(b))
+    for x, kind in ((-25, "cross_left"), (25, "cross_right")):
+        coming = stopped_at_the_minor_road("enter_left_lane", obj("car", x, 4, lane=1, kind=kind))
+        verdict = decide(coming, "turn_left")
+        assert verdict.decision.value == "override" and "tl.yield_cross_traffic" in verdict.rules
+        assert decide(coming, "accelerate").action.value == "brake"
+    # 90 m off it would take 5.8 s: the way is clear
+    far = stopped_at_the_minor_road("enter_left_lane", obj("car", -90, 4, lane=1, kind="cross_left"))
+    assert decide(far, "turn_left").decision.value == "approve"
+    # at a green light the cross road has red: a car of unknown speed there is not assumed to come
+    green = scene(speed=0, limit=15.6, light="green", other_lanes=CROSS,
+                  objects=[obj("car", -25, 4, lane=1, kind="cross_left")],
+                  intersection={"type": "signaled", "stage": "at", "distance": 0})
+    assert decide(green, "accelerate").decision.value == "approve"
+    # at an all-way stop the cross traffic must stop too: the first to arrive goes
+    first = scene(speed=0, limit=15.6, sign="stop", other_lanes=CROSS,
+                  objects=[obj("car", -25, 4, lane=1, kind="cross_left")],
+                  intersection={"type": "four_way", "stage": "at", "distance": 0, "arrival_rank": 1})
+    assert decide(first, "accelerate").decision.value == "approve"
+
+
+def test_in_the_uk_a_right_turn_out_of_a_minor_road_waits_for_cross_traffic_of_unknown_speed():
+    uk = Reasoner(jurisdiction="uk")
+    coming = stopped_at_the_minor_road("enter_right_lane", obj("car", 25, 4, lane=1, kind="cross_right"))
+    verdict = decide(coming, "turn_right", uk)
+    assert verdict.decision.value == "override" and "tr.yield_cross_traffic" in verdict.rules
+
+
+def test_at_a_stop_sign_cross_traffic_due_within_the_turn_gap_holds_the_ego_on_a_far_lane_of_the_cross_road():
+    def stopped(vx: float):
+        car = obj("car", 30, 18, lane=2, kind="cross_right", velocity={"x": vx, "y": 0.0})
+        return scene(speed=0, limit=15.6, sign="stop", other_lanes=CROSS, objects=[car],
+                     intersection={"type": "four_way", "stage": "at", "distance": 0})
+
+    verdict = decide(stopped(-15.0), "accelerate")  # 30 m at 15 m/s: due in 2 s
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+    assert "brake.stop_sign_cross_traffic" in verdict.rules
+    assert decide(stopped(-5.0), "accelerate").decision.value == "approve"  # due in 6 s, after the turn gap
+    assert decide(stopped(15.0), "accelerate").decision.value == "approve"  # driving away

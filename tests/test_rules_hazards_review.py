@@ -1,0 +1,142 @@
+"""Review of the braking rules: a pedestrian in the crosswalk on the ego's half of the road, giving way while arriving on
+a minor road, an all-way stop known by its arrival order, and a yellow light stopped for only where that is comfortable."""
+
+from __future__ import annotations
+
+import pytest
+
+from discern.rules.engine import Reasoner
+from discern.rules.facts import Params
+from tests.scenes import obj, scene
+
+REASONERS = {"us": Reasoner(), "uk": Reasoner(jurisdiction="uk")}
+CROSS = ("oncoming", "cross_left", "cross_right")
+STANDING = {"x": 0.0, "y": 0.0}
+
+
+def decide(sc, proposed: str, jurisdiction: str = "us"):
+    return REASONERS[jurisdiction].decide(sc, proposed)
+
+
+def overridden_with_brake(verdict) -> bool:
+    return (verdict.decision.value, verdict.action.value) == ("override", "brake")
+
+
+def in_crosswalk(x: float, y: float, kind: str = "cross_right", cls: str = "pedestrian", **extra):
+    return obj(cls, x, y, lane=1, kind=kind, **extra)
+
+
+# --- 3: a pedestrian in the crosswalk on the ego's half of the road ---------------------------------------------
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_a_pedestrian_standing_in_the_crosswalk_in_the_next_lane_stops_the_ego(jurisdiction):
+    # two same-direction lanes, the pedestrian in the crosswalk in lane 2, 8 m ahead; the ego at 12 m/s
+    standing = scene(speed=12, limit=15.6, lanes=2, other_lanes=CROSS, objects=[in_crosswalk(3.5, 8)])
+    for proposed in ("cruise", "accelerate"):
+        verdict = decide(standing, proposed, jurisdiction)
+        assert overridden_with_brake(verdict) and "brake.pedestrian_at_crossing" in verdict.rules, proposed
+
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_the_ego_does_not_pass_a_car_stopped_at_the_crosswalk_for_a_pedestrian(jurisdiction):
+    stopped = obj("car", 3.5, 4, lane=2, velocity=STANDING)
+    sc = scene(speed=12, limit=15.6, lanes=2, other_lanes=CROSS, objects=[stopped, in_crosswalk(3.5, 10)])
+    verdict = decide(sc, "cruise", jurisdiction)
+    assert overridden_with_brake(verdict) and "brake.pedestrian_at_crossing" in verdict.rules
+
+
+def test_a_pedestrian_at_the_edge_of_the_egos_half_within_its_stopping_distance_forbids_cruising_and_speeding_up():
+    """0.25 m outside the ego's lane, 20 m ahead (beyond the 15 m crossing distance) at 15 m/s: 33.75 m to stop."""
+    def approach(y: float):
+        return scene(speed=15, limit=15.6, other_lanes=CROSS, light="green", objects=[in_crosswalk(2.0, y)],
+                     intersection={"type": "signaled", "stage": "arriving", "distance": y - 3})
+
+    for proposed in ("cruise", "accelerate"):
+        verdict = decide(approach(20), proposed)
+        assert overridden_with_brake(verdict) and "brake.pedestrian_at_crossing" in verdict.rules, proposed
+    text = REASONERS["us"].decide(approach(20), "cruise", explain=True).justification.text
+    assert "pedestrian 1 is in a crossing on the ego's half of the road" in text
+    # beyond the stopping distance plus the minimum gap (43.75 m) the ego need not brake yet
+    assert decide(approach(48), "cruise").decision.value == "approve"
+    # on the far half of the road, away from the ego's side, it is not the ego's to stop for
+    far_half = scene(speed=12, limit=15.6, other_lanes=CROSS, objects=[in_crosswalk(-9, 25, kind="cross_left")])
+    assert decide(far_half, "cruise").decision.value == "approve"
+
+
+def test_a_stopped_ego_waits_for_a_pedestrian_in_the_crosswalk_just_ahead():
+    waiting = scene(speed=0, limit=15.6, lanes=2, other_lanes=CROSS, objects=[in_crosswalk(3.5, 6, velocity=STANDING)])
+    verdict = decide(waiting, "accelerate")
+    assert overridden_with_brake(verdict)
+    assert "cruise.hazard" in decide(waiting, "cruise").rules
+
+
+# --- 7: giving way while arriving on the minor road ---------------------------------------------------------------
+
+def minor_arriving(distance: float, speed: float = 8.0):
+    coming = obj("car", -35, 12, lane=1, kind="cross_left", velocity={"x": 13.0, "y": 0.0})
+    return scene(speed=speed, limit=15.6, other_lanes=CROSS, objects=[coming],
+                 intersection={"type": "t_intersect", "road": "minor", "stage": "arriving", "distance": distance})
+
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_arriving_on_the_minor_road_the_ego_slows_once_it_could_no_longer_stop_comfortably_at_the_line(jurisdiction):
+    # 8 m/s, 14 m from the line: 13.3 m to stop braking firmly, 18.7 m braking comfortably; a major-road car due in 2.7 s
+    for proposed in ("cruise", "accelerate"):
+        verdict = decide(minor_arriving(14), proposed, jurisdiction)
+        assert overridden_with_brake(verdict) and "brake.minor_road_yield" in verdict.rules, proposed
+    # 40 m off it can still stop comfortably: it need not slow yet
+    assert decide(minor_arriving(40), "cruise", jurisdiction).decision.value == "approve"
+
+
+def test_arriving_on_the_minor_road_with_no_known_distance_to_the_line_the_ego_gives_way():
+    unknown = scene(speed=8, limit=15.6, other_lanes=CROSS,
+                    objects=[obj("car", -35, 12, lane=1, kind="cross_left", velocity={"x": 13.0, "y": 0.0})],
+                    intersection={"type": "t_intersect", "road": "minor", "stage": "arriving"})
+    verdict = decide(unknown, "cruise")
+    assert overridden_with_brake(verdict) and "brake.minor_road_yield" in verdict.rules
+
+
+# --- 12: an arrival rank means an all-way stop --------------------------------------------------------------------
+
+def test_an_arrival_rank_makes_the_approach_stop_controlled_with_no_stop_sign_seen():
+    rolling_first = scene(speed=8, limit=15.6, other_lanes=CROSS,
+                          intersection={"type": "four_way", "stage": "at", "distance": 0, "arrival_rank": 1})
+    verdict = decide(rolling_first, "cruise")
+    assert overridden_with_brake(verdict) and "brake.stop_sign_full_stop" in verdict.rules
+    arriving_second = scene(speed=8, limit=15.6, other_lanes=CROSS,
+                            intersection={"type": "four_way", "stage": "arriving", "distance": 12, "arrival_rank": 2})
+    verdict = decide(arriving_second, "cruise")
+    assert overridden_with_brake(verdict) and "brake.stop_sign" in verdict.rules
+    text = REASONERS["us"].decide(arriving_second, "cruise", explain=True).justification.text
+    assert "def.stop_control_arrival_rank" in text and "only an all-way stop keeps" in text
+    # stopped at the line and first, it goes
+    stopped_first = scene(speed=0, limit=15.6, other_lanes=CROSS,
+                          intersection={"type": "four_way", "stage": "at", "distance": 0, "arrival_rank": 1})
+    assert decide(stopped_first, "accelerate").decision.value == "approve"
+
+
+# --- 9: a yellow is stopped for only where the ego can stop comfortably ------------------------------------------
+
+def yellow(distance: float, speed: float = 15.6, *objects):
+    return scene(speed=speed, limit=15.6, light="yellow", other_lanes=CROSS, objects=list(objects),
+                 intersection={"type": "signaled", "stage": "arriving", "distance": distance})
+
+
+def test_a_yellow_the_ego_could_stop_for_only_by_braking_hard_is_driven_through():
+    # 15.6 m/s, 36.5 m from the line: 35.9 m to stop braking firmly (6 m/s²), 56.2 m braking comfortably (3 m/s²)
+    tailgater = obj("car", 0, -6, lane=1, vy=15.6)
+    assert decide(yellow(36.5, 15.6, tailgater), "cruise").decision.value == "approve"
+    assert decide(yellow(36.5), "cruise").decision.value == "approve"
+    # 60 m from the line it stops comfortably, so it must
+    verdict = decide(yellow(60), "cruise")
+    assert overridden_with_brake(verdict) and "brake.yellow_light_can_stop" in verdict.rules
+    text = REASONERS["us"].decide(yellow(60), "cruise", explain=True).justification.text
+    assert "braking comfortably, the ego stops within 56.2 m" in text
+
+
+def test_the_comfortable_rate_is_never_above_the_firm_one():
+    # firm braking set to 2 m/s² (a slippery road): from 10 m/s that takes 35 m, so 30 m from the line is too close
+    slippery = Reasoner(params=Params(decel=2.0))
+    assert slippery.decide(yellow(30, 10.0), "cruise").decision.value == "approve"
+    assert decide(yellow(30, 10.0), "cruise").action.value == "brake"  # 26.7 m at 3 m/s²
+    assert decide(yellow(20, 10.0), "cruise").decision.value == "approve"  # 18.3 m braking firmly, 26.7 m comfortably
