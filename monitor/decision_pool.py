@@ -14,13 +14,15 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import multiprocessing.resource_tracker
 import queue
+import signal
 import threading
 import zlib
 from dataclasses import replace
 from typing import Callable, Optional
 
-from .decision_worker import STOP, Job, Outcome, WorkerSettings, worker_main
+from .decision_worker import STOP, STOP_SIGNALS, Job, Outcome, WorkerSettings, worker_main
 
 log = logging.getLogger(__name__)
 
@@ -182,7 +184,15 @@ class _Slot:
     def spawn(cls, context, settings: WorkerSettings) -> "_Slot":
         main_end, worker_end = context.Pipe()
         process = context.Process(target=worker_main, args=(worker_end, settings), name="discern-decider", daemon=True)
-        process.start()
+        # A stop signal to the whole group would kill a worker still starting, before it ignores such signals: it
+        # starts with them blocked (a child inherits the mask), and this thread takes any that came meanwhile.
+        # Starting the start method's resource tracker unblocks them in this thread: it goes first.
+        multiprocessing.resource_tracker.ensure_running()
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+        try:
+            process.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         worker_end.close()
         return cls(process, main_end)
 

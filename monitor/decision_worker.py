@@ -55,6 +55,7 @@ MAX_BATCH = 32
 FULL_COLLECTION_S = 300.0
 NO_AUTOMATIC_FULL_COLLECTION = 1_000_000  # young collections between full ones: in effect, never
 STOP = None  # sent down a worker's pipe: finish what was sent, then exit
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)  # Ctrl-C, and a service manager's stop: a worker ignores both
 
 
 @dataclass(frozen=True)
@@ -105,8 +106,9 @@ class Outcome:
 def worker_main(conn, settings: WorkerSettings) -> None:
     # Ctrl-C, and a service manager's SIGTERM (systemd signals the whole group), reach us too: the monitor stops us
     # once we have decided what it sent, so that no proposal in flight loses its decision or its log record.
-    for sig in (signal.SIGINT, signal.SIGTERM):
+    for sig in STOP_SIGNALS:
         signal.signal(sig, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)  # blocked from birth (decision_pool.py): now ignored
     try:
         judge = Judge(settings)
     except Exception as exc:

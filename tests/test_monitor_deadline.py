@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import multiprocessing
+import os
+import signal
 import time
 import threading
 
@@ -10,6 +13,8 @@ import pytest
 import zenoh
 
 from discern.monitor.client import Monitor
+from discern.monitor.decision_pool import _Slot
+from discern.monitor.decision_worker import STOP, WorkerSettings
 from discern.monitor.config import ZenohSettings
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import read_log
@@ -240,6 +245,18 @@ def test_a_sigterm_to_the_whole_group_lets_the_workers_decide_what_they_were_sen
     assert code == 0, proc.output
     assert not verdict.failsafe and verdict.frame_id == 1, verdict.error
     assert [r.kind for r in read_log(tmp_path) if r.vehicle == "termed"] == ["proposal", "verdict"]
+
+
+def test_a_decision_worker_signalled_to_stop_while_it_starts_lives_to_finish_its_work():
+    """A stop signal to the whole group in the moments before a worker ignored it (Python starting) killed it."""
+    slot = _Slot.spawn(multiprocessing.get_context("spawn"), WorkerSettings(window_s=2.0, shadow=False))
+    try:
+        os.kill(slot.process.pid, signal.SIGTERM)  # long before its interpreter has started
+        slot.wait_ready()
+    finally:
+        slot.conn.send(STOP)
+        slot.stop()
+    assert slot.process.exitcode == 0
 
 
 def test_a_sigterm_while_the_monitor_starts_stops_it_cleanly():
