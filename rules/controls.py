@@ -4,30 +4,35 @@ A frame's Control needs the catalog's rules for the predicates and patterns its
 answer set is expected to have (presence.py), a slice most frames of a vehicle share.
 Making one (a new Control, about 200 statements added), clingo's rewriting of
 those statements, and freeing the Control after the verdict are a third or more
-of a small frame's decision, and none of it depends on the facts themselves. A
-sidecar worker spends most of its time waiting for the next proposal; `prepare`
-spends that time making Controls for the slices recent frames used and freeing
-the spent ones. A frame whose slice has no ready Control gets a fresh one: the
-answer is the same either way.
+of a small frame's decision, and none of it depends on the facts themselves. Nor
+does what the catalog says of no frame (the class hierarchy, the parameters): a
+Control grounds that part (`AHEAD`) when it is made, and a frame's rules then
+read its atoms as facts of an earlier step. A sidecar worker spends most of its
+time waiting for the next proposal; `prepare` spends that time making Controls
+for the slices recent frames used and freeing the spent ones. A frame whose
+slice has no ready Control gets a fresh one: the answer is the same either way.
 """
 
 from __future__ import annotations
 
 from collections import OrderedDict
-from typing import Callable, Hashable, Iterable, Optional
+from typing import Callable, Hashable, Iterable, Optional, Sequence
 
 import clingo
 from clingo import ast
 
-REWRITE = "rewrite"  # an empty program part: grounding it rewrites the statements added so far, facts unseen
-RECENT_SLICES = 16  # slices kept ready: a vehicle's frames mostly reuse one; KITTI's 24 frames use 9
+AHEAD = "ahead"  # the program part of what depends on no frame, grounded when a Control is made
+RECENT_SLICES = 16  # slices kept ready: a vehicle's frames mostly reuse one; KITTI's 24 frames use 14
 SPENT_HELD = 8  # used Controls held for `prepare` to free; past this, freed at once
 
 
 class PreparedControls:
-    def __init__(self, program_for: Callable[[Hashable], Iterable[ast.AST]], constant: str = ""):
-        """`program_for`: the statements of a slice; `constant`: text every frame's program has as well."""
+    def __init__(self, program_for: Callable[[Hashable], Iterable[ast.AST]], ahead: Sequence[ast.AST] = (),
+                 constant: str = ""):
+        """`program_for`: the statements of a slice; `ahead` and `constant` (text): what every frame's program has
+        and no frame's facts change, whose rules read only atoms of the same (`static_predicates`)."""
         self._program_for = program_for
+        self._ahead = list(ahead)
         self._constant = constant
         self._recent: OrderedDict[Hashable, None] = OrderedDict()
         self._ready: dict[Hashable, clingo.Control] = {}
@@ -57,17 +62,34 @@ class PreparedControls:
         self._spent.clear()
         missing = [cut for cut in reversed(self._recent) if cut not in self._ready][:limit]
         for cut in missing:
-            control = self._build(cut)
-            # The frame's facts go to "base" afterwards and are grounded with the rules there, as in a fresh
-            # Control; this only does the rewriting ahead (measured: 0.3 ms less per KITTI frame, the same atoms).
-            control.ground([(REWRITE, [])])
-            self._ready[cut] = control
+            self._ready[cut] = self._build(cut, ahead=True)
         return len(missing)
 
-    def _build(self, cut: Hashable) -> clingo.Control:
+    def _build(self, cut: Hashable, ahead: bool = False) -> clingo.Control:
+        """A Control with the slice's statements; `ahead`: with the part no frame changes grounded already.
+
+        A frame's own Control is grounded in one step: two steps cost it more than the first saves (measured:
+        4 % more per KITTI frame).
+        """
         control = clingo.Control(["--warn=none"])
         with ast.ProgramBuilder(control) as builder:
+            if ahead:
+                builder.add(_part(AHEAD))
+            for statement in self._ahead:
+                builder.add(statement)
+            if ahead:
+                builder.add(_part("base"))
             for statement in self._program_for(cut):
                 builder.add(statement)
-        control.add("base", [], self._constant)
+        control.add(AHEAD if ahead else "base", [], self._constant)
+        if ahead:
+            # Grounding a part rewrites every statement added so far, the frame's rules too; the frame's facts then
+            # go to "base", grounded with its rules alone (measured: 5 % less per decision than all in one step).
+            control.ground([(AHEAD, [])])
         return control
+
+
+def _part(name: str) -> ast.AST:
+    """`#program name.`: the statements added after it are in that part."""
+    position = ast.Position("<discern>", 1, 1)
+    return ast.Program(ast.Location(position, position), name, [])

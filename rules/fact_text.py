@@ -20,7 +20,9 @@ _ARGUMENT = rf"(?:-?+[1-9][0-9]*+|0|{_IDENTIFIER})"
 _PLAIN = re.compile(rf"(?:{_IDENTIFIER}(?:\({_ARGUMENT}(?:,{_ARGUMENT})*+\))?+\.)++")
 
 
+@functools.lru_cache(maxsize=4)
 def is_plain(text: str) -> bool:
+    """Cached: the slicer and the answer set both ask it of the same frame's text (70 us at 50 objects)."""
     return _PLAIN.fullmatch(text) is not None
 
 

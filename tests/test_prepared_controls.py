@@ -1,5 +1,7 @@
 import weakref
 
+import pytest
+
 from discern.adapters.avcsr import read_dir
 from discern.rules import controls
 from discern.rules.controls import PreparedControls
@@ -78,3 +80,27 @@ def test_a_retired_control_is_freed_by_the_next_prepare_or_at_once_past_the_limi
     assert [ref() is None for ref in freed] == [False] * controls.SPENT_HELD + [True]
     prepared.prepare()
     assert all(ref() is None for ref in freed)
+
+
+def test_a_readied_control_has_what_no_frame_changes_grounded_before_the_frame_comes(avcsr_dir):
+    frame = read_dir(avcsr_dir)[0]
+    reasoner = Reasoner()
+    for _ in range(2):  # the first frame of its kind learns the slice (presence.py), the second uses it
+        reasoner.decide(frame.scene, frame.expected)
+    reasoner.prepare()
+    text = reasoner.frame_facts(frame.scene, frame.expected, ())
+    control = reasoner.slicer.controls.take(reasoner.slicer.learned(reasoner.slicer.kind(reasoner.predicates_of(text), text)))
+    atoms = control.symbolic_atoms
+    assert any(a.symbol.arguments[0].name == "car" for a in atoms.by_signature("is_a", 2))  # the class hierarchy
+    assert any(a.symbol.arguments[0].name == "reaction_ms" for a in atoms.by_signature("param", 2))  # the parameters
+    assert not list(atoms.by_signature("ego_speed", 1)) and not list(atoms.by_signature("permitted", 1))
+
+
+def test_a_frame_fact_of_a_predicate_the_catalog_defines_for_every_frame_is_refused_by_name(avcsr_dir):
+    class Relabels:
+        def facts(self, scene, history):
+            return "is_a(car,bicycle)."
+
+    frame = read_dir(avcsr_dir)[0]
+    with pytest.raises(ValueError, match="frame fact is_a is defined by the catalog"):
+        Reasoner(providers=[Relabels()]).decide(frame.scene, frame.expected)

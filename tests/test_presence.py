@@ -10,20 +10,21 @@ from discern.rules.terms import pattern_text
 from tests.scenes import obj, scene
 
 
-def fact_names(reasoner, sc, proposed="cruise"):
-    return reasoner.predicates_of(reasoner.frame_facts(sc, Action(proposed), ()))
+def kind_of(reasoner, sc, proposed="cruise"):
+    text = reasoner.frame_facts(sc, Action(proposed), ())
+    return reasoner.slicer.kind(reasoner.predicates_of(text), text)
 
 
 def test_a_predicate_absent_from_earlier_frames_is_derived_when_a_frame_has_it():
     reasoner, fresh = Reasoner(), Reasoner()
     far, near = scene(objects=[obj("pedestrian", 0, 80, lane=1)]), scene(objects=[obj("pedestrian", 0, 6, lane=1)])
-    assert fact_names(reasoner, far) == fact_names(reasoner, near)  # the same kinds of facts: one learned set
+    assert kind_of(reasoner, far) == kind_of(reasoner, near)  # the same kinds of facts: one learned set
     reasoner.decide(far, "accelerate")
-    assert "hazard" not in reasoner.slicer.learned(fact_names(reasoner, far)).present
+    assert "hazard" not in reasoner.slicer.learned(kind_of(reasoner, far)).present
     verdict = reasoner.decide(near, "accelerate")
     assert verdict.model_dump(exclude={"latency_ms"}) == fresh.decide(near, "accelerate").model_dump(exclude={"latency_ms"})
     assert verdict.action.value == "brake" and "brake.obstacle_ahead" in verdict.rules
-    assert "hazard" in reasoner.slicer.learned(fact_names(reasoner, near)).present
+    assert "hazard" in reasoner.slicer.learned(kind_of(reasoner, near)).present
 
 
 def test_kitti_frames_ground_fewer_rules_than_their_slice_once_learned(avcsr_dir):
@@ -33,27 +34,43 @@ def test_kitti_frames_ground_fewer_rules_than_their_slice_once_learned(avcsr_dir
         reasoner.decide(f.scene, f.expected)
     catalog = reasoner.catalog
     for f in frames:
-        names = fact_names(reasoner, f.scene, f.expected.value)
-        learned = reasoner.slicer.learned(names)
-        assert len(catalog.rules_within(learned.present, learned.absent)) < len(catalog.rules_within(learned.present))
+        names, unmatched = kind = kind_of(reasoner, f.scene, f.expected.value)
+        learned = reasoner.slicer.learned(kind)
+        left_out = learned.absent | learned.unmatched
+        assert len(catalog.rules_within(learned.present, left_out)) < len(catalog.rules_within(learned.present))
         assert len(catalog.rules_within(learned.present)) < len(catalog.program_for(names))
 
 
-def test_a_pattern_absent_from_earlier_frames_is_matched_when_a_frame_has_it():
+def test_a_pattern_that_the_facts_match_makes_a_frame_of_another_kind_grounded_without_a_guard():
     reasoner, fresh = Reasoner(), Reasoner()
     onward, merging = scene(lanes=2), scene(lanes=2, intent="merge_into_right_lane")
-    names = fact_names(reasoner, onward)
-    assert names == fact_names(reasoner, merging)  # intent(continue_in_lane), intent(merge_into_right_lane): one kind
+    merge = "intent(merge_into_right_lane)"
+    assert merge in {pattern_text(p) for p in kind_of(reasoner, onward)[1]}  # its facts match no such atom
+    assert merge not in {pattern_text(p) for p in kind_of(reasoner, merging)[1]}
     reasoner.decide(onward, "cruise")
-    assert "intent(merge_into_right_lane)" in {pattern_text(p) for p in reasoner.slicer.learned(names).absent}
-    before = reasoner.slicer.regrounds
+    learned = reasoner.slicer.learned(kind_of(reasoner, onward))
+    assert merge in {pattern_text(p) for p in learned.unmatched} and merge not in {pattern_text(p) for p in learned.absent}
     verdict = reasoner.decide(merging, "change_lane_right")
-    assert reasoner.slicer.regrounds == before + 1
+    assert reasoner.slicer.regrounds == 0
     assert verdict.model_dump(exclude={"latency_ms"}) == fresh.decide(merging, "change_lane_right").model_dump(exclude={"latency_ms"})
-    assert "clr.intent_merge" in verdict.rules  # the rule left out before: the intent calls for the lane change
-    assert "intent(merge_into_right_lane)" not in {pattern_text(p) for p in reasoner.slicer.learned(names).absent}
-    reasoner.decide(merging, "change_lane_right")
-    assert reasoner.slicer.regrounds == before + 1  # learned: the next such frame is grounded once
+    assert "clr.intent_merge" in verdict.rules  # the rule the other kind leaves out: the intent calls for the lane change
+
+
+def test_a_derived_pattern_absent_from_earlier_frames_is_matched_when_a_frame_has_it():
+    reasoner, fresh = Reasoner(), Reasoner()
+    right, left = (scene(intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
+                         objects=[obj("pedestrian", x, 4, lane=1, kind="cross_left")]) for x in (4.0, -4.0))
+    kind = kind_of(reasoner, right)
+    assert kind == kind_of(reasoner, left)  # the same facts but for a position: one kind
+    reasoner.decide(right, "turn_left")
+    assert "crossing_user(_,left)" in {pattern_text(p) for p in reasoner.slicer.learned(kind).absent}
+    verdict = reasoner.decide(left, "turn_left")
+    assert reasoner.slicer.regrounds == 1  # its guard found the atom: the frame grounded again with the whole slice
+    assert verdict.model_dump(exclude={"latency_ms"}) == fresh.decide(left, "turn_left").model_dump(exclude={"latency_ms"})
+    assert verdict.decision.value == "override"
+    assert "crossing_user(_,left)" not in {pattern_text(p) for p in reasoner.slicer.learned(kind).absent}
+    reasoner.decide(left, "turn_left")
+    assert reasoner.slicer.regrounds == 1  # learned: the next such frame is grounded once
 
 
 def test_a_rule_requires_the_constants_and_functors_of_its_positive_atoms_not_their_variables(tmp_path):
