@@ -62,9 +62,15 @@ class PresenceSlicer:
 
     def kind(self, names: frozenset[str], text: str) -> Kind:
         """Frames of one kind share a learned slice: their facts (`text`, using predicates `names`) use the same
-        predicates and match none of the same patterns that rules require of predicates only facts give."""
+        predicates and match none of the same patterns that rules require of predicates only facts give.
+
+        The facts may not give a static predicate: its atoms are grounded before the facts come.
+        """
         checks = self._fact_patterns.get(names)
-        if checks is None:
+        if checks is None:  # the first frame whose facts use these predicates
+            given = (names - self._shared) & self.static
+            if given:
+                raise ValueError(f"frame fact {min(given)} is defined by the catalog and cannot be given per frame")
             exact = names - self._shared - self.catalog.defined_in(names)
             checks = self._fact_patterns[names] = [
                 (p, _fact_regex(p)) for p in self.catalog.patterns_within(self.catalog.derivable(names))
@@ -88,13 +94,7 @@ class PresenceSlicer:
         return found
 
     def ground(self, names: frozenset[str], text: str) -> clingo.Control:
-        """A Control with the frame's facts (`text`, using predicates `names`) grounded: its answer set is the slice's.
-
-        The facts may not give a static predicate: its atoms are grounded before the facts come.
-        """
-        given = (names - self._shared) & self.static
-        if given:
-            raise ValueError(f"frame fact {min(given)} is defined by the catalog and cannot be given per frame")
+        """A Control with the frame's facts (`text`, using predicates `names`) grounded: its answer set is the slice's."""
         kind = self.kind(names, text)
         unmatched = kind[1]
         learned = self._learned.get(kind)

@@ -102,5 +102,7 @@ def test_a_frame_fact_of_a_predicate_the_catalog_defines_for_every_frame_is_refu
             return "is_a(car,bicycle)."
 
     frame = read_dir(avcsr_dir)[0]
-    with pytest.raises(ValueError, match="frame fact is_a is defined by the catalog"):
-        Reasoner(providers=[Relabels()]).decide(frame.scene, frame.expected)
+    reasoner = Reasoner(providers=[Relabels()])
+    for _ in range(2):  # every such frame, not only the first of its kind
+        with pytest.raises(ValueError, match="frame fact is_a is defined by the catalog"):
+            reasoner.decide(frame.scene, frame.expected)

@@ -34,7 +34,8 @@ def test_kitti_frames_ground_fewer_rules_than_their_slice_once_learned(avcsr_dir
         reasoner.decide(f.scene, f.expected)
     catalog = reasoner.catalog
     for f in frames:
-        names, unmatched = kind = kind_of(reasoner, f.scene, f.expected.value)
+        kind = kind_of(reasoner, f.scene, f.expected.value)
+        names = kind[0]
         learned = reasoner.slicer.learned(kind)
         left_out = learned.absent | learned.unmatched
         assert len(catalog.rules_within(learned.present, left_out)) < len(catalog.rules_within(learned.present))
