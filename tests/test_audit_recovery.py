@@ -189,23 +189,28 @@ def test_a_directory_named_like_a_log_inside_a_log_directory_is_walked_and_an_em
         assert err == f"discern audit: {run / 'none.mcap'}: directory holds no *.mcap files\n"
 
 
-def chunk_spans(path: Path) -> list[tuple[int, int]]:
-    """Each chunk record's (start, end) in a log."""
-    from mcap.records import Chunk
-    from mcap.stream_reader import StreamReader
+def verdict_chunk_spans(path: Path) -> list[tuple[int, int]]:
+    """The (start, end) in a log of each chunk record that holds a verdict: losing one loses a frame."""
+    from mcap.records import Channel, Chunk, Message
+    from mcap.stream_reader import StreamReader, breakup_chunk
 
-    spans, before = [], 8
+    spans, before, topics = [], 8, {}
     with open(path, "rb") as f:
         for record in StreamReader(f, emit_chunks=True).records:
-            if isinstance(record, Chunk):
-                spans.append((before, f.tell()))
+            if isinstance(record, Channel):
+                topics[record.id] = record.topic
+            elif isinstance(record, Chunk):
+                held = breakup_chunk(record)
+                topics.update((r.id, r.topic) for r in held if isinstance(r, Channel))
+                if any(isinstance(r, Message) and topics[r.channel_id].endswith("/verdict") for r in held):
+                    spans.append((before, f.tell()))
             before = f.tell()
     return spans
 
 
 def test_a_damaged_chunk_in_a_closed_log_is_skipped_named_and_the_rest_audited(capsys, tmp_path, fleet):
     whole = audit_json(capsys, tmp_path, fleet)
-    spans = chunk_spans(fleet)
+    spans = verdict_chunk_spans(fleet)
     assert len(spans) >= 4, spans
     start, end = spans[len(spans) // 2]
     data = bytearray(fleet.read_bytes())
