@@ -22,7 +22,7 @@ import clingo
 from clingo import ast
 
 AHEAD = "ahead"  # the program part of what depends on no frame, grounded when a Control is made
-RECENT_SLICES = 16  # slices kept ready: a vehicle's frames mostly reuse one; KITTI's 24 frames use 14
+RECENT_SLICES = 24  # slices kept ready: a vehicle's frames mostly reuse one; KITTI's 24 frames use 16
 SPENT_HELD = 8  # used Controls held for `prepare` to free; past this, freed at once
 
 

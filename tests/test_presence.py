@@ -57,6 +57,25 @@ def test_a_pattern_that_the_facts_match_makes_a_frame_of_another_kind_grounded_w
     assert "clr.intent_merge" in verdict.rules  # the rule the other kind leaves out: the intent calls for the lane change
 
 
+def test_frames_whose_facts_put_objects_in_other_lanes_learn_apart_and_a_derived_lane_is_still_found():
+    """obj_lane is given by facts and derived by rules too: the facts key the kind, a guard checks what rules add."""
+    reasoner, fresh = Reasoner(), Reasoner()
+    pavement = dict(cls="pedestrian", y=10, lane=1, kind="sidewalk_right")
+    beside, ahead, in_lane = (scene(other_lanes=("sidewalk_right",), objects=[o]) for o in (
+        obj(x=4.0, **pavement), obj(x=0.5, **pavement), obj("pedestrian", 0.5, 10, lane=1)))
+    assert kind_of(reasoner, beside) == kind_of(reasoner, ahead)  # the same facts but for a position: one kind
+    assert kind_of(reasoner, beside) != kind_of(reasoner, in_lane)
+    reasoner.decide(in_lane, "cruise")
+    reasoner.decide(beside, "cruise")
+    learned = reasoner.slicer.learned(kind_of(reasoner, beside))
+    assert "in_ego_lane" not in learned.present  # not learned from the frame with a pedestrian in the ego's lane
+    assert "obj_lane(_,current,_)" in {pattern_text(p) for p in learned.absent}
+    verdict = reasoner.decide(ahead, "cruise")  # labelled on the pavement, yet in the ego's path: moved into its lane
+    assert reasoner.slicer.regrounds == 1
+    assert verdict.model_dump(exclude={"latency_ms"}) == fresh.decide(ahead, "cruise").model_dump(exclude={"latency_ms"})
+    assert verdict.action.value == "brake"
+
+
 def test_a_derived_pattern_absent_from_earlier_frames_is_matched_when_a_frame_has_it():
     reasoner, fresh = Reasoner(), Reasoner()
     right, left = (scene(intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
