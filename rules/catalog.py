@@ -129,6 +129,7 @@ class Catalog:
     facts: list[ast.AST] = field(repr=False)
     fact_rule: dict[Symbol, str] = field(default_factory=dict, repr=False)
     fact_predicates: set[str] = field(default_factory=set, repr=False)
+    fact_atoms: dict[str, list[Symbol]] = field(default_factory=dict, repr=False)  # the catalog's facts by predicate
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
     words: dict[str, str] = field(default_factory=dict, repr=False)  # a constant's English (`%! term name :: "..."`)
     _slices: dict[frozenset[str], tuple[frozenset[str], frozenset[str]]] = field(default_factory=dict, repr=False)
@@ -172,6 +173,38 @@ class Catalog:
             and all(_replays_from_first(r) for r in rules)
         )
 
+    @cached_property
+    def alternatives(self) -> dict[int, tuple[frozenset[Term], ...]]:
+        """Rule index -> groups of patterns: its positive body needs an atom of some pattern of each group.
+
+        `obj_lane(O,K,_), crossing_kind(K)` needs `obj_lane(_,cross_left,_)` or `obj_lane(_,cross_right,_)`:
+        the kinds the catalog's facts list, and no rule adds to. A group is kept where other rules require each
+        of its patterns too: what a frame learns of those (presence.py) then leaves the rule out, at no cost of
+        a check or guard of its own.
+        """
+        listed = {name: [atom.arguments[0] for atom in atoms] for name, atoms in self.fact_atoms.items()
+                  if all(len(atom.arguments) == 1 for atom in atoms) and (name, 1) not in self.by_head}
+        required = frozenset().union(*(rule.requires for rule in self.compiled))
+        found: dict[int, tuple[frozenset[Term], ...]] = {}
+        for rule in self.compiled:
+            positive = [lit.atom for lit in rule.body if lit.is_atom and not lit.negated and lit.atom[0] == "f"]
+            groups = []
+            for kinds in positive:
+                if kinds[1] not in listed or len(kinds[2]) != 1 or kinds[2][0][0] != "v":
+                    continue
+                variable = kinds[2][0]
+                for atom in positive:
+                    if atom[1] in listed or variable not in atom[2]:
+                        continue
+                    group = frozenset(pattern_of(("f", atom[1], tuple(("s", value) if a == variable else a
+                                                                         for a in atom[2])))
+                                      for value in listed[kinds[1]])
+                    if group <= required:
+                        groups.append(group)
+            if groups:
+                found[rule.index] = tuple(groups)
+        return found
+
     def rules_deriving(self, name: str, arity: int, first: Optional[Symbol]) -> list[CompiledRule]:
         """The rules whose head can derive name/arity atoms with this first argument, in catalog order.
 
@@ -207,8 +240,9 @@ class Catalog:
         found = self._within.get(key)
         if found is None:
             have = present | self.fact_predicates
-            found = self._within[key] = self.facts + [r.statement for r in self.compiled
-                                                      if r.needs <= have and not r.requires & absent]
+            found = self._within[key] = self.facts + [
+                r.statement for r in self.compiled if r.needs <= have and not r.requires & absent
+                and not any(group <= absent for group in self.alternatives.get(r.index, ()))]
         return found
 
     def patterns_within(self, present: frozenset[str]) -> frozenset[Term]:
@@ -371,6 +405,7 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
             catalog.facts.append(stm)
             for atom in _ground_fact(stm):
                 catalog.fact_predicates.add(atom.name)
+                catalog.fact_atoms.setdefault(atom.name, []).append(atom)
                 if info is not None:
                     catalog.fact_rule[atom] = info.id
             continue

@@ -93,6 +93,35 @@ def test_a_derived_pattern_absent_from_earlier_frames_is_matched_when_a_frame_ha
     assert reasoner.slicer.regrounds == 1  # learned: the next such frame is grounded once
 
 
+def test_a_rule_joined_with_a_listed_kind_is_left_out_only_when_no_kind_of_the_list_has_atoms():
+    """`obj_lane(O,K,_), crossing_kind(K)`: the catalog lists cross_left and cross_right, so the rule needs one."""
+    catalog = Reasoner().catalog
+    crossing = [r for r in catalog.compiled if r.info.id == "def.crossing_user"]
+    present = catalog.derivable(frozenset({"object", "obj_pos", "obj_lane", "ego_lane", "lane", "ego_speed"}))
+    left, right = (next(p for p in catalog.patterns_within(present) if pattern_text(p) == f"obj_lane(_,{k},_)")
+                   for k in ("cross_left", "cross_right"))
+    assert crossing and all(catalog.alternatives[r.index] == (frozenset({left, right}),) for r in crossing)
+    statements = [r.statement for r in crossing]
+    assert all(s in catalog.rules_within(present, frozenset({left})) for s in statements)
+    assert not any(s in catalog.rules_within(present, frozenset({left, right})) for s in statements)
+
+
+def test_frames_without_crossing_traffic_ground_no_crossing_rules_and_a_crossing_frame_decides_as_alone():
+    reasoner, fresh = Reasoner(), Reasoner()
+    crossing = scene(intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
+                     objects=[obj("pedestrian", -4.0, 4, lane=1, kind="cross_left")])
+    quiet = scene(intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
+                  objects=[obj("car", 0.0, 30, lane=1)])
+    reasoner.decide(quiet, "turn_left")
+    text = reasoner.frame_facts(quiet, Action("turn_left"), ())
+    program = reasoner.slicer.program(reasoner.slicer.learned(kind_of(reasoner, quiet, "turn_left")))
+    ids = {r.statement: r.info.id for r in reasoner.catalog.compiled}
+    assert "lane(cross_left,1)" in text and "def.crossing_user" not in {ids.get(s) for s in program}
+    verdict = reasoner.decide(crossing, "turn_left")
+    assert verdict.model_dump(exclude={"latency_ms"}) == fresh.decide(crossing, "turn_left").model_dump(exclude={"latency_ms"})
+    assert verdict.decision.value == "override"
+
+
 def test_a_rule_requires_the_constants_and_functors_of_its_positive_atoms_not_their_variables(tmp_path):
     (tmp_path / "r.lp").write_text(
         "%! rule x.a\n%! says A.\n%! source s\n"
