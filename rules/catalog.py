@@ -602,6 +602,7 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
             raise CatalogError(f"{path}: cannot read: {exc.strerror or exc}") from None
         _compile_file(str(path), text, catalog)
     _check_stratified(catalog)
+    catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it
     seen: dict[str, RuleInfo] = {}
     for info in catalog.rules:
         if info.id in seen:
