@@ -80,6 +80,7 @@ class AnswerSet:
         self._texts: dict[tuple[str, int], list[str]] = {}  # of each atom of _by_sig, in the same order
         self._by_first: dict[tuple[str, int], dict[str, list]] = {}  # symbols, or texts not yet made symbols
         self._shapes: dict[Symbol, Shape] = {}
+        self._holds: dict[Symbol, bool] = {}
         self._facts = facts
         self._defined = defined
         self._fact_names_given = fact_names
@@ -89,8 +90,13 @@ class AnswerSet:
         self._given_first: dict[tuple[str, int, str], list[Symbol]] = {}
 
     def holds(self, sym: Symbol) -> bool:
-        atom = self._atoms[sym]
-        return atom is not None and atom.is_fact
+        # A proof asks about the same atoms again and again (an object's lane, the ego's speed): a dict lookup
+        # is one C call (the symbol's hash), clingo's three.
+        found = self._holds.get(sym)
+        if found is None:
+            atom = self._atoms[sym]
+            found = self._holds[sym] = atom is not None and atom.is_fact
+        return found
 
     def of(self, name: str, arity: int) -> list[Symbol]:
         found = self._by_sig.get((name, arity))

@@ -138,6 +138,9 @@ class Catalog:
     _outside: dict[tuple[frozenset[str], Optional[frozenset[str]]], list[tuple[str, int]]] = field(
         default_factory=dict, repr=False)
     _deriving: dict[tuple[str, int, Optional[Symbol]], list[CompiledRule]] = field(default_factory=dict, repr=False)
+    # Units of each rule's variables by rule index, read off the templates (phrases.Phrasebook.formats_of): the same
+    # in every frame, so kept here rather than worked out again for each proof.
+    variable_formats: dict[int, dict[str, str]] = field(default_factory=dict, repr=False)
 
     @cached_property
     def by_id(self) -> dict[str, RuleInfo]:

@@ -71,7 +71,6 @@ class Phrasebook:
         self.catalog = catalog
         self._answer = answer
         self._classes: dict[int, str] = {}  # object id -> its class in words ("" when it has none)
-        self._formats: dict[int, dict[str, str]] = {}
         self._sign_unit: Optional[str] = None  # read from the answer set when a limit is first shown
 
     def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str, digits: int = 1) -> str:
@@ -157,7 +156,7 @@ class Phrasebook:
 
     def formats_of(self, rule: CompiledRule) -> dict[str, str]:
         """Units of a rule's variables, read off the templates of the atoms they appear in."""
-        formats = self._formats.get(rule.index)
+        formats = self.catalog.variable_formats.get(rule.index)
         if formats is not None:
             return formats
         formats = {}
@@ -172,7 +171,7 @@ class Phrasebook:
                 fmt = by_param.get(param)
                 if arg[0] == "v" and fmt in _COMPARED:
                     formats.setdefault(arg[1], _COMPARED[fmt])
-        self._formats[rule.index] = formats
+        self.catalog.variable_formats[rule.index] = formats
         return formats
 
     def comparison(self, rule: CompiledRule, lit: Literal, env: Env) -> str:
