@@ -159,6 +159,7 @@ def _examples() -> list[Example]:
     real_ahead = obj(9, "car", 0.0, 16.0, 2, vy=5.0)
     hw = {"zone": "highway", "limit": 29.0, "lanes": 2, "lane": 2, "speed": 15.0}
     truck = obj(2, "truck", 0.0, 30.0, 1, vy=12.0, size={"length": 12.0, "width": 2.5})
+    toy_car = obj(11, "car", 0.0, 14.0, 1, vy=0.0, sources=("camera",), size={"length": 0.7, "width": 0.3})
     # a flash is about 1 Hz: frames half a second apart see the light lit, dark, lit, dark (a 0.1 s gap is a lost frame)
     flashing_red = [scene(frame=i + 1, timestamp=0.5 * (i + 1), speed=8.0 - i, limit=11.0,
                           lights=[{"colour": "red"}] if i % 2 == 0 else [], intersection=arriving) for i in range(4)]
@@ -218,7 +219,13 @@ def _examples() -> list[Example]:
         Example("san.limit.zero", "In a city the camera reads a limit of 0 in every frame for a second; the ego drives 10 m/s.",
                 tuple(scene(frame=i + 1, timestamp=0.1 * i, speed=10.0, limit=None, signs=[limit_sign(0)])
                       for i in range(10)), Action.cruise,
-                (scene(speed=10.0, limit=None, signs=[limit_sign(0)], map_speed_limit=0.0),)),
+                (scene(speed=10.0, limit=None, signs=[limit_sign(25)]),)),
+        Example("san.limit.map_zero", "On a highway the map gives a limit of 0 (a limit it does not know); the camera reads "
+                "70 mph, and the ego drives 30 m/s with a truck 5 m behind.",
+                (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=0.0,
+                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),), Action.cruise,
+                (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=31.3,
+                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),)),
         Example("san.limit.fallback_zone", "The taped 85 mph city sign, with no map and nothing read before.",
                 city_85, Action.accelerate, (scene(speed=16.0, limit=85 * MPH, map_speed_limit=15.0),)),
         Example("san.limit.zone_default", "Nothing tells the limit in a city; the ego drives 16 m/s.",
@@ -299,11 +306,11 @@ def _examples() -> list[Example]:
                 (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 30.2, 1, sources=("camera",))]),),
                 Action.accelerate,
                 (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 30.2, 1)]),)),
-        Example("san.world.size", "A toy-sized car, 0.7 m long, 8 m ahead, that only the camera reports.",
-                (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, sources=("camera",),
-                                                            size={"length": 0.7, "width": 0.3})]),),
-                Action.cruise,
-                (scene(speed=12.0, limit=15.0, objects=[obj(11, "car", 0.0, 8.0, 1, size={"length": 0.7, "width": 0.3})]),)),
+        Example("san.world.size", "A toy-sized car, 0.7 m long, standing 14 m ahead, that only the camera reports, while "
+                "the front radar reads clear road for 60 m; without the radar reading, the same toy is braked for.",
+                (scene(speed=8.0, limit=15.0, objects=[toy_car], sensors=[sensor("front", 60.0)]),),
+                Action.accelerate,
+                (scene(speed=8.0, limit=15.0, objects=[toy_car]),)),
         Example("san.world.no_echo_off_lane", "A car only the camera sees, on no lane, while the radar is running (a roadside advert).",
                 (scene(speed=12.0, limit=15.0, objects=[obj(2, "car", 0.0, 40.0, 1, vy=12.0),
                                                         obj(8, "car", 6.0, 9.0, sources=("camera",), predicted_path="op1")],

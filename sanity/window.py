@@ -158,7 +158,7 @@ class WindowProvider:
             if approach[-1] is not None and any(a == approach[-1] and f.lights for a, f in zip(approach, past)):
                 out.append("light_seen_on_approach.")
             out.extend(_limit_facts(now, past, c.confirm_frames, clock, [a in lit for a in approach[:-1]]))
-            out.extend(_light_facts(now, past, times, c))
+            out.extend(_light_facts(now, past, times, c, clock))
             out.extend(_sign_facts(now, past))
             out.extend(_memory_facts(scene, now, window, past, c, clock))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
@@ -346,25 +346,29 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
 # --- lights and signs ---------------------------------------------------------
 
 
-def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config: WindowConfig) -> list[str]:
+def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config: WindowConfig,
+                 clock: _Clock) -> list[str]:
     if not now.lights and not any(p.lights for p in past):  # most frames: nothing lit in the whole window
         return []
     frames = past + [now]
     out = []
     for colour in (LightColour.red, LightColour.yellow):
-        # perception's flag: in how many of the latest frames that show the colour, back to a steady report of it
+        # perception's flag: in how many of the latest frames that show the colour, back to a steady report of it,
+        # and over how long: at 50 Hz, or with one camera frame delivered twice, two flags are a glint, not a flash
         states = [None if colour not in f.lights else colour not in f.steady for f in frames]
-        flagged = _recent_run(states, times, config)
+        flagged, first, last = _recent_run(states, times, config)
         if flagged:
-            out.append(f"light_flashing_frames({colour.value},{flagged}).")
+            out.append(f"light_flashing_frames({colour.value},{flagged})."
+                       f"light_flashing_time({colour.value},{clock.lasted(first, last)}).")
         # a yellow lit now needs a whole lit phase seen as well as a dark one: a steady yellow hidden for a moment
         # and back is on, off, on too, and taking it for flashing would let the ego run it
         if _flashes([colour in f.lights for f in frames], times, config, whole_lit=colour is LightColour.yellow):
             out.append(f"light_flashes({colour.value}).")
     last = next((p for p in reversed(past) if p.lights), None)
-    if not now.lights and last is not None and LightColour.green not in last.lights:
-        # the colour when last seen: a green hidden for a frame is no red; a yellow perception flagged flashing
-        # calls for caution, not for a stop, and only a steady one is remembered
+    if not now.lights and last is not None:
+        # the colours when last seen, as the rules judged them then: a red beside a green arrow still held the ego
+        # (a green alone is remembered as nothing); a yellow perception flagged flashing calls for caution, not for
+        # a stop, and only a steady one is remembered
         if LightColour.red in last.lights:
             out.append("light_seen_recently(red).")
         if LightColour.yellow in last.steady:
@@ -372,8 +376,9 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
     return out
 
 
-def _recent_run(states: Sequence[Optional[bool]], times: Sequence[float], config: WindowConfig) -> int:
-    """In how many frames, counted back from now, something was seen flashing (True) at a flash's pace.
+def _recent_run(states: Sequence[Optional[bool]], times: Sequence[float], config: WindowConfig) -> tuple[int, int, int]:
+    """In how many frames, counted back from now, something was seen flashing (True) at a flash's pace; and the
+    indices of the first and the last of them (0 and 0 when there are none).
 
     A frame is True (flagged flashing, or lit for a beacon), False (shown and reported steady: the count stops
     there) or None (not shown: dark between flashes, or hidden). The latest True frame must be no longer ago than
@@ -381,14 +386,17 @@ def _recent_run(states: Sequence[Optional[bool]], times: Sequence[float], config
     long ago, are no flashing light. Frames without timestamps have no pace to hold against.
     """
     longest = round(config.flash_max_phase_s * 1000)
-    count, since = 0, round(times[-1] * 1000)
-    for state, t in zip(reversed(states), reversed(times)):
+    count, since, first, last = 0, round(times[-1] * 1000), 0, 0
+    for index in reversed(range(len(states))):
+        state, t = states[index], round(times[index] * 1000)
         if state is None:
             continue
-        if not state or since - round(t * 1000) > longest:
+        if not state or since - t > longest:
             break
-        count, since = count + 1, round(t * 1000)
-    return count
+        if not count:
+            last = index
+        count, since, first = count + 1, t, index
+    return count, first, last
 
 
 def _flashes(on: list[bool], times: list[float], config: WindowConfig, whole_lit: bool = False) -> bool:
@@ -607,7 +615,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     last: dict[int, tuple[int, DetectedObject]] = {}  # lost objects: the index of the frame last seen in, as seen
     first: dict[int, int] = {}
     frames: dict[int, int] = {}
-    lights: dict[int, list[float]] = {}  # when each object showed emergency lights, oldest first
+    lights: dict[int, list[int]] = {}  # the frames (their indices) in which each object showed emergency lights
     earlier: dict[int, set[Source]] = {}
     echoed: dict[int, set[Source]] = {}  # lost objects: the confirming sources that reported them in the window
     # a frame sits in some twenty windows: set operations on its summary, not a pass over its objects
@@ -622,7 +630,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
             elif oid not in now.ids:
                 echoed.setdefault(oid, set()).update(confirming)
         for oid in summary.lit:
-            lights.setdefault(oid, []).append(past.timestamp)
+            lights.setdefault(oid, []).append(index)
     for oid, found in earlier.items():
         out.extend(f"obj_source_before({oid},{s.value})." for s in sorted(found, key=lambda s: s.value))
     kept: set[int] = set()
@@ -662,8 +670,9 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
             out.append(f"remembered_conflict({oid},{found[0]},{found[1]}).")
     for oid, lit in lights.items():
         if oid in present or oid in kept:  # frames lit at a beacon's pace up to now (one unlit or unseen is dark)
-            times = lit + [scene.timestamp] if oid in present and present[oid].emergency_lights else lit
-            count = _recent_run([True] * len(times) + [None], times + [scene.timestamp], config)
+            frames_lit = lit + [len(window)] if oid in present and present[oid].emergency_lights else lit
+            times = [window[i].timestamp if i < len(window) else scene.timestamp for i in frames_lit]
+            count, first, last = _recent_run([True] * len(times) + [None], times + [scene.timestamp], config)
             if count:
-                out.append(f"lights_frames({oid},{count}).")
+                out.append(f"lights_frames({oid},{count}).lights_time({oid},{clock.lasted(frames_lit[first], frames_lit[last])}).")
     return out

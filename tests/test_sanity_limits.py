@@ -6,6 +6,7 @@ import pytest
 
 from discern.rules.catalog import catalog_dirs, load_catalog
 from discern.rules.engine import Reasoner, jurisdiction_pack
+from discern.rules.scene import Lane, LaneKind
 from discern.sanity.examples import MPH, limit_sign, obj, scene
 from discern.sanity.jurisdiction import reasoner_for
 
@@ -159,6 +160,18 @@ def test_a_limit_of_0_read_in_every_frame_is_no_limit(zone):
               for i in range(10)]
     assert limit_in_force(frames[-1], frames[:-1]) == {"highway": 31.29, "city": 15.65}[zone]
     assert "san.limit.zero" in US.decide(frames[-1], "cruise", history=frames[:-1]).rules
+
+
+def test_a_mapped_limit_of_0_is_no_limit_and_the_sign_read_governs():
+    """Map data may give 0 for a limit they do not know: braking to 0 on a highway would be a phantom brake."""
+    unknown = _tailgated_highway([limit_sign(70)]).model_copy(update={"map_speed_limit": 0.0})
+    assert limit_in_force(unknown) == 31.29  # the 70 mph read
+    verdict = US.decide(unknown, "cruise", explain=True)
+    assert verdict.decision.value == "approve" and "san.limit.map_zero" in verdict.rules
+    assert "the mapped limit of 0.0 m/s (0 mph) is doubted" in verdict.justification.text
+    city = scene(speed=10.0, limit=None, signs=[limit_sign(25)])
+    lane_zero = city.model_copy(update={"lanes": [Lane(kind=LaneKind.current, id=1, speed_limit=0.0)]})
+    assert limit_in_force(lane_zero) == limit_in_force(city) == 11.18  # the ego's lane mapped at 0: the 25 mph read
 
 
 def test_a_5_mph_highway_reading_held_over_many_frames_is_still_doubted_without_the_map():

@@ -88,6 +88,16 @@ def test_an_inferred_flash_does_not_release_the_ego_at_the_stop_line():
     assert verdict.decision is Decision.override and "san.memory.red_light" in verdict.rules
 
 
+def test_a_red_beside_a_green_arrow_is_remembered_when_a_truck_hides_the_lights():
+    arrow = RED + [{"colour": "green"}]
+    frames = _timed([(0.0, arrow), (0.1, arrow), (0.2, arrow), (0.3, [])], speed=6.0)
+    assert _decide(frames[:-1], Action.accelerate).action is Action.brake  # while seen, the red held the ego
+    verdict = _decide(frames, Action.accelerate)
+    assert verdict.action is Action.brake and "san.memory.red_light" in verdict.rules
+    green_only = _timed([(0.0, [{"colour": "green"}]), (0.1, [])], speed=6.0)
+    assert "san.memory.red_light" not in _decide(green_only, Action.accelerate).rules
+
+
 FLASHING_RED = [{"colour": "red", "flashing": True}]
 
 
@@ -112,6 +122,34 @@ def test_two_isolated_flashing_flags_in_a_steady_red_do_not_release_the_ego(hz, 
     frames = _timed([(round(i / hz, 3), lit) for i, lit in enumerate(lights)][-2 * hz:])
     verdict = _decide(frames, Action.accelerate)
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake), verdict.justification.summary
+
+
+def test_flashing_flags_over_only_40_ms_at_50_hz_do_not_release_the_ego_at_a_steady_red():
+    glint = _timed([(round(i / 50, 3), RED) for i in range(48)] + [(0.96, FLASHING_RED), (0.98, FLASHING_RED)])
+    verdict = _decide(glint, Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake), verdict.justification.summary
+    flashing = _timed([(round(i / 50, 3), RED) for i in range(35)] + [(round(i / 50, 3), FLASHING_RED) for i in range(35, 50)])
+    assert _decide(flashing, Action.accelerate).decision is Decision.approve  # flagged for 0.3 s: a flash
+
+
+def test_one_camera_frame_delivered_twice_is_not_two_flashing_flags():
+    """Perception at 10 Hz, the planner at 20 Hz: the flagged camera frame comes twice, with one timestamp."""
+    frames = _timed([(0.0, RED), (0.0, RED), (0.1, RED), (0.1, RED), (0.2, FLASHING_RED), (0.2, FLASHING_RED)])
+    verdict = _decide(frames, Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake), verdict.justification.summary
+
+
+def test_emergency_lights_in_two_frames_20_ms_apart_are_a_glint_but_lit_for_0_3_s_a_beacon():
+    def van(lit: bool):
+        return obj(5, "truck", -3.5, -20.0, 1, vy=30.0, emergency_lights=lit)  # coming up behind
+
+    def frames(lit_from: int):
+        return tuple(scene(frame=i + 1, timestamp=round(i / 50, 3), speed=25.0, lane=2, lanes=2, zone="highway",
+                           limit=29.0, objects=[van(i >= lit_from)]) for i in range(50))
+
+    us = reasoner_for("us")
+    assert "san.emergency.flashing" not in fired(us, frames(48))
+    assert "san.emergency.flashing" in fired(us, frames(35))
 
 
 def test_a_flashing_flag_long_ago_does_not_release_the_ego_at_a_red_hidden_since():
@@ -169,11 +207,23 @@ def test_a_police_motorcycle_with_its_lights_on_is_an_emergency_vehicle_on_duty(
 
 
 def test_a_camera_only_childs_bicycle_fits_its_class_but_a_camera_only_toy_car_does_not():
-    bike = obj(2, "bicycle", 0.0, 9.0, 1, vy=0.0, sources=("camera",), size={"length": 0.9, "width": 0.4})
-    toy = obj(3, "car", 0.0, 9.0, 1, sources=("camera",), size={"length": 0.7, "width": 0.3})
+    bike = obj(2, "bicycle", 0.0, 25.0, 1, vy=0.0, sources=("camera",), size={"length": 0.9, "width": 0.4})
+    toy = obj(3, "car", 0.0, 25.0, 1, sources=("camera",), size={"length": 0.7, "width": 0.3})
     us = reasoner_for("us")
-    assert "san.world.size" not in fired(us, (scene(speed=10.0, limit=11.0, objects=[bike]),))
-    assert "san.world.size" in fired(us, (scene(speed=10.0, limit=11.0, objects=[toy]),))
+    radar = [sensor("front", 60.0)]
+    assert "san.world.size" not in fired(us, (scene(speed=10.0, limit=11.0, objects=[bike], sensors=radar),))
+    assert "san.world.size" in fired(us, (scene(speed=10.0, limit=11.0, objects=[toy], sensors=radar),))
+
+
+@pytest.mark.parametrize("length", [0.0, 1.2])
+def test_a_camera_only_car_of_unlikely_size_is_braked_for_with_no_radar_or_too_close_to_stop(length):
+    # A detector may give a length of 0 for one it does not know: a size is an estimate, and a doubt is no reason to
+    # hit a car that may be real.
+    car = obj(5, "car", 0.0, 6.0, 1, vy=0.0, sources=("camera",), size={"length": length, "width": 1.6})
+    for sensors in ([], [sensor("front", 60.0)]):  # no radar; a radar reading clear road, but 6 m is too close
+        verdict = _decide((scene(speed=8.0, limit=11.0, objects=[car], sensors=sensors),), Action.accelerate)
+        assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+        assert "san.world.size" not in verdict.rules
 
 
 # --- possible phantoms: close ones are real, far ones cost speed, people are never doubted
