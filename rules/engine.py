@@ -217,6 +217,8 @@ class Reasoner:
             if explain:  # every rule the approval cites, proved: permitted, and each reason calling for it
                 tree.append(prover.why(_atom("permitted", proposed)))
                 applicable = _atom("applicable", proposed)
+                if applicable in self.catalog.fact_rule:  # called for by a fact of the catalog (cruise.default)
+                    tree.append(prover.why(applicable))
                 tree.extend(prover.node_for(rule, env, applicable) for rule, env in prover.derivations(applicable))
         else:
             forbidden = _atom("forbidden", proposed)

@@ -429,6 +429,15 @@ def test_an_explained_approval_proves_every_rule_it_cites(reasoner):
     assert set(verdict.rules) <= _tree_rules(list(verdict.justification.tree))
 
 
+def test_an_explained_approval_of_cruise_shows_the_catalog_fact_that_calls_for_it(reasoner):
+    """applicable(cruise) is a fact of the catalog (cruise.default): cited, so shown, when another action is recommended."""
+    verdict = reasoner.decide(scene(speed=10, objects=[obj("car", 0, 12, lane=1, vy=8.0)]), "cruise", explain=True)
+    assert verdict.decision.value == "approve" and verdict.recommended.value != "cruise"
+    assert "cruise.default" in verdict.rules
+    assert set(verdict.rules) <= _tree_rules(list(verdict.justification.tree))
+    assert "there is a reason to cruise  [cruise.default]" in verdict.justification.text
+
+
 def test_a_headway_is_compared_in_metres_not_as_a_speed(reasoner):
     verdict = reasoner.decide(scene(speed=10, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate", explain=True)
     # the headway one accel_step on: 10.5 m/s for 1 s, against the 19.7 m needed to stop from 10.5 m/s
