@@ -157,7 +157,7 @@ Speed = Annotated[float, Field(ge=0, le=MAX_SPEED_MS, allow_inf_nan=False, descr
 MetresPerSecond = Annotated[float, Field(ge=-MAX_SPEED_MS, le=MAX_SPEED_MS, allow_inf_nan=False)]
 MetresPerSecondSquared = Annotated[float, Field(allow_inf_nan=False)]
 # Any printable text: the solver's strings end at a NUL, so control characters could make two ids one.
-PathId = Annotated[str, Field(pattern=r"^[^\x00-\x1f\x7f]*$")]
+PathId = Annotated[str, Field(min_length=1, pattern=r"^[^\x00-\x1f\x7f]*$")]  # "" would read as no path at all
 
 
 class Strict(BaseModel):
@@ -320,6 +320,14 @@ class Scene(Strict):
                     f"object {obj.id} is in lane {obj.lane.kind.value}/{obj.lane.id}, "
                     "which the scene does not list; kept"
                 )
+        object_paths = {o.predicted_path for o in self.objects if o.predicted_path is not None}
+        for crossing in self.path_crossings:  # one that cannot apply is said so, not dropped unseen
+            if crossing.ego_path != self.ego.predicted_path:
+                self.notes.append(f"path crossing {crossing.ego_path!r}/{crossing.object_path!r}: "
+                                  f"{crossing.ego_path!r} is not the ego's predicted path; it cannot apply")
+            if crossing.object_path not in object_paths:
+                self.notes.append(f"path crossing {crossing.ego_path!r}/{crossing.object_path!r}: "
+                                  f"{crossing.object_path!r} is no object's predicted path; it cannot apply")
         return self
 
     def current_lanes(self) -> list[int]:

@@ -256,6 +256,32 @@ def test_unicode_and_quotes_in_path_ids_reach_the_rules(reasoner):
     assert reasoner.decide(scene("kreuzung"), Action.cruise).decision.value == "approve"
 
 
+@pytest.mark.parametrize("field", ["ego", "object", "ego_path", "object_path"])
+def test_an_empty_path_id_is_refused_by_name_not_read_as_no_path(field):
+    """'' read as 'no path' dropped a declared crossing: the monitor approved speeding up towards it."""
+    document = {
+        "frame_id": 1,
+        "ego": {"speed": 10, "lane": 1, "predicted_path": "" if field == "ego" else "p"},
+        "objects": [{"id": 3, "class": "car", "position": {"x": 0, "y": 12}, "predicted_path": "" if field == "object" else "q"}],
+        "path_crossings": [{"ego_path": "" if field == "ego_path" else "p", "object_path": "" if field == "object_path" else "q"}],
+    }
+    with pytest.raises(ValidationError) as refused:
+        Scene.model_validate(document)
+    where = {"ego": "ego.predicted_path", "object": "objects.0.predicted_path",
+             "ego_path": "path_crossings.0.ego_path", "object_path": "path_crossings.0.object_path"}[field]
+    assert describe_errors(refused.value).startswith(f"{where}: String should have at least 1 character")
+
+
+def test_a_path_crossing_naming_no_path_in_the_scene_is_noted():
+    scene = Scene.model_validate({
+        "frame_id": 1, "ego": {"speed": 10, "lane": 1, "predicted_path": "p"}, "lanes": [{"kind": "current", "id": 1}],
+        "objects": [{"id": 3, "class": "car", "position": {"x": 0, "y": 12}, "predicted_path": "q"}],
+        "path_crossings": [{"ego_path": "p", "object_path": "q"}, {"ego_path": "e", "object_path": "zz"}],
+    })
+    assert scene.notes == ["path crossing 'e'/'zz': 'e' is not the ego's predicted path; it cannot apply",
+                           "path crossing 'e'/'zz': 'zz' is no object's predicted path; it cannot apply"]
+
+
 def test_control_characters_in_path_ids_are_refused_by_name():
     with pytest.raises(ValidationError) as refused:
         Scene.model_validate({"frame_id": 1, "ego": {"speed": 0, "lane": 1, "predicted_path": "a\x00b"}})
