@@ -98,8 +98,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         output = render_html(verdict)
     else:
         output = verdict.justification.text
-        if scene.notes:
-            output += "\nnotes:\n" + "\n".join(f"  {n}" for n in scene.notes)
+        if verdict.notes:
+            output += "\nnotes:\n" + "\n".join(f"  {n}" for n in verdict.notes)
     if args.out:
         try:
             Path(args.out).write_text(output, encoding="utf-8")

@@ -263,6 +263,7 @@ class Reasoner:
             rules=rules,
             justification=justification,
             latency_ms=(time.perf_counter() - start) * 1000.0,
+            notes=list(scene.notes),
             shadow=shadow,
         )
 

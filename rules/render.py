@@ -140,6 +140,7 @@ def render_html(verdict: Verdict) -> str:
     ]
     if verdict.error:
         facts.append(("error", verdict.error))
+    facts.extend(("note", note) for note in verdict.notes)
     rows = "".join(f"<tr><td>{k}</td><td>{html.escape(v)}</td></tr>" for k, v in facts)
     tree = tree_html(j.tree)
     return (

@@ -54,4 +54,5 @@ class Verdict(BaseModel):
     latency_ms: Optional[float] = None
     failsafe: bool = False
     error: Optional[str] = Field(None, description="what was wrong with the input, if anything")
+    notes: list[str] = Field(default_factory=list, description="the scene's warnings: what validation or the adapter assumed or kept (scene.notes)")
     shadow: bool = False

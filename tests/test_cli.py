@@ -43,6 +43,18 @@ def test_check_html_writes_a_page(tmp_path, capsys):
     assert page.startswith("<!doctype html>") and "<details" in page and "cll.lane_taken" in page
 
 
+@pytest.mark.parametrize("explain", ["text", "json", "html"])
+def test_check_shows_the_scenes_warnings_in_every_format(tmp_path, capsys, explain):
+    data = good_dict()
+    data["objects"][0]["lane"] = {"kind": "current", "id": 9}
+    main(["check", write(tmp_path, data), "--proposed", "cruise", "--explain", explain])
+    out = capsys.readouterr().out
+    note = "object 1 is in lane current/9, which the scene does not list; kept"
+    assert note in out
+    if explain == "json":
+        assert json.loads(out)["notes"] == [note]
+
+
 def test_check_accepts_a_proposal_message(tmp_path, capsys):
     data = {"version": 1, "vehicle": "v1", "action": "change_lane_left", "scene": good_dict()}
     assert main(["check", write(tmp_path, data)]) == 0
