@@ -122,6 +122,23 @@ def test_a_cut_file_is_recovered_up_to_its_last_complete_chunk(tmp_path):
     assert previous >= 5
 
 
+def test_a_file_still_being_written_is_read_as_it_was_when_opened(tmp_path):
+    """A running monitor appends while the audit reads: what is read and the size then describe the same bytes."""
+    data, chunks = write_chunked(tmp_path, 6)
+    live = tmp_path / "live.mcap"
+    live.write_bytes(data[: chunks[3][0]])  # three chunks written so far
+    report = RecoveryReport()
+    records = read_log(live, report)
+    first = next(records)  # the file is open and its size taken
+    with open(live, "ab") as grow:
+        grow.write(data[chunks[3][0]:])  # the monitor writes on
+    frames = [first.proposal.scene.frame_id] + [r.proposal.scene.frame_id for r in records]
+    assert frames == [0, 1, 2]
+    [f] = report.files
+    assert f.size_bytes == chunks[3][0] and f.recovered_bytes <= f.size_bytes
+    assert f.state == "truncated" and f.stopped_by.endswith("before its footer (the monitor was killed, or is still writing it)")
+
+
 def test_files_rotate_by_size_and_read_back_in_order(tmp_path):
     writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_bytes=4096), "rot")
     for f in range(12):

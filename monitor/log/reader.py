@@ -19,6 +19,7 @@ another schema version ends the reading the same way.
 from __future__ import annotations
 
 import heapq
+import io
 import json
 import logging
 import os
@@ -297,6 +298,7 @@ def _read_file(
         if size == 0:
             return
         fd = f.fileno()
+        f = _Snapshot(f, size)
         head = os.pread(fd, len(MAGIC), 0)
         if head != MAGIC:
             recovery.stopped_by = (
@@ -338,7 +340,7 @@ def _read_file(
                 at_eof = f.tell() >= size
                 if at_eof and not recovery.closed:
                     recovery.stopped_by = (
-                        f"cut short at byte {end}, before its footer"
+                        f"cut short at byte {end}, before its footer (the monitor was killed, or is still writing it)"
                         if end >= size
                         else f"cut short inside a record at byte {end}"
                     )
@@ -439,6 +441,27 @@ def _unread(summary: "_Summary", chunks_read: set[int], messages: int, recovery:
             0, 0, f"{missing} of the {statistics.message_count} messages its summary counts were not read", "messages"))
     recovery.damaged.sort(key=lambda d: d.offset)
     return lost
+
+
+class _Snapshot:
+    """A file as it was when opened: a running monitor may still be appending to it. What is read of it and its size
+    then describe the same bytes (read on, 101 % of a log being written was "recovered"). No io.RawIOBase: mcap's
+    reader would buffer one, and read ahead of where a record ends."""
+
+    def __init__(self, f, size: int):
+        self._f, self._size = f, size
+
+    def tell(self) -> int:
+        return self._f.tell()
+
+    def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
+        if whence == io.SEEK_END:
+            offset, whence = self._size + offset, io.SEEK_SET
+        return self._f.seek(offset, whence)
+
+    def read(self, n: int = -1) -> bytes:
+        left = max(0, self._size - self._f.tell())
+        return self._f.read(left if n is None or n < 0 else min(n, left))
 
 
 def _records(f) -> Iterator:
