@@ -198,11 +198,8 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 
         if frame_files:
             print()
-        try:
-            # One reasoner per jurisdiction for all files: loading a --rules catalog per file took 30 times longer.
-            outcomes = runner.run_files(scenario_files, functools.lru_cache(maxsize=None)(lambda j: _reasoner(args, j)))
-        except runner.ScenarioError as exc:
-            raise UserError(str(exc)) from None
+        # One reasoner per jurisdiction for all files: loading a --rules catalog per file took 30 times longer.
+        outcomes, unreadable = runner.run_files(scenario_files, functools.lru_cache(maxsize=None)(lambda j: _reasoner(args, j)))
         for outcome in outcomes:
             status = "pass" if outcome.passed else "FAIL"
             print(f"{status}  {outcome.scenario} #{outcome.index}: {outcome.verdict.justification.summary}")
@@ -211,7 +208,12 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
             if args.explain:
                 print(_indented(outcome.verdict.justification.text))
         failed = sum(not o.passed for o in outcomes)
-        print(f"{len(outcomes) - failed} passed, {failed} failed")
+        for reason in unreadable:
+            print(f"discern: error: {reason}", file=sys.stderr)
+        cannot = f", {len(unreadable)} file{'s' if len(unreadable) > 1 else ''} not read" if unreadable else ""
+        print(f"{len(outcomes) - failed} passed, {failed} failed{cannot}")
+        if unreadable:
+            return 2  # bad input, as for one file alone
         ok = ok and failed == 0
     return 0 if ok else 1
 

@@ -77,9 +77,16 @@ def scenario_files(directory: Path) -> list[Path]:
     return files
 
 
-def run_files(files: Iterable[Path], reasoner_for: Callable[[str], Reasoner]) -> list[FrameOutcome]:
+def run_files(files: Iterable[Path], reasoner_for: Callable[[str], Reasoner]) -> tuple[list[FrameOutcome], list[str]]:
+    """The outcomes of the files that can be read, and why each other one cannot: a broken file does not hide the
+    verdicts of the rest, nor the next broken file."""
     outcomes: list[FrameOutcome] = []
+    unreadable: list[str] = []
     for path in files:
-        scenario = load(path)
+        try:
+            scenario = load(path)
+        except ScenarioError as exc:
+            unreadable.append(str(exc))
+            continue
         outcomes.extend(run(scenario, reasoner_for(scenario.jurisdiction)))
-    return outcomes
+    return outcomes, unreadable

@@ -10,7 +10,7 @@ from datetime import datetime, timezone
 import pytest
 
 from bench.report import pct
-from discern.monitor.audit.aggregate import latency_summary
+from discern.monitor.audit.aggregate import Odometer, latency_summary
 from discern.monitor.audit.timefmt import iso, parse_time
 from discern.monitor.status import StatusCounters
 from discern.monitor.client import Monitor
@@ -191,6 +191,31 @@ def test_a_refused_out_of_order_frame_does_not_move_the_odometer(capsys, tmp_pat
     # frames 1 to 30, 0.1 s apart at 10 m/s: 29 steps, as if the refused frame had not been sent
     assert doc["odometry"]["km"] == pytest.approx(29 * 0.1 * 10 / 1000)
     assert doc["odometry"]["driving_hours"] == pytest.approx(29 * 0.1 / 3600)
+
+
+def test_an_episode_whose_clock_starts_again_at_0_is_a_new_stretch_of_the_odometer():
+    odometer = Odometer()
+    for episode in range(2):  # each 1 s at 10 m/s, scene time 0.0 to 1.0, proposals 0.1 s apart
+        for step in range(11):
+            odometer.add("car_e", round(0.1 * step, 1), 100.0 + episode * 5 + 0.1 * step, 10.0)
+    assert (odometer.km, odometer.hours) == (0.02, 2.0 / 3600)
+
+
+def test_the_odometer_sums_the_same_however_its_frames_are_split():
+    frames = [(round(0.1 * i, 1), 1.0 + 0.1 * i, 0.3 + 0.7 * (i % 3)) for i in range(60)]
+    whole, halves = Odometer(), Odometer()
+    for f in frames:
+        whole.add("v", *f)
+    second = Odometer()
+    for f in frames[:31]:
+        halves.add("v", *f)
+    second.warm("v", *frames[30])
+    for f in frames[31:]:
+        second.add("v", *f)
+    merged = Odometer()
+    merged.merge(second)
+    merged.merge(halves)  # the other order
+    assert (merged.km, merged.hours) == (whole.km, whole.hours)
 
 
 def test_refusals_and_unanswered_proposals_are_counted_under_the_vehicle_and_time_filters(capsys, tmp_path):

@@ -237,6 +237,16 @@ def test_scenarios_run_fails_when_any_expectation_fails(tmp_path, capsys):
     assert "FAIL  acc.cut_in #0" in out and "action brake, expected cruise" in out and "0 passed, 1 failed" in out
 
 
+def test_scenarios_run_runs_every_readable_file_and_names_each_broken_one(tmp_path, capsys):
+    (tmp_path / "acc.cut_in.json").write_text((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
+    (tmp_path / "a_broken.json").write_text('{"name": "broken", "frames": [\n')
+    (tmp_path / "b_empty.json").write_text('{"name": "b"}')
+    assert main(["scenarios", "run", str(tmp_path)]) == 2
+    out, err = capsys.readouterr()
+    assert "pass  acc.cut_in #0" in out and "1 passed, 0 failed, 2 files not read" in out
+    assert f"discern: error: {tmp_path / 'a_broken.json'}:" in err and f"discern: error: {tmp_path / 'b_empty.json'}:" in err
+
+
 @pytest.mark.parametrize("name, message", [
     ("missing.json", "no such file or directory"),
     ("notes.txt", "not a scenario file (.json) or an AV-CSR frame file (.pl)"),

@@ -8,12 +8,14 @@ and tallies merge in the parent, so every figure here must be mergeable.
 Odometry: a log has no odometer, so distance is integrated from the scenes.
 For each vehicle, consecutive frames with 0 < dt <= MAX_GAP_S add
 (v0 + v1) / 2 * dt metres (trapezoid rule on ego.speed) and dt seconds of
-driving. dt is the difference of the scene timestamps when the later frame
-has one (> 0; the earlier may be a simulation's t = 0), else of the
-proposals' arrival times at the monitor. A larger gap or a clock going back
-(a new episode) starts a new stretch instead of being bridged. A frame the
-monitor refused (out of order, a duplicate) is no step of the drive: it does
-not move the odometer, as it did not enter the monitor's window.
+driving. dt is the difference of the scene timestamps when either frame has
+one (> 0: a simulation's clock starts at t = 0), else of the proposals'
+arrival times at the monitor. A larger gap or a clock going back (a new
+episode, also one that starts again at t = 0) starts a new stretch instead of
+being bridged. A frame the monitor refused (out of order, a duplicate) is no
+step of the drive: it does not move the odometer, as it did not enter the
+monitor's window. Steps are summed in whole millimetres and microseconds, so
+that the totals are the same however the frames are split between workers.
 """
 
 from __future__ import annotations
@@ -160,8 +162,8 @@ class Disagreement:
 
 @dataclass
 class Odometer:
-    distance_m: dict[str, float] = field(default_factory=dict)
-    driving_s: dict[str, float] = field(default_factory=dict)
+    distance_mm: dict[str, int] = field(default_factory=dict)
+    driving_us: dict[str, int] = field(default_factory=dict)
     _last: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # scene time, arrival, speed
 
     def warm(self, vehicle: str, scene_time: float, arrival: float, speed: float) -> None:
@@ -173,23 +175,26 @@ class Odometer:
         self._last[vehicle] = (scene_time, arrival, speed)
         if last is None:
             return
-        dt = scene_time - last[0] if scene_time > 0 else arrival - last[1]
+        dt = scene_time - last[0] if scene_time > 0 or last[0] > 0 else arrival - last[1]
         if 0 < dt <= MAX_GAP_S:
-            self.distance_m[vehicle] = self.distance_m.get(vehicle, 0.0) + (last[2] + speed) / 2 * dt
-            self.driving_s[vehicle] = self.driving_s.get(vehicle, 0.0) + dt
+            self.distance_mm[vehicle] = self.distance_mm.get(vehicle, 0) + round((last[2] + speed) / 2 * dt * 1000)
+            self.driving_us[vehicle] = self.driving_us.get(vehicle, 0) + round(dt * 1_000_000)
 
     def merge(self, other: "Odometer") -> None:
-        for mine, theirs in ((self.distance_m, other.distance_m), (self.driving_s, other.driving_s)):
+        for mine, theirs in ((self.distance_mm, other.distance_mm), (self.driving_us, other.driving_us)):
             for vehicle, value in theirs.items():
-                mine[vehicle] = mine.get(vehicle, 0.0) + value
+                mine[vehicle] = mine.get(vehicle, 0) + value
+
+    def vehicle_km(self, vehicle: str) -> float:
+        return self.distance_mm.get(vehicle, 0) / 1_000_000
 
     @property
     def km(self) -> float:
-        return sum(self.distance_m.values()) / 1000
+        return sum(self.distance_mm.values()) / 1_000_000
 
     @property
     def hours(self) -> float:
-        return sum(self.driving_s.values()) / 3600
+        return sum(self.driving_us.values()) / 3_600_000_000
 
 
 @dataclass
@@ -310,7 +315,7 @@ class Aggregates:
                 ((k, per_scenario[k], f) for k, f in tally.scenario_frames.items()), key=lambda r: (-r[1], -r[2], r[0])
             ),
             per_vehicle=sorted(
-                ((v, per_vehicle[v], f, odo.distance_m.get(v, 0.0) / 1000) for v, f in tally.vehicle_frames.items()),
+                ((v, per_vehicle[v], f, odo.vehicle_km(v)) for v, f in tally.vehicle_frames.items()),
                 key=lambda r: (-r[1], r[0]),
             ),
             per_kind={k.value: sum(1 for d in rows if d.kind is k) for k in Kind},
