@@ -65,7 +65,8 @@ class _Parser:
     def take(self, value: str | None = None):
         kind, tok, line = self.peek()
         if kind is None or (value is not None and tok != value):
-            raise AvcsrError(f"{self.path}:{line}: expected {value or 'a term'}, found {tok!r}")
+            found = "the end of the file" if kind is None else repr(tok)
+            raise AvcsrError(f"{self.path}:{line}: expected {value or 'a term'}, found {found}")
         self.pos += 1
         return kind, tok, line
 

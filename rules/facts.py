@@ -72,7 +72,10 @@ class Params:
         values: dict[str, float] = {}
         problems: list[str] = []
         for pair in pairs:
-            name, _, value = pair.partition("=")
+            name, equals, value = pair.partition("=")
+            if not equals:
+                problems.append(f"--param {pair!r}: expected NAME=VALUE, such as decel=4")
+                continue
             try:
                 number = float(value)
             except ValueError:

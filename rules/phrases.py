@@ -187,6 +187,10 @@ class Phrasebook:
             except Unbound:
                 values.append(None)
         numbers = [v.number for v in values if v is not None and v.type == SymbolType.Number]
+        if fmt in _MOTION:
+            if len(terms) == 2 and len(numbers) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
+                return self._motion_against_zero(terms, values, ops[0], fmt)
+            fmt = "mps"  # between two speeds a side or a gap reads worse than plain numbers
         if fmt in _AXES and len(numbers) == len(values):
             if len(terms) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
                 return self._against_zero(terms, values, ops[0], fmt)
@@ -211,6 +215,19 @@ class Phrasebook:
         for op, value in zip(ops, values[1:]):
             parts += [CMP_TEXT.get(op, "?"), lit.source if value is None else self.value(value, fmt, "", digits)]
         return " ".join(parts)
+
+    def _motion_against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
+        """'VX < 0' as '15.0 m/s to the left is a move to the left', and 'C > 0' of a closing speed as 'the gap
+        shrinks (it grows by 1.5 m/s)': no bare minus sign under a line that says the side or the gap in words."""
+        if not term_vars(terms[0]) and values[0].number == 0:
+            op, value = _FLIPPED[op], values[1]
+        else:
+            value = values[0]
+        if fmt != "closing":
+            return f"{self.value(value, fmt, '')} {_MOTION[fmt][op]}"
+        n = value.number
+        now = "it holds" if n == 0 else f"it {'shrinks' if n > 0 else 'grows'} by {abs(n) / 100:.1f} m/s"
+        return f"{_MOTION[fmt][op]} ({now})"
 
     def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'Y < 0' as '4.0 m behind is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind'."""
@@ -238,11 +255,20 @@ _SIGNED = {  # (at zero, positive, negative); the sign of a position or speed sa
     "across": ("0.0 m/s sideways", "{} m/s to the right", "{} m/s to the left"),
 }
 _COMPARED = {"m": "m", "mps": "mps", "limit": "limit", "ms": "ms", "frames": "frames", "ordinal": "ordinal",
-             "ahead": "ahead", "right": "right", "along": "mps", "across": "mps", "closing": "mps"}
+             "ahead": "ahead", "right": "right", "along": "along", "across": "across", "closing": "closing"}
 _LESS, _LESS_EQ, _MORE, _MORE_EQ = (int(o) for o in (_CMP.LessThan, _CMP.LessEqual, _CMP.GreaterThan,
                                                       _CMP.GreaterEqual))
 _EQ, _NOT_EQ = int(_CMP.Equal), int(_CMP.NotEqual)
 _FLIPPED = {_LESS: _MORE, _LESS_EQ: _MORE_EQ, _MORE: _LESS, _MORE_EQ: _LESS_EQ, _EQ: _EQ, _NOT_EQ: _NOT_EQ}
+_MOTION = {  # a signed speed against 0 as words: which way it goes, or what the gap does
+    "along": {_LESS: "is a move against the ego's heading", _LESS_EQ: "is no move along the ego's heading",
+              _MORE: "is a move along the ego's heading", _MORE_EQ: "is no move against the ego's heading",
+              _EQ: "is no move along the ego's heading or against it", _NOT_EQ: "is a move along the ego's heading or against it"},
+    "across": {_LESS: "is a move to the left", _LESS_EQ: "is no move to the right", _MORE: "is a move to the right",
+               _MORE_EQ: "is no move to the left", _EQ: "is no sideways move", _NOT_EQ: "is a sideways move"},
+    "closing": {_LESS: "the gap grows", _LESS_EQ: "the gap does not shrink", _MORE: "the gap shrinks",
+                _MORE_EQ: "the gap does not grow", _EQ: "the gap holds", _NOT_EQ: "the gap changes"},
+}
 _AXES = {  # a comparison of signed positions as words, "is" meaning where the first one lies
     "ahead": {_LESS: "is behind", _LESS_EQ: "is not ahead of", _MORE: "is ahead of", _MORE_EQ: "is not behind",
               _EQ: "is level with", _NOT_EQ: "is not level with"},

@@ -48,7 +48,8 @@ def test_fact_without_timestamp_holds_in_every_frame(tmp_path):
 @pytest.mark.parametrize(
     "bad, message",
     [
-        ("self_speed(5, 1)", "expected ."),
+        ("self_speed(5, 1)", "expected ., found the end of the file"),
+        ("self_speed(", "expected a term, found the end of the file"),
         ("self_speed(X, 1).", "variable X"),
         ("self_speed(5, one).", "timestamp 'one'"),
         ("obj_meta(1, 1, unicorn, pos(0, 5), lane(current, 1), none).", "unknown value 'unicorn'"),

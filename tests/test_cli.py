@@ -192,6 +192,8 @@ def test_check_param_sets_a_reasoning_parameter_and_names_a_bad_one(tmp_path, ca
     assert main(["check", path, "--proposed", "cruise", "--param", "decel=0", "--param", "brakes=1"]) == 2
     err = capsys.readouterr().err
     assert "--param decel needs a number from 0.01 to 100, got '0'" in err and "unknown --param 'brakes'" in err
+    assert main(["check", path, "--proposed", "cruise", "--param", "decel"]) == 2
+    assert "--param 'decel': expected NAME=VALUE, such as decel=4" in capsys.readouterr().err
 
 
 def test_check_param_past_its_bound_is_refused_rather_than_wrapped_into_a_permissive_verdict(tmp_path, capsys):

@@ -534,13 +534,23 @@ def test_a_scenes_path_ids_read_as_given_not_as_catalog_words(reasoner):
 
 
 def test_a_position_compared_with_a_distance_setting_gives_the_setting_no_side(reasoner):
-    """'-Y < W' with W the crossing distance read '-4.0 m is behind 15.0 m ahead'."""
+    """'|Y| < W' with W the crossing distance: once '-Y < W', which read '-4.0 m is behind 15.0 m ahead', then '-4.0 m'."""
     sc = scene(speed=5, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"),
                intersection={"type": "t_intersect", "stage": "at"},
                objects=[obj("bicycle", 2.5, 4, lane=1, kind="shoulder", vy=5)])
     text = reasoner.decide(sc, "turn_right", explain=True).justification.text
     assert "tr.kerb_side_user" in text
-    assert "-4.0 m < 15.0 m" in text and "15.0 m ahead" not in text
+    assert "4.0 m < 15.0 m" in text and "-4.0 m" not in text and "15.0 m ahead" not in text
+
+
+def test_a_signed_speed_against_zero_reads_in_words_not_with_a_minus_sign(reasoner):
+    cyclist = scene(speed=10, objects=[obj("bicycle", 0, 25, lane=1, vy=12.0)])  # riding away faster than the ego
+    text = reasoner.decide(cyclist, "accelerate", explain=True).justification.text
+    assert "needs that the gap shrinks (it grows by 1.5 m/s), which is false" in text and "-1.5 m/s >" not in text
+    crossing = scene(speed=0, sign="stop", other_lanes=("cross_right",), intersection={"type": "four_way", "stage": "at"},
+                     objects=[obj("car", 30, 18, lane=1, kind="cross_right", velocity={"x": -15.0, "y": 0.0})])
+    text = reasoner.decide(crossing, "accelerate", explain=True).justification.text
+    assert "15.0 m/s to the left is a move to the left" in text and "-15.0 m/s <" not in text
 
 
 def test_signed_positions_that_differ_never_read_alike(reasoner):
