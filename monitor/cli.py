@@ -36,7 +36,7 @@ class UserError(Exception):
 def _read_json(path: str) -> tuple[str, dict]:
     """The file's text, to validate as the schema reads JSON, and its object, to tell what kind of file it is."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = Path(path).read_text(encoding="utf-8-sig")  # a byte-order mark, as some Windows editors write, is no error
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror}") from None
     except UnicodeDecodeError as exc:
@@ -100,7 +100,9 @@ def cmd_check(args: argparse.Namespace) -> int:
         output = verdict.justification.text
         if verdict.notes:
             output += "\nnotes:\n" + "\n".join(f"  {n}" for n in verdict.notes)
-    if args.out:
+    if args.out is not None:
+        if not args.out:
+            raise UserError("--out: empty file name")
         try:
             Path(args.out).write_text(output, encoding="utf-8")
         except OSError as exc:

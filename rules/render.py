@@ -125,7 +125,7 @@ _LEGEND = (
 def render_html(verdict: Verdict) -> str:
     j = verdict.justification
     kind = "failsafe" if verdict.failsafe else verdict.decision.value
-    headline = f"{verdict.decision.value}: {verdict.action.value}" + (" (fail-safe)" if verdict.failsafe else "")
+    headline = f"{verdict.decision.value}: {verdict.action.value.replace('_', ' ')}" + (" (fail-safe)" if verdict.failsafe else "")
     facts = [
         ("vehicle", verdict.vehicle),
         ("frame", str(verdict.frame_id)),

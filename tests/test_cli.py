@@ -55,6 +55,23 @@ def test_check_shows_the_scenes_warnings_in_every_format(tmp_path, capsys, expla
         assert json.loads(out)["notes"] == [note]
 
 
+def test_check_reads_a_file_with_a_byte_order_mark_and_refuses_an_empty_out_name(tmp_path, capsys):
+    path = tmp_path / "bom.json"
+    path.write_text(json.dumps(good_dict()), encoding="utf-8-sig")
+    assert main(["check", str(path), "--proposed", "cruise"]) == 0
+    assert capsys.readouterr().out.startswith("approve cruise")
+    assert main(["check", str(path), "--proposed", "cruise", "--out", ""]) == 2
+    assert "--out: empty file name" in capsys.readouterr().err
+
+
+def test_the_html_banner_names_the_action_in_words(tmp_path, capsys):
+    out = tmp_path / "v.html"
+    main(["check", write(tmp_path, good_dict()), "--proposed", "change_lane_left", "--shadow", "--explain", "html",
+          "--out", str(out)])
+    page = out.read_text()
+    assert "VETO: CHANGE LANE LEFT" in page and "CHANGE_LANE_LEFT" not in page
+
+
 def test_check_accepts_a_proposal_message(tmp_path, capsys):
     data = {"version": 1, "vehicle": "v1", "action": "change_lane_left", "scene": good_dict()}
     assert main(["check", write(tmp_path, data)]) == 0
