@@ -45,6 +45,7 @@ TEMPLATE_FORMATS = frozenset({
 
 
 DEFINITION_PREFIXES = ("def.", "ent.")  # ids of definitions and entities: they decide nothing themselves
+SETTING_PREFIX = "jur."  # a jurisdiction pack's settings (the traffic side, zone limits): no rule forbids by them alone
 
 
 class CatalogError(ValueError):

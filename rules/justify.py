@@ -16,7 +16,7 @@ from typing import Iterator, Optional
 from clingo import Symbol
 
 from .answer_set import AnswerSet
-from .catalog import DEFINITION_PREFIXES, Catalog, CompiledRule
+from .catalog import DEFINITION_PREFIXES, SETTING_PREFIX, Catalog, CompiledRule
 from .phrases import Phrasebook
 from .terms import Env, Literal, Term, Unbound, check_comparison, evaluate, is_assignment, match
 from .verdict import JustificationNode
@@ -387,14 +387,15 @@ def _next_ready(body: list[Literal], env: Env) -> int:
 
 
 def rule_ids(node: JustificationNode) -> list[str]:
-    """Decision-level rules used in a proof, first use first; rules that did not fire are not counted."""
+    """Decision-level rules used in a proof, first use first; rules that did not fire are not counted, nor definitions
+    and a jurisdiction's settings, which the proof shows but which forbid nothing themselves."""
     seen: list[str] = []
     pending = [node]  # depth first, children in order; no recursive closure, which would be a reference cycle
     while pending:
         n = pending.pop()
         if n.kind in ("negation", "blocked", "absent"):
             continue
-        if n.rule and not n.rule.startswith(DEFINITION_PREFIXES) and n.rule not in seen:
+        if n.rule and not n.rule.startswith((*DEFINITION_PREFIXES, SETTING_PREFIX)) and n.rule not in seen:
             seen.append(n.rule)
         pending.extend(reversed(n.children))
     return seen

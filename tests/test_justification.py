@@ -111,7 +111,7 @@ def test_the_html_page_leads_with_the_decision_and_folds_what_did_not_happen(rea
     assert "<details open><summary><span class=\"holds\">change lane left is forbidden" in page
     assert "<td>vehicle</td><td>ego</td>" in page and "<td>latency</td>" in page and "<html lang='en'>" in page
     shadow = render_html(reasoner.decide(scene(lane=1, lanes=2), "change_lane_left", shadow=True))
-    assert "<div class='decision veto'>VETO: CHANGE_LANE_LEFT</div>" in shadow and "shadow mode" in shadow
+    assert "<div class='decision veto'>VETO: CHANGE LANE LEFT</div>" in shadow and "shadow mode" in shadow
 
 
 def test_a_reason_that_comes_up_again_is_argued_once_and_then_pointed_back_to(reasoner):

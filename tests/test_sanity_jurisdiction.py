@@ -100,7 +100,9 @@ def test_zone_limits_are_the_countrys():
     sc = scene(speed=14.0, limit=None)  # 31 mph in a town, nothing posted
     assert US.decide(sc, "accelerate").decision.value == "approve"  # US usual 35 mph
     uk = UK.decide(sc, "accelerate")
-    assert uk.decision.value == "override" and "jur.uk.zone_limits" in uk.rules  # UK 30 mph
+    assert uk.decision.value == "override" and "san.limit.zone_default" in uk.rules  # UK 30 mph
+    assert "(30 mph) is usual and none above 17.9 m/s (40 mph) is plausible  [jur.uk.zone_limits]" in uk.justification.text
+    assert not any(r.startswith("jur.") for r in uk.rules)  # a setting shown in the proof, not a rule that forbids
 
 
 def test_unknown_jurisdiction_is_rejected_naming_the_known_ones():
