@@ -269,6 +269,11 @@ def test_a_shown_time_is_the_millisecond_its_record_falls_in_so_given_back_it_ke
     assert (row["time"], row["log_time_ns"], row["verdict"]) == ("2026-09-21T14:13:20.000Z", str(late), "override")
     since = export(capsys, tmp_path, str(log), "--since", row["time"])
     assert [d["log_time_ns"] for d in since["disagreements"]] == [late]
+    until = export(capsys, tmp_path, str(log), "--since", row["time"], "--until", row["time"])  # to the end of its ms
+    assert [d["log_time_ns"] for d in until["disagreements"]] == [late]
+    assert parse_time("2026-09-21T14:13:20.000Z", through=True) == 1_790_000_000_000_999_999
+    assert parse_time("2026-09-21", through=True) - parse_time("2026-09-21") == 86_400 * 10**9 - 1
+    assert parse_time(str(late), through=True) == late  # epoch nanoseconds are exact
 
 
 def test_a_report_that_would_overwrite_a_log_is_refused_before_the_logs_are_read(capsys, tmp_path, logs):

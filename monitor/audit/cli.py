@@ -185,7 +185,7 @@ def _filters(args: argparse.Namespace) -> Filters:
     try:
         # an empty value (an unset shell variable) is a mistake, not the absence of the filter
         since = parse_time(args.since, "--since") if args.since is not None else None
-        until = parse_time(args.until, "--until") if args.until is not None else None
+        until = parse_time(args.until, "--until", through=True) if args.until is not None else None
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     if since is not None and until is not None and since > until:

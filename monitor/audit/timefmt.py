@@ -23,13 +23,33 @@ def iso(ns: int) -> str:
     return f"{EPOCH + timedelta(seconds=seconds):%Y-%m-%dT%H:%M:%S}.{rest // 10**6:03d}Z"
 
 
-def parse_time(text: str, option: str = "time") -> int:
+def parse_time(text: str, option: str = "time", through: bool = False) -> int:
     """Nanoseconds since the epoch from ISO 8601 (UTC unless it says otherwise), epoch seconds or epoch nanoseconds.
 
     Exact, in integers (a float of today's times in nanoseconds is 256 ns coarse): ISO 8601 to the
     microsecond, as datetime reads it, epoch seconds to the nanosecond. A mistake raises ValueError
-    naming `option` (the command-line flag) and the value.
+    naming `option` (the command-line flag) and the value. `through`: the last nanosecond of the unit the
+    time is given to (an `--until`): reports show times cut to the millisecond, and one copied from a report
+    keeps the record it was shown for.
     """
+    start = _parse_time(text, option)
+    return start + _unit_ns(text.strip()) - 1 if through else start
+
+
+def _unit_ns(value: str) -> int:
+    """The unit a time is written to, in ns: 1 for epoch nanoseconds, else that of its last decimal of seconds."""
+    if value.isdigit() and MIN_EPOCH_NS <= int(value) <= MAX_EPOCH_NS:
+        return 1
+    if len(value) == 10 and value[4] == value[7] == "-":  # a date alone: the whole day
+        return 86_400 * 10**9
+    seconds = value.replace("Z", "").split("+")[0]
+    if "T" in seconds or " " in seconds:  # ISO 8601: a zone offset may follow, as -05:00
+        seconds = seconds.split("T")[-1].split(" ")[-1].split("-")[0]
+    decimals = len(seconds.split(".")[1]) if "." in seconds else 0
+    return 10 ** (9 - min(decimals, 9))
+
+
+def _parse_time(text: str, option: str) -> int:
     value = text.strip()
     try:
         number = Decimal(value)
