@@ -65,7 +65,11 @@ def test_lists_every_veto_override_and_failsafe_with_rules_and_justification(cap
     veto = next(l for l in lines if " car_s  frame 3 " in l)
     assert "veto      accelerate -> accelerate" in veto and "shadow mode, not enforced" in veto
     bad = next(l for l in lines if "monitor.bad_input" in l)
-    assert " car_b  frame -  failsafe" in bad and "malformed JSON" in bad
+    assert " car_b  frame - " in bad and " failsafe " in bad and "malformed JSON" in bad
+    # the columns line up, whatever the vehicles' names and the frame ids
+    assert len({l.index(" frame ") for l in lines}) == 1
+    kinds = {min(l.find(k, l.index(" frame ")) for k in ("override", "veto", "failsafe") if k in l) for l in lines}
+    assert len(kinds) == 1
     assert sum("[monitor.deadline]" in l for l in lines) == SLOW_FRAMES
     assert "1 refused input (logged on /discern/<vehicle>/rejected)" in out
 

@@ -115,11 +115,13 @@ def render_text(tally: Tally, agg: Aggregates, filters: Filters, listing: bool =
     rows = tally.disagreements
     lines.append("")
     lines.append(f"Disagreements ({len(rows)}):" if rows else "No disagreements.")
-    for d in rows:
-        frame = "-" if d.frame_id is None else str(d.frame_id)
+    frames = ["-" if d.frame_id is None else str(d.frame_id) for d in rows]
+    vehicle_width = max((len(d.vehicle) for d in rows), default=0)  # columns line up whatever the names and ids
+    frame_width = max((len(f) for f in frames), default=0)
+    for d, frame in zip(rows, frames):
         lines.append(
-            f"  {iso(d.time_ns)}  {d.vehicle}  frame {frame}  {d.kind.value:<8}  {d.pair:<36}  "
-            f"[{', '.join(d.rules)}]  {d.summary}"
+            f"  {iso(d.time_ns)}  {d.vehicle:<{vehicle_width}}  frame {frame:<{frame_width}}  {d.kind.value:<8}  "
+            f"{d.pair:<36}  [{', '.join(d.rules)}]  {d.summary}"
         )
     for title, items in (
         ("per rule", agg.per_rule),
