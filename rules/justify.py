@@ -386,6 +386,9 @@ def _next_ready(body: list[Literal], env: Env) -> int:
     return 0
 
 
+_NOT_CITED = (*DEFINITION_PREFIXES, SETTING_PREFIX)
+
+
 def rule_ids(node: JustificationNode) -> list[str]:
     """Decision-level rules used in a proof, first use first; rules that did not fire are not counted, nor definitions
     and a jurisdiction's settings, which the proof shows but which forbid nothing themselves."""
@@ -395,7 +398,7 @@ def rule_ids(node: JustificationNode) -> list[str]:
         n = pending.pop()
         if n.kind in ("negation", "blocked", "absent"):
             continue
-        if n.rule and not n.rule.startswith((*DEFINITION_PREFIXES, SETTING_PREFIX)) and n.rule not in seen:
+        if n.rule and not n.rule.startswith(_NOT_CITED) and n.rule not in seen:
             seen.append(n.rule)
         pending.extend(reversed(n.children))
     return seen

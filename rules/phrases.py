@@ -219,10 +219,7 @@ class Phrasebook:
     def _motion_against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'VX < 0' as '15.0 m/s to the left is a move to the left', and 'C > 0' of a closing speed as 'the gap
         shrinks (it grows by 1.5 m/s)': no bare minus sign under a line that says the side or the gap in words."""
-        if not term_vars(terms[0]) and values[0].number == 0:
-            op, value = _FLIPPED[op], values[1]
-        else:
-            value = values[0]
+        op, value = _nonzero_side(terms, values, op)
         if fmt != "closing":
             return f"{self.value(value, fmt, '')} {_MOTION[fmt][op]}"
         n = value.number
@@ -231,12 +228,16 @@ class Phrasebook:
 
     def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'Y < 0' as '4.0 m behind is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind'."""
-        if not term_vars(terms[0]) and values[0].number == 0:
-            op, value = _FLIPPED[op], values[1]
-        else:
-            value = values[0]
+        op, value = _nonzero_side(terms, values, op)
         shown = f"{value.number / 100:.1f} m" if value.number == 0 else self.value(value, fmt, "")
         return f"{shown} {_AXES[fmt][op]} the ego"
+
+
+def _nonzero_side(terms: list[Term], values: list[Symbol], op: int) -> tuple[int, Symbol]:
+    """A comparison with a literal 0 on either side, as (operator, value) read with the value first."""
+    if not term_vars(terms[0]) and values[0].number == 0:
+        return _FLIPPED[op], values[1]
+    return op, values[0]
 
 
 def _digits_to_tell_apart(numbers: list[int], fmt: Optional[str]) -> int:

@@ -139,13 +139,14 @@ def test_one_camera_frame_delivered_twice_is_not_two_flashing_flags():
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake), verdict.justification.summary
 
 
-def test_emergency_lights_in_two_frames_20_ms_apart_are_a_glint_but_lit_for_0_3_s_a_beacon():
-    def van(lit: bool):
-        return obj(5, "truck", -3.5, -20.0, 1, vy=30.0, emergency_lights=lit)  # coming up behind
+def _van(lit: bool) -> dict:
+    return obj(5, "truck", -3.5, -20.0, 1, vy=30.0, emergency_lights=lit)  # coming up behind
 
+
+def test_emergency_lights_in_two_frames_20_ms_apart_are_a_glint_but_lit_for_0_3_s_a_beacon():
     def frames(lit_from: int):
         return tuple(scene(frame=i + 1, timestamp=round(i / 50, 3), speed=25.0, lane=2, lanes=2, zone="highway",
-                           limit=29.0, objects=[van(i >= lit_from)]) for i in range(50))
+                           limit=29.0, objects=[_van(i >= lit_from)]) for i in range(50))
 
     us = reasoner_for("us")
     assert "san.emergency.flashing" not in fired(us, frames(48))
@@ -160,15 +161,12 @@ def test_a_flashing_flag_long_ago_does_not_release_the_ego_at_a_red_hidden_since
 
 def test_two_isolated_light_glints_do_not_make_an_emergency_vehicle():
     """Sun on chrome in two frames 1.3 s apart, unlit between: no beacon flashes that slowly."""
-    def van(lit: bool):
-        return obj(5, "truck", -3.5, -20.0, 1, vy=30.0, emergency_lights=lit)  # coming up behind
-
     frames = tuple(scene(frame=i + 1, timestamp=round(0.1 * i, 1), speed=25.0, lane=2, lanes=2, zone="highway", limit=29.0,
-                         objects=[van(i in (2, 15))]) for i in range(17))
+                         objects=[_van(i in (2, 15))]) for i in range(17))
     verdict = _decide(frames, Action.cruise)
     assert verdict.decision is Decision.approve and "san.emergency.flashing" not in verdict.rules
     beacon = tuple(scene(frame=i + 1, timestamp=round(0.1 * i, 1), speed=25.0, lane=2, lanes=2, zone="highway", limit=29.0,
-                         objects=[van(i % 5 < 2)]) for i in range(17))  # lit 0.2 s of every 0.5 s
+                         objects=[_van(i % 5 < 2)]) for i in range(17))  # lit 0.2 s of every 0.5 s
     assert "san.emergency.flashing" in _decide(beacon, Action.cruise).rules
 
 
