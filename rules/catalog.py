@@ -9,7 +9,9 @@ A catalog file is plain clingo syntax plus `%!` annotation comments:
     hazard(obstacle(O)) :- obstacle_ahead(O).
 
 A `rule` annotation names every statement that follows it up to the next
-`rule` annotation. Rules are also compiled to plain tuples (terms.py) for the
+`rule` annotation. Within a rule block, `%! reads head(Args) :: "..."` is how
+an atom reads when that rule derived it, in place of the predicate's template:
+a value the rule assumes reads as assumed, not as measured. Rules are also compiled to plain tuples (terms.py) for the
 justifier, and indexed by the predicates they need so that a frame grounds
 only the rules that can fire on its facts.
 """
@@ -29,7 +31,7 @@ from .terms import Literal, Term, compile_literal, compile_term, is_fixed, patte
 
 # Every line that starts with `%!` is an annotation: a keyword, then (after white space) its value.
 _ANNOTATION = re.compile(r"^%!\s*([A-Za-z_]*)(?:\s+(.*?))?\s*$")
-_ANNOTATION_KEYS = ("rule", "says", "source", "pred", "term", "hide")
+_ANNOTATION_KEYS = ("rule", "says", "source", "pred", "term", "hide", "reads")
 _PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
 # A template's placeholder: @(Var), @(Var:format), and either with |words to say when Var is unknown.
 PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
@@ -133,6 +135,8 @@ class Catalog:
     fact_atoms: dict[str, list[Symbol]] = field(default_factory=dict, repr=False)  # the catalog's facts by predicate
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
     words: dict[str, str] = field(default_factory=dict, repr=False)  # a constant's English (`%! term name :: "..."`)
+    # (rule id, head signature) -> how an atom reads when that rule derived it (`%! reads`)
+    rule_templates: dict[tuple[str, tuple[str, int]], PredTemplate] = field(default_factory=dict, repr=False)
     _slices: dict[frozenset[str], tuple[frozenset[str], frozenset[str]]] = field(default_factory=dict, repr=False)
     _within: dict[tuple[frozenset[str], frozenset[Term]], list[ast.AST]] = field(default_factory=dict, repr=False)
     _patterns: dict[frozenset[str], frozenset[Term]] = field(default_factory=dict, repr=False)
@@ -317,7 +321,7 @@ def signature_of(head: ast.AST) -> tuple[str, int]:
 def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[str, PredTemplate]], set[tuple[str, int]]]:
     """Map each `%! rule` block's first line to its RuleInfo; collect templates and hidden predicates."""
     blocks: dict[int, RuleInfo] = {}
-    templates: list[tuple[str, PredTemplate]] = []  # ("pred" or "term", its template)
+    templates: list[tuple[str, PredTemplate]] = []  # ("pred", "term" or "reads <rule id>:<line>", its template)
     hidden: set[tuple[str, int]] = set()
     current: dict[str, str] = {}
     start = 0
@@ -346,7 +350,9 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
             if not arity.isdigit():
                 raise CatalogError(f"{path}:{number}: hide needs name/arity, got {value!r}")
             hidden.add((name, int(arity)))
-        elif key in ("pred", "term"):  # a term's words (hazard(obstacle(3))) are written like a predicate's
+        elif key in ("pred", "term", "reads"):  # a term's words (hazard(obstacle(3))) are written like a predicate's
+            if key == "reads" and not current:
+                raise CatalogError(f"{path}:{number}: 'reads' before any '%! rule'")
             pred = _PRED.match(value)
             if not pred:
                 raise CatalogError(f"{path}:{number}: bad {key} annotation {value!r}")
@@ -359,7 +365,8 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
                 if fmt is not None and fmt not in TEMPLATE_FORMATS:
                     raise CatalogError(f"{path}:{number}: unknown format {fmt!r} in {placeholder.group(0)}"
                                        f" (known: {', '.join(sorted(TEMPLATE_FORMATS))})")
-            templates.append((key, PredTemplate(name, args, template)))
+            templates.append((f"reads {current['rule']}:{number}" if key == "reads" else key,
+                              PredTemplate(name, args, template)))
         elif key == "rule":
             close()
             current, start = {"rule": value}, number
@@ -376,8 +383,13 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
 def _compile_file(path: str, text: str, catalog: Catalog) -> None:
     blocks, templates, hidden = _annotations(text, path)
     catalog.hidden |= hidden
+    reads: dict[tuple[str, tuple[str, int]], int] = {}  # a rule's own templates, with their lines
     for key, template in templates:
-        if key == "term" and not template.params:  # a constant's words: its own, apart from any predicate's
+        if key.startswith("reads "):
+            rule_id, line = key.removeprefix("reads ").rsplit(":", 1)
+            catalog.rule_templates[(rule_id, template.signature)] = template
+            reads[(rule_id, template.signature)] = int(line)
+        elif key == "term" and not template.params:  # a constant's words: its own, apart from any predicate's
             catalog.words[template.name] = template.template
         else:
             catalog.templates[template.signature] = template
@@ -436,6 +448,11 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
                 assignments=_assignments(body),
             )
         )
+    derived = {(rule.info.id, rule.signature) for rule in catalog.compiled}
+    for (rule_id, signature), line in reads.items():
+        if (rule_id, signature) not in derived:
+            raise CatalogError(f"{path}:{line}: 'reads' gives words for {signature[0]}/{signature[1]},"
+                               f" which rule {rule_id} does not derive")
 
 
 def _computed_head_arguments(head: ast.AST, body: tuple[Literal, ...]) -> tuple[Term, tuple[Literal, ...]]:

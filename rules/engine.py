@@ -246,8 +246,9 @@ class Reasoner:
             else:
                 found = prover.deriving_rules(atom)
                 if tree:
-                    tree.append(JustificationNode(literal=str(atom), holds=True, text=prover.phrases.atom(atom),
-                                                  rule=found[0] if found else None))
+                    rule_id = found[0] if found else None
+                    tree.append(JustificationNode(literal=str(atom), holds=True, text=prover.phrases.atom(atom, rule_id),
+                                                  rule=rule_id))
             rules.extend(r for r in found if r not in rules)
         justification = Justification(summary=summary, tree=tree)
         justification.text = render_text(justification)

@@ -117,7 +117,7 @@ class Prover:
         if fact_rule is None and depth >= self.max_depth:  # a leaf: its rule named, its body not shown
             sole = self._sole_rule(sym)
             if sole is not None:
-                return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym), rule=sole)
+                return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym, sole), rule=sole)
         derivation = None if fact_rule else next(self.derivations(sym), None)
         if derivation is None:
             return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym), kind="fact",
@@ -133,8 +133,8 @@ class Prover:
                 if position in rule.assignments or (lit.is_atom and not lit.negated and self._hidden(lit)):
                     continue
                 children.append(self._literal_holds(rule, lit, env, depth + 1, path | {sym}))
-        return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym), rule=rule.info.id,
-                                 children=children)
+        return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym, rule.info.id),
+                                 rule=rule.info.id, children=children)
 
     def _hidden(self, lit: Literal) -> bool:
         atom = lit.atom
@@ -199,17 +199,23 @@ class Prover:
         deepest = max(f.depth for f in failures)
         worst = [f for f in failures if f.depth == deepest]
         reasons: list[JustificationNode] = []
+        witnessed: list[bool] = []
         for failure in worst[: self.alternatives]:  # bindings that fail alike read alike: each reason once
             reason = self._failure_node(rule, failure, depth, negative_left)
             if reason not in reasons:
                 reasons.append(reason)
-        if len(reasons) == 1 and len(worst) <= self.alternatives:
+                witnessed.append(failure.witness is not None)
+        single = len(reasons) == 1 and len(worst) <= self.alternatives
+        for reason, witness in zip(reasons, witnessed):
+            subject = f"rule {rule.info.id}" if single else "it"
+            # A need that fails reads as the need; an atom that holds where the rule needs its absence, as what
+            # rules the rule out (not "needs that it is not so that X, but it is").
+            reason.text = (f"{subject} is ruled out, because {reason.text}" if witness
+                           else f"{subject} needs {reason.text}")
+        if single:
             only = reasons[0]
-            only.text = f"rule {rule.info.id} needs {only.text}"
             only.rule = rule.info.id
             return only
-        for reason in reasons:
-            reason.text = f"it needs {reason.text}"
         if len(worst) > self.alternatives:  # say that the list is cut, not that it is all
             more = len(worst) - self.alternatives
             text = f"and {more} other way{'s' if more > 1 else ''} it could apply, each failing as well"
@@ -229,12 +235,11 @@ class Prover:
             child.holds = False
             child.kind = "blocked"
             return child
-        node = JustificationNode(literal=str(failure.witness), holds=False,
-                                 text=f"that it is not so that {self.phrases.atom(failure.witness)}, but it is",
+        node = JustificationNode(literal=str(failure.witness), holds=False, text=self.phrases.atom(failure.witness),
                                  kind="blocked")
         if negative_left > 0:
             proof = self.why(failure.witness, depth)
-            node.children, node.rule = proof.children, proof.rule
+            node.text, node.children, node.rule = proof.text, proof.children, proof.rule
         return node
 
     def _sources_of(self, rule: CompiledRule, comparison: Literal, env: Env) -> list[JustificationNode]:
@@ -254,9 +259,9 @@ class Prover:
             sym = ground[0]
             fact_rule = self.catalog.fact_rule.get(sym)
             derived = [] if fact_rule else self.deriving_rules(sym)  # none: the frame gives it
-            sources[sym] = JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym),
-                                             kind="derived" if derived else "fact",
-                                             rule=derived[0] if derived else fact_rule)
+            rule_id = derived[0] if derived else fact_rule
+            sources[sym] = JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym, rule_id),
+                                             kind="derived" if derived else "fact", rule=rule_id)
         return list(sources.values())
 
     def _solve(self, body: list[Literal], env: Env, done: int,

@@ -10,7 +10,7 @@ from clingo import Symbol, SymbolType
 from clingo.ast import ComparisonOperator as _CMP
 
 from .answer_set import AnswerSet
-from .catalog import PLACEHOLDER, Catalog, CompiledRule
+from .catalog import PLACEHOLDER, Catalog, CompiledRule, PredTemplate
 from .terms import CMP_TEXT, Env, Literal, Term, Unbound, evaluate, term_vars
 
 
@@ -140,6 +140,9 @@ class Phrasebook:
         if template is None:
             inner = ", ".join("_" if a is None else str(a) for a in args)
             return f"{name}({inner})" if args else name
+        return self._filled(template, args)
+
+    def _filled(self, template: PredTemplate, args: list[Optional[Symbol]]) -> str:
         values = dict(zip(template.params, args))
         parts = _template_parts(template.template)
         words = [parts[0]]
@@ -150,8 +153,13 @@ class Phrasebook:
         text = _LOOSE_SPACE.sub("", "".join(words))
         return _ARTICLE.sub(_article, text) if "a @(" in template.template else text
 
-    def atom(self, sym: Symbol) -> str:
+    def atom(self, sym: Symbol, rule: Optional[str] = None) -> str:
+        """`rule`: the id of the rule that derived it, whose own words for it (`%! reads`) come first."""
         _, name, args = self._answer.shape(sym)
+        if rule is not None:
+            own = self.catalog.rule_templates.get((rule, (name, len(args))))
+            if own is not None:
+                return self._filled(own, list(args))
         return self.sentence(name, list(args))
 
     def formats_of(self, rule: CompiledRule) -> dict[str, str]:
@@ -218,13 +226,19 @@ class Phrasebook:
 
     def _motion_against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'VX < 0' as '15.0 m/s to the left is a move to the left', and 'C > 0' of a closing speed as 'the gap
-        shrinks (it grows by 1.5 m/s)': no bare minus sign under a line that says the side or the gap in words."""
+        shrinks by 5.0 m/s', or as 'the gap shrinks (it grows by 1.5 m/s)' where it fails: no bare minus sign
+        under a line that says the side or the gap in words."""
         op, value = _nonzero_side(terms, values, op)
         if fmt != "closing":
             return f"{self.value(value, fmt, '')} {_MOTION[fmt][op]}"
         n = value.number
-        now = "it holds" if n == 0 else f"it {'shrinks' if n > 0 else 'grows'} by {abs(n) / 100:.1f} m/s"
-        return f"{_MOTION[fmt][op]} ({now})"
+        said = _MOTION[fmt][op]
+        if n == 0:
+            return said if op == _EQ else f"{said} (it holds)"
+        verb = "shrinks" if n > 0 else "grows"
+        if said == f"the gap {verb}":  # the words already say which way: "the gap shrinks by 5.0 m/s"
+            return f"{said} by {abs(n) / 100:.1f} m/s"
+        return f"{said} (it {verb} by {abs(n) / 100:.1f} m/s)"
 
     def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'Y < 0' as '4.0 m behind is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind'."""

@@ -29,7 +29,7 @@ EGO_LENGTH, EGO_WIDTH = 4.6, 2.0
 HALF_LANE = 1.75  # m: half a lane, the ego's corridor when predicting crossings
 # The classes the catalog calls motor vehicles (def.motor_vehicle: an automobile, not a vulnerable road user): ahead,
 # one of unknown speed keeps pace with the ego; anything else ahead stands; whatever is behind keeps pace
-# (def.closing_unknown_vehicle, def.closing_unknown_thing, def.rear_closing). A test holds this to the catalog.
+# (def.closing_unknown_vehicle, def.closing_unknown_thing, def.rear_closing_unknown). A test holds this to the catalog.
 MOTOR_VEHICLES = frozenset({ObjectClass.car, ObjectClass.truck, ObjectClass.bus, ObjectClass.bike,
                             ObjectClass.motorcycle, ObjectClass.emergency_vehicle})
 # Typical footprint (length, width) per class when the detector gives no size.

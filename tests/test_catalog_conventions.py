@@ -78,6 +78,18 @@ def test_a_template_placeholder_must_name_a_parameter_and_a_known_format(tmp_pat
         load_catalog(write_rules(tmp_path, f"%! pred gap(D) :: {template}\n"))
 
 
+@pytest.mark.parametrize("text, problem", [
+    ('%! reads gap(D) :: "a gap of @(D:m)"\n', r"r\.lp:1: 'reads' before any '%! rule'"),
+    ('%! rule x.a\n%! says A.\n%! source s\n%! reads gap(D) :: "a gap of @(D:m)"\nlane(1) :- b.\n',
+     r"r\.lp:4: 'reads' gives words for gap/1, which rule x\.a does not derive"),
+    ('%! rule x.a\n%! says A.\n%! source s\n%! reads gap(D) :: "a gap of @(E:m)"\ngap(1) :- b.\n',
+     r"r\.lp:4: @\(E:m\) names no parameter of gap"),
+])
+def test_a_rules_own_words_must_sit_in_its_block_and_fit_what_it_derives(tmp_path, text, problem):
+    with pytest.raises(CatalogError, match=problem):
+        load_catalog(write_rules(tmp_path, text))
+
+
 def test_rules_deriving_an_atom_skip_heads_about_another_constant_and_keep_catalog_order(reasoner):
     catalog = reasoner.catalog
     every = catalog.by_head[("applicable", 1)]

@@ -18,7 +18,7 @@ from discern.scenarios.runner import load, scenario_files
 from discern.rules.scene import Action
 from discern.rules.render import render_html, render_json, render_text
 from discern.rules.verdict import Verdict
-from discern.sanity.examples import obj as sanity_obj, scene as sanity_scene, sensor
+from discern.sanity.examples import MPH, limit_sign, obj as sanity_obj, scene as sanity_scene, sensor
 from tests.scenes import obj, scene
 from tests.test_engine import random_scene as varied_scene
 
@@ -551,6 +551,34 @@ def test_a_signed_speed_against_zero_reads_in_words_not_with_a_minus_sign(reason
                      objects=[obj("car", 30, 18, lane=1, kind="cross_right", velocity={"x": -15.0, "y": 0.0})])
     text = reasoner.decide(crossing, "accelerate", explain=True).justification.text
     assert "15.0 m/s to the left is a move to the left" in text and "-15.0 m/s <" not in text
+
+
+def test_a_closing_speed_that_agrees_with_its_need_reads_once(reasoner):
+    """'the gap shrinks (it shrinks by 5.0 m/s)' said the same thing twice."""
+    sc = scene(speed=10, objects=[obj("bicycle", 0, 25, lane=1, vy=5.0)])
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    assert "the gap shrinks by 5.5 m/s" in text and "(it shrinks" not in text
+
+
+def test_a_closing_speed_a_rule_assumes_reads_as_assumed_not_as_measured(reasoner):
+    """A car of unknown speed 'closes in at 0.0 m/s' read like a measurement; the rule's own words say why."""
+    sc = scene(speed=10, objects=[obj("car", 0, 6, lane=1), obj("car", 0, -8, lane=1)])
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    assert ("car 1, whose speed is unknown, is taken to keep pace with the traffic: the ego closes in on it at "
+            "0.0 m/s, because  [def.closing_unknown_vehicle]") in text
+    assert "the ego closes in on car 1 at" not in text
+    cone = scene(speed=10, objects=[obj("roadblock", 0, 9, lane=1)])
+    text = reasoner.decide(cone, "accelerate", explain=True).justification.text
+    assert ("roadblock 1, whose speed is unknown, is taken to stand still: the ego closes in on it at its own "
+            "10.0 m/s") in text
+
+
+def test_a_rule_ruled_out_by_what_holds_says_so_without_a_double_negative(reasoner):
+    """'needs that it is not so that X, but it is' made the reader undo two negations."""
+    taped = sanity_scene(speed=16.0, limit=85 * MPH, signs=[limit_sign(85)])
+    text = reasoner.decide(taped, "accelerate", explain=True).justification.text
+    assert "it is not so that" not in text
+    assert "rule def.trusted_reading is ruled out, because the limit reading of 38.0 m/s (85 mph) is doubted" in text
 
 
 def test_signed_positions_that_differ_never_read_alike(reasoner):
