@@ -12,7 +12,7 @@ import reprlib
 from enum import Enum
 from typing import Annotated, Literal, Optional
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
 
 SCHEMA_VERSION = 1
 
@@ -301,17 +301,23 @@ class Scene(Strict):
             seen.add(obj.id)
         return objects
 
+    @field_validator("lanes")
+    @classmethod
+    def _ego_lane_listed(cls, lanes: list[Lane], info: ValidationInfo) -> list[Lane]:
+        # A field check, not the scene's: it is reported beside the other fields' problems (a duplicate object
+        # id), where a check of the whole scene runs only once every field is valid.
+        ego = info.data.get("ego")
+        current = sorted(l.id for l in lanes if l.kind is LaneKind.current)
+        if ego is not None and current and ego.lane not in current:
+            raise ValueError(f"ego.lane {ego.lane} does not exist: current lanes are {current}")
+        return lanes
+
     @model_validator(mode="after")
     def _lanes_consistent(self) -> "Scene":
-        current = sorted(l.id for l in self.lanes if l.kind is LaneKind.current)
-        if not current:
+        if not any(l.kind is LaneKind.current for l in self.lanes):
             # The ego stands in a lane even when the frame lists none.
             self.lanes.append(Lane(kind=LaneKind.current, id=self.ego.lane))
             self.notes.append(f"no current lanes given: assuming only the ego's lane {self.ego.lane}")
-        elif self.ego.lane not in current:
-            raise ValueError(
-                f"ego.lane {self.ego.lane} does not exist: current lanes are {current}"
-            )
         known = {(l.kind, l.id) for l in self.lanes}
         for obj in self.objects:
             if obj.lane is not None and (obj.lane.kind, obj.lane.id) not in known:

@@ -103,7 +103,7 @@ def mutate(path, value):
         ('{"frame_id": 1, "ego": {"speed": NaN, "lane": 1}}', "ego.speed: Input should be a finite number"),
         (mutate(["ego", "speed"], -4), "ego.speed: Input should be greater than or equal to 0"),
         (mutate(["ego"], KeyError), "ego: is required but missing"),
-        (mutate(["ego", "lane"], 7), "invalid scene:\nego.lane 7 does not exist: current lanes are [1, 2, 3]"),
+        (mutate(["ego", "lane"], 7), "invalid scene:\nlanes: ego.lane 7 does not exist: current lanes are [1, 2, 3]"),
         (mutate(["sensors"], [{"side": "left", "distance": -1}]), "sensors.0.distance: Input should be greater than or equal to 0"),
         (mutate(["objects", 0, "position", "y"], "far"), "objects.0.position.y"),
         (mutate(["ego", "speed"], 500), "ego.speed: Input should be less than or equal to 150"),
@@ -115,6 +115,18 @@ def test_invalid_input_exits_2_naming_the_field(tmp_path, capsys, data, message)
     code = main(["check", write(tmp_path, data), "--proposed", "brake"])
     err = capsys.readouterr().err
     assert code == 2 and message in err and "Traceback" not in err
+
+
+def test_every_problem_of_a_scene_is_named_at_once_not_one_per_run(tmp_path, capsys):
+    """A duplicate object id once hid that the ego's lane does not exist: the user fixed one, then met the other."""
+    data = good_dict()
+    data["ego"]["lane"] = 7
+    data["objects"].append(dict(data["objects"][0]))
+    code = main(["check", write(tmp_path, data), "--proposed", "brake"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "lanes: ego.lane 7 does not exist: current lanes are [1, 2, 3]" in err
+    assert f"objects: object id {data['objects'][0]['id']} appears twice" in err
 
 
 def test_missing_file_and_missing_action_are_user_errors(tmp_path, capsys):

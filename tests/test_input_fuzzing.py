@@ -200,7 +200,7 @@ def test_a_problem_past_its_length_is_cut_saying_so():
     with pytest.raises(ValidationError) as refused:
         Scene.model_validate({"frame_id": 1, "ego": {"speed": 1, "lane": 1000}, "lanes": lanes[:-1]})
     [line] = describe_errors(refused.value).splitlines()
-    assert line.startswith("ego.lane 1000 does not exist: current lanes are [1, 2, 3")
+    assert line.startswith("lanes: ego.lane 1000 does not exist: current lanes are [1, 2, 3")
     assert re.search(r"\.\.\. \(cut from 49\d\d characters\)$", line) and len(line) < 350
 
 
