@@ -12,9 +12,20 @@ import reprlib
 from enum import Enum
 from typing import Annotated, Literal, Optional
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
 
 SCHEMA_VERSION = 1
+
+
+def _a_json_integer(value: object) -> object:
+    """The version is the JSON integer 1: a Literal alone takes true and 1.0 too (they equal 1 in Python), which the
+    published schema refuses, so that a log would hold a message its own channel schema rejects."""
+    if type(value) is not int:
+        raise ValueError(f"Input should be 1 (got {_shown(value)})")
+    return value
+
+
+Version = Annotated[Literal[1], BeforeValidator(_a_json_integer)]
 
 
 class Action(str, Enum):
@@ -353,7 +364,7 @@ def valid_id(text: str) -> bool:
 class Proposal(Strict):
     """What the planner asks the monitor to judge: one message, one frame."""
 
-    version: Literal[1] = SCHEMA_VERSION
+    version: Version = SCHEMA_VERSION
     vehicle: str = Field("ego", min_length=1, max_length=MAX_ID_LENGTH, pattern=f"^{ID_RULE}$")
     action: Action
     scene: Scene

@@ -7,7 +7,7 @@ from typing import Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .scene import SCHEMA_VERSION, Action
+from .scene import SCHEMA_VERSION, Action, Version
 
 
 class Decision(str, Enum):
@@ -40,7 +40,7 @@ class Justification(BaseModel):
 class Verdict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    version: Literal[1] = SCHEMA_VERSION
+    version: Version = SCHEMA_VERSION
     vehicle: str = "ego"
     frame_id: Optional[int] = None
     timestamp: Optional[float] = None

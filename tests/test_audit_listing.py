@@ -6,13 +6,14 @@ import csv
 import json
 import shutil
 from datetime import datetime, timezone
+from fractions import Fraction
 
 import pytest
 
 from bench.report import pct
 from discern.monitor.audit.aggregate import Odometer, latency_summary
 from discern.monitor.audit.timefmt import iso, parse_time
-from discern.monitor.status import StatusCounters
+from discern.monitor.status import StatusCounters, percentile
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings
 from discern.monitor.example_planner import highway_scene
@@ -134,6 +135,16 @@ def test_latency_percentiles_take_the_nearest_rank_so_few_samples_do_not_lean_hi
     assert (two["samples"], two["p50_ms"], two["max_ms"]) == (2, 1.0, 3.0)
     ten = latency_summary([float(v) for v in range(10, 0, -1)])
     assert (ten["p50_ms"], ten["p90_ms"], ten["p99_ms"], ten["max_ms"]) == (5.0, 9.0, 10.0, 10.0)
+
+
+def test_no_more_than_one_percent_of_latencies_lie_above_the_p99():
+    """3 of 273 latencies once lay above the status key's p99, which then read 44 ms under a 50 ms budget."""
+    for n in (100, 273, 1000, 8192):
+        ordered = [float(v) for v in range(1, n + 1)]
+        for q in ("50", "90", "99", "99.9"):
+            value, share_above = percentile(ordered, float(q)), (100 - Fraction(q)) / 100 * n
+            assert sum(v > value for v in ordered) <= share_above, (n, q)
+            assert sum(v >= value for v in ordered) > share_above, (n, q)  # the least such value
 
 
 def test_the_audit_the_status_key_and_the_benchmarks_report_the_same_percentiles():

@@ -94,6 +94,8 @@ def test_every_proposal_the_schema_admits_decodes_strictly_or_fails_only_a_cross
     (("explain",), "yes", "explain: Input should be a valid boolean (got 'yes')"),
     (("explain",), 1, "explain: Input should be a valid boolean (got 1)"),
     (("version",), "1", "version: Input should be 1 (got '1')"),
+    (("version",), True, "version: Input should be 1 (got True)"),
+    (("version",), 1.0, "version: Input should be 1 (got 1.0)"),
 ])
 def test_a_wire_value_of_another_json_type_than_the_schema_says_is_refused_not_converted(path, value, expected):
     document = json.loads(PROPOSAL.model_dump_json(by_alias=True))
