@@ -131,7 +131,7 @@ class Monitor:
             return failsafe_verdict(self.vehicle, "not sent: this Monitor is closed", RULE_NO_ANSWER, **labels)
         try:
             if self.style == "query":
-                verdict = self._query(payload, timeout)
+                verdict = self._query(payload, timeout, labels["frame_id"])
             else:
                 verdict = self._publish_and_wait(payload, labels["frame_id"], timeout)
         except zenoh.ZError as exc:  # closed meanwhile, from another thread
@@ -210,8 +210,12 @@ class Monitor:
         except ValidationError as exc:
             return None, text.encode(), f"schema violation: {describe_validation_error(exc)}"
 
-    def _query(self, payload: bytes, timeout: float) -> Union[Verdict, str]:
-        """The first verdict that arrives, else why none did."""
+    def _query(self, payload: bytes, timeout: float, frame: Optional[int]) -> Union[Verdict, str]:
+        """The first verdict on this proposal, whose frame is `frame` (None: unreadable), else why none came.
+
+        A reply about another vehicle or frame (a misrouted or misbehaving answerer) is no verdict on this
+        proposal: acting on it would act on another frame's judgement.
+        """
         key = keys.check_key(self.vehicle)
         started = time.monotonic()
         replies = self.session.get(key, payload=payload, encoding=JSON, timeout=timeout)
@@ -227,9 +231,15 @@ class Monitor:
                         problem = f"the monitor replied with an error: {error[:200]}"
                     continue
                 try:
-                    return decode_verdict(reply.ok.payload.to_bytes())
-                except ValueError as exc:
-                    problem = f"unreadable verdict from the monitor: {str(exc).splitlines()[0]}"
+                    verdict = decode_verdict(reply.ok.payload.to_bytes())
+                except ValidationError as exc:
+                    problem = f"unreadable verdict from the monitor: {describe_validation_error(exc)}"
+                    continue
+                # None: a refusal of a payload whose frame id the monitor could not read (cut, too large)
+                if verdict.vehicle == self.vehicle and verdict.frame_id in (frame, None):
+                    return verdict
+                problem = (f"the monitor's reply is about vehicle {verdict.vehicle!r} frame {verdict.frame_id},"
+                           f" not this proposal (vehicle {self.vehicle!r} frame {frame})")
         except zenoh.ZError:
             pass
         if problem is not None:
@@ -262,6 +272,9 @@ class Monitor:
             verdict = decode_verdict(sample.payload.to_bytes())
         except ValueError:
             log.warning("ignored an unreadable verdict on %s", sample.key_expr)
+            return
+        if verdict.vehicle != self.vehicle:  # on this vehicle's key, but about another: no verdict of its frames
+            log.warning("ignored a verdict about vehicle %r on %s", verdict.vehicle, sample.key_expr)
             return
         with self._lock:
             # A verdict naming no frame (a refusal of a payload with no frame id to read) is only for a wait

@@ -207,22 +207,33 @@ def test_a_scene_that_cannot_be_sent_at_all_gets_a_local_failsafe_naming_the_pro
     assert verdict.error.endswith("not sent: it cannot be written as JSON: Object of type object is not JSON serializable")
 
 
-def test_an_unreadable_verdict_becomes_a_client_side_failsafe():
-    """Something that is not a Discern monitor answers on the check key: the planner still gets a verdict."""
+@pytest.mark.parametrize("reply, reason", [
+    (b'{"version": 7}', "unreadable verdict from the monitor: version: Input should be 1"),
+    ({"vehicle": "someone_else", "frame_id": 0},
+     "the monitor's reply is about vehicle 'someone_else' frame 0, not this proposal (vehicle 'misrouted' frame 0)"),
+    ({"vehicle": "misrouted", "frame_id": 999},
+     "the monitor's reply is about vehicle 'misrouted' frame 999, not this proposal (vehicle 'misrouted' frame 0)"),
+])
+def test_a_reply_that_is_no_verdict_on_this_proposal_is_not_acted_on_and_says_why(reply, reason):
+    """An approval of another vehicle's or frame's proposal once came back as this one's; a garbled one lost its reason."""
     import zenoh
 
     from discern.monitor.config import ZenohSettings
+    from discern.monitor.protocol import encode
+    from discern.rules.verdict import Verdict
 
+    if isinstance(reply, dict):
+        reply = encode(Verdict(decision="approve", proposed="cruise", action="cruise", justification={"summary": "approve"}, **reply))
     ep = endpoint(free_port())
     impostor = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
     try:
-        impostor.declare_queryable("discern/garbled/check", lambda q: q.reply(q.key_expr, b'{"version": 7}'))
-        with Monitor("garbled", connect=[ep], timeout=2.0) as client:
+        impostor.declare_queryable("discern/misrouted/check", lambda q: q.reply(q.key_expr, reply))
+        with Monitor("misrouted", connect=[ep], timeout=2.0) as client:
             verdict = client.check(highway_scene(0, 2), "cruise")
     finally:
         impostor.close()
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
-    assert "unreadable verdict from the monitor" in verdict.error
+    assert verdict.frame_id == 0 and verdict.error.startswith(reason)
 
 
 def test_a_monitor_that_answers_after_the_clients_timeout_reads_as_no_verdict_in_time():
