@@ -20,6 +20,8 @@ from discern.rules.render import render_html, render_json
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
 from discern.sanity.jurisdiction import reasoner_for
 
+from .config import path_text
+
 # Parts that add subcommands through a `register(subparsers)` function.
 PARTS: list[str] = [
     "discern.monitor.demo",
@@ -101,8 +103,6 @@ def cmd_check(args: argparse.Namespace) -> int:
         if verdict.notes:
             output += "\nnotes:\n" + "\n".join(f"  {n}" for n in verdict.notes)
     if args.out is not None:
-        if not args.out:
-            raise UserError("--out: empty file name")
         try:
             Path(args.out).write_text(output, encoding="utf-8")
         except OSError as exc:
@@ -240,12 +240,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     check = sub.add_parser("check", help="judge a proposed action in a scene and explain the verdict")
-    check.add_argument("scene", help="scene JSON (or a proposal JSON with action and scene)")
+    check.add_argument("scene", type=path_text, help="scene JSON (or a proposal JSON with action and scene)")
     check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action")
     check.add_argument("--explain", choices=["text", "json", "html"], default="text")
-    check.add_argument("--out", help="write the output to this file")
+    check.add_argument("--out", type=path_text, help="write the output to this file")
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")
-    check.add_argument("--rules", help="use the driving rules in this directory instead of the shipped ones")
+    check.add_argument("--rules", type=path_text, help="use the driving rules in this directory instead of the shipped ones")
     check.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
     check.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                        help="set a reasoning parameter (discern.rules.facts.Params), e.g. --param decel=4; repeatable")
@@ -254,21 +254,21 @@ def build_parser() -> argparse.ArgumentParser:
     catalog = sub.add_parser("catalog", help="list the rules with their English and sources")
     catalog.add_argument("--all", action="store_true", help="include definitions and entity rules")
     catalog.add_argument("--json", action="store_true")
-    catalog.add_argument("--rules", help="list the driving rules in this directory instead of the shipped ones")
+    catalog.add_argument("--rules", type=path_text, help="list the driving rules in this directory instead of the shipped ones")
     catalog.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack to list with the catalog")
     catalog.set_defaults(func=cmd_catalog)
 
     scenarios = sub.add_parser("scenarios", help="run scenario files or the paper's KITTI frames")
     scen_sub = scenarios.add_subparsers(dest="action", required=True, metavar="ACTION")
     run = scen_sub.add_parser("run", help="run scenario JSON files or AV-CSR .pl frames, or directories of them")
-    run.add_argument("paths", nargs="+", metavar="PATH", help="a scenario .json, an AV-CSR .pl, or a directory")
+    run.add_argument("paths", nargs="+", type=path_text, metavar="PATH", help="a scenario .json, an AV-CSR .pl, or a directory")
     run.add_argument("--explain", action="store_true", help="print every verdict's justification")
     run.add_argument("--repeats", type=_repeats, default=5, help="timing repeats per KITTI frame (median), at least 1")
-    run.add_argument("--rules", help="use the driving rules in this directory")
+    run.add_argument("--rules", type=path_text, help="use the driving rules in this directory")
     run.set_defaults(func=cmd_scenarios)
 
     schema = sub.add_parser("schema", help="write the JSON Schemas of the message models")
-    schema.add_argument("--out", default=".", help="directory to write into")
+    schema.add_argument("--out", type=path_text, default=".", help="directory to write into")
     schema.set_defaults(func=cmd_schema)
 
     for module in PARTS:

@@ -11,7 +11,6 @@ import signal
 import sys
 import threading
 import time
-from pathlib import Path
 from typing import Optional
 
 from discern.rules.engine import JURISDICTIONS
@@ -28,6 +27,7 @@ from .config import (
     STATUS_PERIOD_MAX_S,
     STATUS_PERIOD_MIN_S,
     LogSettings,
+    path_arg,
     MonitorConfig,
     ZenohSettings,
     check_number,
@@ -58,7 +58,7 @@ def register(subparsers) -> None:
     serve.add_argument("--workers", type=int, default=1, help="decision worker processes (default: 1)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
     serve.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
-    serve.add_argument("--log-dir", type=Path, default=None, help="write the MCAP log here (default: no log)")
+    serve.add_argument("--log-dir", type=path_arg, default=None, help="write the MCAP log here (default: no log)")
     serve.add_argument(
         "--log-rotate-mb",
         type=float,
@@ -125,7 +125,7 @@ def _zenoh_arguments(parser, *, listen_default, connect_default=None, modes=True
         metavar="ENDPOINT",
         help=f"router or peer endpoint to connect to, repeatable (default: {connect_default or 'none'})",
     )
-    parser.add_argument("--zenoh-config", type=Path, default=None, help="zenoh JSON5 config file (TLS, access control...)")
+    parser.add_argument("--zenoh-config", type=path_arg, default=None, help="zenoh JSON5 config file (TLS, access control...)")
     parser.add_argument("--multicast-scouting", action="store_true", default=None, help="find peers by UDP multicast")
     parser.set_defaults(_connect_default=connect_default)
 

@@ -7,6 +7,7 @@ zenoh JSON5 config file (TLS, access control, routers) and/or --connect endpoint
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -149,6 +150,18 @@ def _insert(config: zenoh.Config, key: str, endpoints: list[str]) -> None:
             reason = without_rust_locations(inner.group(1) if inner else str(exc))
             raise ValueError(f"bad zenoh endpoint {endpoint!r}: {reason}") from None
     config.insert_json5(key, json.dumps(list(endpoints)))
+
+
+def path_text(text: str) -> str:
+    """A path argument as given. An empty one (an unset shell variable) is refused: as a Path it is the current
+    directory, where `discern scenarios run ""` read every file below and `serve --log-dir ""` logged."""
+    if not text:
+        raise argparse.ArgumentTypeError("empty path: give a file or directory name")
+    return text
+
+
+def path_arg(text: str) -> Path:
+    return Path(path_text(text))
 
 
 def check_number(flag: str, value, low: float, high: float = math.inf, *, unit: str = "", above: bool = False) -> None:

@@ -60,8 +60,23 @@ def test_check_reads_a_file_with_a_byte_order_mark_and_refuses_an_empty_out_name
     path.write_text(json.dumps(good_dict()), encoding="utf-8-sig")
     assert main(["check", str(path), "--proposed", "cruise"]) == 0
     assert capsys.readouterr().out.startswith("approve cruise")
-    assert main(["check", str(path), "--proposed", "cruise", "--out", ""]) == 2
-    assert "--out: empty file name" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:
+        main(["check", str(path), "--proposed", "cruise", "--out", ""])
+    assert refused.value.code == 2 and "argument --out: empty path" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [
+    ["scenarios", "run", ""], ["audit", ""], ["audit", "--replay", "x.mcap", "--rules", ""], ["serve", "--log-dir", ""],
+    ["eval", "highway", "--out", ""], ["check", "", "--proposed", "brake"], ["schema", "--out", ""],
+    ["serve", "--zenoh-config", ""],
+])
+def test_an_empty_path_is_refused_not_taken_for_the_current_directory(argv, capsys, tmp_path, monkeypatch):
+    """`scenarios run ""` (an unset variable) read every file under the working directory; `serve --log-dir ""` logged there."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as refused:  # argparse's usage error: exit status 2
+        main(argv)
+    assert refused.value.code == 2 and "empty path: give a file or directory name" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_the_html_banner_names_the_action_in_words(tmp_path, capsys):

@@ -7,6 +7,8 @@ import math
 import sys
 from pathlib import Path
 
+from discern.monitor.config import path_arg, path_text
+
 DEMO_FAULTS = ("none", "signs,missed")
 MONITOR_WAIT_S = 5.0
 
@@ -74,11 +76,11 @@ def _options(parser: argparse.ArgumentParser) -> None:
         help="ask a running `discern serve` over zenoh instead of the in-process reasoner (default endpoint: %(const)s)",
     )
     parser.add_argument(
-        "--record", type=Path, default=None, metavar="DIR", help="log every proposal and verdict to MCAP in DIR (--jobs 1)"
+        "--record", type=path_arg, default=None, metavar="DIR", help="log every proposal and verdict to MCAP in DIR (--jobs 1)"
     )
     parser.add_argument("--no-judge", action="store_true", help="skip the ground-truth false-veto judge")
-    parser.add_argument("--weights", default=None, help="planner weights (default: the packaged ones)")
-    parser.add_argument("--out", type=Path, default=Path("out/eval-highway"), help="folder for CSV, PNG and table")
+    parser.add_argument("--weights", type=path_text, default=None, help="planner weights (default: the packaged ones)")
+    parser.add_argument("--out", type=path_arg, default=Path("out/eval-highway"), help="folder for CSV, PNG and table")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 

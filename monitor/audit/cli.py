@@ -12,7 +12,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from discern.monitor.config import check_number
+from discern.monitor.config import check_number, path_text
 from discern.monitor.log import log_files
 from discern.rules.catalog import CatalogError, load_catalog
 from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
@@ -41,11 +41,12 @@ def register(subparsers) -> None:
             "report the decisions that would change."
         ),
     )
-    p.add_argument("logs", nargs="+", metavar="LOG", help="MCAP log files, or directories of them")
+    p.add_argument("logs", nargs="+", type=path_text, metavar="LOG", help="MCAP log files, or directories of them")
     p.add_argument("--replay", action="store_true", help="re-decide every frame and report what would change")
     p.add_argument(
         "--rules",
         action="append",
+        type=path_text,
         metavar="DIR",
         help="with --replay: a driving-rules directory (*.lp) to use instead of the shipped rules/catalog "
         "(the sanity rules stay); repeatable",
@@ -82,9 +83,9 @@ def register(subparsers) -> None:
     p.add_argument(
         "--verdict", action="append", default=[], choices=[k.value for k in Kind], help="only this kind of disagreement"
     )
-    p.add_argument("--html", metavar="FILE", help="write a self-contained HTML report")
-    p.add_argument("--csv", metavar="FILE", help="write the listing as CSV")
-    p.add_argument("--json", metavar="FILE", help="write everything as JSON")
+    p.add_argument("--html", type=path_text, metavar="FILE", help="write a self-contained HTML report")
+    p.add_argument("--csv", type=path_text, metavar="FILE", help="write the listing as CSV")
+    p.add_argument("--json", type=path_text, metavar="FILE", help="write everything as JSON")
     p.add_argument("--workers", type=int, default=default_workers(), help="worker processes (default: one per core)")
     p.add_argument(
         "--window",
