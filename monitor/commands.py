@@ -58,6 +58,9 @@ def register(subparsers) -> None:
     serve.add_argument("--workers", type=int, default=1, help="decision worker processes (default: 1)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
     serve.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
+    serve.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                       help="set a reasoning parameter for every vehicle it serves (discern.rules.facts.Params), "
+                       "e.g. --param decel=4 for a fleet that brakes at 4 m/s²; repeatable; kept in the log's metadata")
     serve.add_argument("--log-dir", type=path_arg, default=None, help="write the MCAP log here (default: no log)")
     serve.add_argument(
         "--log-rotate-mb",
@@ -201,6 +204,7 @@ def cmd_serve(args) -> int:
             workers=args.workers,
             shadow=args.shadow,
             jurisdiction=args.jurisdiction,
+            params=tuple(args.param),
             log=_log_settings(args),
             status_period_s=args.status_period_s,
             test_decision_delay_ms=args.test_only_decision_delay_ms,

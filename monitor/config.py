@@ -20,6 +20,7 @@ from typing import Optional
 import zenoh
 
 from discern.rules.engine import JURISDICTIONS
+from discern.rules.facts import Params
 from discern.rules.scene import ID_RULE, valid_id
 
 DEFAULT_PORT = 7447
@@ -208,10 +209,16 @@ class MonitorConfig:
     workers: int = 1  # decision processes; each vehicle sticks to one
     shadow: bool = False
     jurisdiction: str = "us"
+    # reasoning parameters (rules.facts.Params) as `--param NAME=VALUE` gives them: a fleet that brakes less firmly
+    params: tuple[str, ...] = ()
     log: Optional[LogSettings] = None
     status_period_s: float = 1.0
     # Test-only: every decision sleeps this long first, to exercise the deadline.
     test_decision_delay_ms: float = 0.0
+
+    def param_values(self) -> dict[str, float]:
+        """The `params` as numbers, for the workers' reasoners and the log's metadata (checked by `validate`)."""
+        return Params.overrides(list(self.params))[0]
 
     def validate(self) -> "MonitorConfig":
         """Refuse, by flag, what the monitor cannot run with, before anything starts."""
@@ -228,6 +235,9 @@ class MonitorConfig:
             raise ValueError(f"--max-payload-bytes must be at least 1024, got {self.max_payload_bytes}")
         if self.jurisdiction not in JURISDICTIONS:
             raise ValueError(f"unknown jurisdiction {self.jurisdiction!r}: choose from {', '.join(JURISDICTIONS)}")
+        problems = Params.overrides(list(self.params))[1]
+        if problems:
+            raise ValueError("; ".join(problems))
         if not 1 <= self.workers <= 64:
             raise ValueError(f"--workers must be between 1 and 64, got {self.workers}")
         # A negative sleep would crash every decision worker at its first batch.

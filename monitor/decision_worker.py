@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from typing import Callable, Iterator, Optional
 
 from discern.rules.engine import Reasoner, Request
+from discern.rules.facts import Params
 from discern.rules.scene import Proposal
 from discern.sanity import WindowConfig, default_providers
 
@@ -63,6 +64,7 @@ class WorkerSettings:
     window_s: float
     shadow: bool
     jurisdiction: str = "us"  # the rule pack: traffic side, limits
+    params: tuple[tuple[str, float], ...] = ()  # reasoning parameters (rules.facts.Params) set by `serve --param`
     test_delay_s: float = 0.0  # test-only: sleep before deciding each batch
 
 
@@ -230,7 +232,8 @@ class Judge:
         self.settings = settings
         # the sanity layer sees the whole window the vehicle's state keeps (`--window-s`), not its own default
         window = default_providers(WindowConfig(seconds=settings.window_s))
-        self.reasoner = Reasoner(jurisdiction=settings.jurisdiction, providers=window)
+        self.reasoner = Reasoner(params=Params(**dict(settings.params)), jurisdiction=settings.jurisdiction,
+                                 providers=window)
         self.vehicles: dict[str, VehicleState] = {}
         self.time = BatchTime()
         self._next_sweep = time.monotonic() + EXPIRY_SWEEP_S

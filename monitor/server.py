@@ -117,7 +117,9 @@ class MonitorServer:
         self._declared: list = []
         self.pool = DecisionPool(
             config.workers,
-            WorkerSettings(config.window_s, config.shadow, config.jurisdiction, config.test_decision_delay_ms / 1000),
+            WorkerSettings(config.window_s, config.shadow, config.jurisdiction,
+                           params=tuple(sorted(config.param_values().items())),
+                           test_delay_s=config.test_decision_delay_ms / 1000),
             self._on_outcome,
             self._on_worker_lost,
         )
@@ -144,7 +146,7 @@ class MonitorServer:
         self.pool.start()  # workers load the rules before zenoh starts any thread
         self.session = zenoh.open(zenoh_config)
         if self.config.log is not None:
-            self.log = McapLogWriter(self.config.log, self.config.monitor_id)
+            self.log = McapLogWriter(self.config.log, self.config.monitor_id, self.config.param_values())
             self.answers = _AnswerLog(self.log)
         self._spawn("discern-watchdog", self._watch)
         if self.log is not None:

@@ -129,7 +129,12 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
         (["--miss-rate", "nan"], "--miss-rate is a chance"),
         (["--sign-value", "-5"], "--sign-value must lie in [0, 150] m/s"),
         (["--sign-value", "151"], "--sign-value must lie in [0, 150] m/s"),
-        (["--noise", "inf"], "--noise must be a finite number"),
+        (["--noise", "inf"], "--noise must lie in [0, 100] metres, got inf"),
+        (["--faults", "noise", "--noise", "2000"], "--noise must lie in [0, 100] metres, got 2000"),  # once a traceback
+        (["--faults", ""], "fault set '' names no fault kind: give 'none' for a run without faults"),
+        (["--faults", ","], "fault set ',' names no fault kind"),
+        (["--variants", "planner,planner"], "--variants names 'planner' twice: its episodes would count twice"),
+        (["--monitor", "--param", "decel=4"], "--param has no effect with --monitor: the monitor decides with its own"),
         (["--variants", ","], "--variants names no variant"),
         (["--duration", "nan"], "--duration must be a finite number of seconds above 0"),
         (["--duration", "inf"], "--duration must be a finite number of seconds above 0"),
@@ -153,6 +158,46 @@ def test_cli_refuses_an_output_folder_that_is_a_file_before_any_episode_runs(fla
     err = capsys.readouterr().err
     assert code == 2 and f"{flag} {taken}: not a directory" in err and "Traceback" not in err
     assert taken.read_text() == "{}"
+
+
+def test_cli_refuses_an_output_folder_inside_a_file_before_any_episode_runs(tmp_path, capsys):
+    """Once found only when the table was written, after every episode had run."""
+    (tmp_path / "scene.json").write_text("{}")
+    inside = tmp_path / "scene.json" / "out"
+    code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "planner", "--out", str(inside)])
+    err = capsys.readouterr().err
+    assert code == 2 and err == f"discern eval: error: --out {inside}: cannot make the folder: Not a directory\n"
+
+
+def test_planner_weights_that_are_not_finite_are_refused(tmp_path, capsys):
+    import torch
+
+    from discern.adapters.highway.planner import default_weights
+
+    state = torch.load(default_weights(), map_location="cpu", weights_only=True)
+    diverged = tmp_path / "nan.pt"
+    torch.save({name: torch.full_like(tensor, float("nan")) for name, tensor in state.items()}, diverged)
+    code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "planner", "--faults", "none", "--quiet",
+                     "--weights", str(diverged), "--duration", "1", "--out", str(tmp_path / "out")])
+    assert code == 2 and capsys.readouterr().err == (
+        f"discern eval: error: {diverged} holds NaN or infinite weights: a diverged training run, not a planner\n")
+
+
+def test_an_evaluation_whose_monitor_stops_answering_stops_instead_of_counting_fail_safe_brakes():
+    """A monitor gone mid-run once gave a 'discern' row of the client's fail-safe brakes, and exit status 0."""
+    from tests.monitor_process import endpoint, free_port
+
+    gone = endpoint(free_port())
+    with pytest.raises(RuntimeError, match=r"discern episode 10000 \(none\), step 0: no monitor answered"):
+        evaluate(1, [Faults()], ["discern"], Setup(duration=2, monitor=(gone,)), progress=False)
+
+
+def test_a_recorded_evaluation_logs_discerns_verdicts_not_rsss(tmp_path):
+    """RSS's overrides in the log read, to the audit and its replay, as Discern decisions that would change."""
+    from discern.monitor.log.reader import read_log
+
+    evaluate(1, [Faults()], ["discern", "rss"], Setup(duration=2, record=str(tmp_path)), progress=False)
+    assert {r.vehicle for r in read_log(sorted(tmp_path.glob("*.mcap"))) if r.kind == "verdict"} == {"discern_none_10000"}
 
 
 def test_cli_says_a_weights_file_that_holds_no_weights_is_not_the_planners(tmp_path, capsys):

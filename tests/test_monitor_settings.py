@@ -64,6 +64,8 @@ def test_the_documented_bounds_are_accepted(tmp_path):
         (["--id", ""], "monitor id is empty: give one with --id, or leave --id out for host-pid"),
         (["--test-only-decision-delay-ms", "-1"], "--test-only-decision-delay-ms must be a finite number at least 0 ms"),
         (["--listen", "tcp/127.0.0.1:0"], "listen endpoint 'tcp/127.0.0.1:0': port 0 is not supported"),
+        (["--param", "decel=0"], "--param decel needs a number from 0.01 to 100, got '0'"),
+        (["--param", "brakes=4"], "unknown --param 'brakes' (known: "),
     ],
 )
 def test_serve_refuses_bad_settings_in_one_line_with_status_2(tmp_path, flags, message):
@@ -132,3 +134,28 @@ def test_a_one_chunk_vehicle_filter_is_taken(pattern, chunk):
 )
 def test_only_a_three_chunk_proposal_or_check_key_names_a_vehicle(key, vehicle):
     assert keys.vehicle_of(key) == vehicle
+
+
+def test_a_monitor_decides_with_the_reasoning_parameters_it_is_given_and_logs_them(tmp_path):
+    """A fleet that brakes at 4 m/s² once had no way to tell its monitor: every monitor decided on the defaults."""
+    from discern.monitor.client import Monitor
+    from discern.monitor.log.reader import log_metadata
+    from discern.rules.engine import Reasoner
+    from discern.rules.facts import Params
+    from tests.monitor_process import serve
+    from tests.scenes import obj, scene
+
+    # closing in at 15 m/s from 40 m: room to brake at the default 6 m/s², not at 4
+    ahead = scene(speed=20, limit=30, zone="highway", objects=[obj("car", 0, 40, lane=1, vy=5)])
+    assert Reasoner().decide(ahead, "cruise").action.value == "cruise"
+    proc, ep = serve("--id", "trucks", "--budget-ms", "5000", "--param", "decel=4", "--log-dir", str(tmp_path))
+    try:
+        with Monitor("truck_1", connect=[ep], timeout=5.0) as client:
+            verdict = client.check(ahead, "cruise")
+    finally:
+        assert proc.stop() == 0, proc.output
+    expected = Reasoner(params=Params(decel=4)).decide(ahead, "cruise")
+    assert verdict.action.value == "brake" and not verdict.failsafe
+    assert (verdict.decision, verdict.action, verdict.rules) == (expected.decision, expected.action, expected.rules)
+    [log] = sorted(tmp_path.glob("*.mcap"))
+    assert log_metadata(log)["params"] == '{"decel": 4.0}'

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -11,6 +12,7 @@ from discern.monitor.config import path_arg, path_text
 
 DEMO_FAULTS = ("none", "signs,missed")
 MONITOR_WAIT_S = 5.0
+MAX_NOISE_M = 100.0  # std at 150 m is 3.2 times it: more would put objects past the scene's 10 km bound
 
 
 def register(subparsers) -> None:
@@ -99,11 +101,16 @@ def _run_eval(args: argparse.Namespace) -> int:
     problems = [f"unknown variant {v!r} (choose from {', '.join(VARIANTS)})" for v in variants if v not in VARIANTS]
     if not variants:
         problems.append(f"--variants names no variant (choose from {', '.join(VARIANTS)})")
+    problems += [f"--variants names {v!r} twice: its episodes would count twice in its row"
+                 for v in sorted({v for v in variants if variants.count(v) > 1})]
     if args.episodes < 1:
         problems.append(f"--episodes must be at least 1, got {args.episodes}")
     if args.env not in SUPPORTED:
         problems.append(f"unsupported --env {args.env!r} (choose from {', '.join(SUPPORTED)})")
     params = _params(args.param, problems)
+    if args.monitor and args.param:
+        problems.append("--param has no effect with --monitor: the monitor decides with its own parameters; "
+                        "give them to it (`discern serve --param decel=4 --param accel_step=2.5`)")
     if args.record is not None and args.jobs > 1:
         problems.append("--record writes one MCAP log from one process: use it with --jobs 1")
     if args.seed < 0:
@@ -136,6 +143,8 @@ def _run_eval(args: argparse.Namespace) -> int:
         f"--faults gives more than one set that comes out as {label!r} with these rates: their rows would merge"
         for label in sorted({l for l in labels if labels.count(l) > 1})
     ]
+    if not problems:
+        problems += _folder_problems((("--out", args.out), ("--record", args.record)))
     if args.monitor and "discern" in variants and not problems:
         problems += _monitor_problems(args.monitor)
     if problems:
@@ -163,16 +172,33 @@ def _run_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _folder_problems(flags) -> list[str]:
+    """Output folders made before the first episode: a run of half an hour is not lost at its end to a path
+    that lies inside a file or a folder it may not write."""
+    problems = []
+    for flag, path in flags:
+        if path is None:
+            continue
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            problems.append(f"{flag} {path}: cannot make the folder: {exc.strerror or exc}")
+            continue
+        if not os.access(path, os.W_OK):
+            problems.append(f"{flag} {path}: cannot write into it")
+    return problems
+
+
 def _rate_problems(args: argparse.Namespace) -> list[str]:
-    """Chances in [0, 1], a finite noise of 0 or more, and a sign value a Scene can hold (0..150 m/s)."""
+    """Chances in [0, 1], a noise of at most MAX_NOISE_M, and a sign value a Scene can hold (0..150 m/s)."""
     from discern.rules.scene import MAX_SPEED_MS as MAX_SIGN_VALUE
 
     problems = []
     for flag, value in (("--miss-rate", args.miss_rate), ("--phantom-rate", args.phantom_rate), ("--sign-rate", args.sign_rate)):
         if value is not None and not 0.0 <= value <= 1.0:
             problems.append(f"{flag} is a chance and must lie in [0, 1], got {value}")
-    if args.noise is not None and not (math.isfinite(args.noise) and args.noise >= 0.0):
-        problems.append(f"--noise must be a finite number of metres of 0 or more, got {args.noise}")
+    if args.noise is not None and not (math.isfinite(args.noise) and 0.0 <= args.noise <= MAX_NOISE_M):
+        problems.append(f"--noise must lie in [0, {MAX_NOISE_M:g}] metres, got {args.noise}")
     if args.sign_value is not None and not 0.0 <= args.sign_value <= MAX_SIGN_VALUE:
         problems.append(f"--sign-value must lie in [0, {MAX_SIGN_VALUE:g}] m/s, got {args.sign_value}")
     return problems

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from discern.monitor.protocol import RULE_NO_ANSWER
 from discern.monitor.status import percentile
 from discern.rules.verdict import Decision
 
@@ -124,45 +125,51 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
         checker=checker,
         faults=faults,
         passthrough=checker is None,
-        recorder=_recorder(setup),
+        # Discern's verdicts only: RSS's in the same log would read, to the audit, as Discern's own
+        recorder=_recorder(setup) if variant == "discern" else None,
         vehicle=vehicle,
     )
     result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed)
     period = policy_period(env)
     env.reset(seed=seed)
     done = False
-    while not done:
-        perceived = env.perceived
-        truth = perceived.truth
-        lanes = max(l.id for l in truth.lanes)
-        action = planner.act(truth.ego, lanes, perceived.camera_tracks(), perceived.sign.limit)
-        started = time.perf_counter()
-        verdict = env.judge(action)
-        if verdict is not None:
-            result.decide_ms.append((time.perf_counter() - started) * 1000.0)
-            if verdict.decision is not Decision.approve:
-                result.vetoes += 1
-                result.overrides += verdict.decision is Decision.override
-                result.rules.update(verdict.rules)
-                true_limit = truth.lane_limit(truth.ego.lane)
-                if setup.judge_vetoes and proposal_was_safe(env, action, true_limit):
-                    result.false_vetoes += 1
-        before = truth.ego.road_position
-        _, _, terminated, truncated, info = env.execute(action, verdict)
-        after = env.perceived.truth
-        result.steps += 1
-        result.time_s += period
-        result.distance_m += max(after.ego.road_position - before, 0.0)
-        limit = after.lane_limit(after.ego.lane)
-        if limit is not None and after.ego.speed > limit + SPEED_TOLERANCE:
-            result.speeding_s += period
-        if perceived.sign.misread:
-            result.misread_s += period
-        result.collided = bool(info.get("crashed", False))
-        done = terminated or truncated
-    env.close()
-    if setup.monitor and checker is not None:
-        checker.close()  # the episode's own zenoh session
+    try:
+        while not done:
+            perceived = env.perceived
+            truth = perceived.truth
+            lanes = max(l.id for l in truth.lanes)
+            action = planner.act(truth.ego, lanes, perceived.camera_tracks(), perceived.sign.limit)
+            started = time.perf_counter()
+            verdict = env.judge(action)
+            if verdict is not None and RULE_NO_ANSWER in verdict.rules:
+                # a monitor that stopped answering: the row would be the client's fail-safe brakes, not Discern's
+                raise RuntimeError(f"{variant} episode {seed} ({faults.label()}), step {result.steps}: {verdict.error}")
+            if verdict is not None:
+                result.decide_ms.append((time.perf_counter() - started) * 1000.0)
+                if verdict.decision is not Decision.approve:
+                    result.vetoes += 1
+                    result.overrides += verdict.decision is Decision.override
+                    result.rules.update(verdict.rules)
+                    true_limit = truth.lane_limit(truth.ego.lane)
+                    if setup.judge_vetoes and proposal_was_safe(env, action, true_limit):
+                        result.false_vetoes += 1
+            before = truth.ego.road_position
+            _, _, terminated, truncated, info = env.execute(action, verdict)
+            after = env.perceived.truth
+            result.steps += 1
+            result.time_s += period
+            result.distance_m += max(after.ego.road_position - before, 0.0)
+            limit = after.lane_limit(after.ego.lane)
+            if limit is not None and after.ego.speed > limit + SPEED_TOLERANCE:
+                result.speeding_s += period
+            if perceived.sign.misread:
+                result.misread_s += period
+            result.collided = bool(info.get("crashed", False))
+            done = terminated or truncated
+    finally:
+        env.close()
+        if setup.monitor and variant == "discern":
+            checker.close()  # the episode's own zenoh session (RSS's checker has none)
     return result
 
 

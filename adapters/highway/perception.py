@@ -47,6 +47,8 @@ class Faults:
     def preset(cls, kinds: str | list[str], seed: int = 0, **rates) -> "Faults":
         """Faults from names ('none', 'all' or a comma list of noise, missed, phantoms, signs)."""
         names = [k.strip() for k in (kinds.split(",") if isinstance(kinds, str) else kinds) if k.strip()]
+        if not names:
+            raise ValueError(f"fault set {kinds!r} names no fault kind: give 'none' for a run without faults")
         if len(names) > 1 and {"none", "all"} & set(names):
             raise ValueError(f"fault set {','.join(names)!r}: 'none' and 'all' stand alone, not with other kinds")
         if names == ["all"]:

@@ -123,6 +123,8 @@ class Planner:
             network.load_state_dict(state)
         except (RuntimeError, TypeError) as exc:  # another network's weights, or no state dict at all
             raise RuntimeError(f"{path} does not hold this planner's weights: {str(exc).splitlines()[0]}") from None
+        if not all(torch.isfinite(tensor).all() for tensor in network.state_dict().values()):
+            raise RuntimeError(f"{path} holds NaN or infinite weights: a diverged training run, not a planner")
         network.eval()
         return cls(network=network, follow_signs=follow_signs)
 

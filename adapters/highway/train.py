@@ -1,6 +1,6 @@
 """Train the planner's DQN on highway-fast-v0 (double DQN, own torch code, CPU, seeded).
 
-    python -m discern.adapters.highway.train --steps 24000 --seed 0 --out adapters/highway/weights/dqn_highway_fast.pt
+    python -m discern.adapters.highway.train --steps 50000 --seed 0 --out adapters/highway/weights/dqn_highway_fast.pt
 
 The cruise control that follows the (true) speed-limit sign is in the loop while training, as it is when
 the planner drives, so the DQN learns to brake and change lanes around it. Hyper-parameters follow
@@ -120,7 +120,8 @@ def _at_least(low: int):
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=_at_least(1), default=24000, help="training steps, at least 1")
+    parser.add_argument("--steps", type=_at_least(1), default=50_000,
+                        help="training steps, at least 1 (default: 50000, as the shipped weights)")
     parser.add_argument("--seed", type=_at_least(0), default=0, help="seed, at least 0 (the environment's seeds are)")
     parser.add_argument("--out", type=Path, default=Path("adapters/highway/weights/dqn_highway_fast.pt"))
     args = parser.parse_args(argv)
