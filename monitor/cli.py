@@ -241,7 +241,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="judge a proposed action in a scene and explain the verdict")
     check.add_argument("scene", type=path_text, help="scene JSON (or a proposal JSON with action and scene)")
-    check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action")
+    check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action; with a proposal file, judged instead of the file's own (what if it had proposed this?)")
     check.add_argument("--explain", choices=["text", "json", "html"], default="text")
     check.add_argument("--out", type=path_text, help="write the output to this file")
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")

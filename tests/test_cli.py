@@ -473,3 +473,20 @@ def test_status_refuses_a_timeout_it_cannot_wait_in_one_line(capsys, timeout):
     assert main(["status", "--timeout", timeout]) == 2
     [line] = capsys.readouterr().err.splitlines()
     assert line.startswith("discern status: error: --timeout must be a finite number above 0 s and at most")
+
+
+def test_the_readmes_example_tree_is_what_check_prints_for_the_shipped_example_scene(capsys):
+    """The README showed a tree no file in the repository gave; the example scene now gives it, line for line."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    shown = readme.split("```\n", 2)[1].splitlines()
+    assert main(["check", str(ROOT / "docs" / "examples" / "scene.json"), "--proposed", "change_lane_left"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert shown[-1].strip() == "..." and printed[:len(shown) - 1] == shown[:-1]
+
+
+def test_the_example_proposal_is_judged_as_its_own_action_or_as_the_one_given_instead(capsys):
+    proposal = str(ROOT / "docs" / "examples" / "proposal.json")
+    assert main(["check", proposal]) == 0
+    assert capsys.readouterr().out.startswith("override change_lane_left with brake")
+    assert main(["check", proposal, "--proposed", "brake"]) == 0
+    assert capsys.readouterr().out.startswith("approve brake")

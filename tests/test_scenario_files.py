@@ -23,6 +23,17 @@ def test_paper_synthetic_and_walkthrough_scenarios_are_present():
             "lane_ends_merge_right", "kitti_merge_left_heavy_traffic", "kitti_wait_for_pedestrians_right_turn"} <= names
 
 
+def test_every_driving_rule_has_a_scenario_file_whose_verdict_cites_it():
+    """The decision machinery (dec.*) aside: it is in every verdict's proof, not a rule one scene shows."""
+    from discern.rules.catalog import catalog_dirs, load_catalog
+
+    driving = {r.id for r in load_catalog().driving_rules()
+               if r.file.startswith(str(catalog_dirs()[0])) and not r.id.startswith("dec.")}
+    files = {p.stem: runner.load(p) for p in (ROOT / "rules").glob("*.json")}
+    assert driving - set(files) == set()
+    assert [rule for rule in driving if not any(rule in f.expect.rules for f in files[rule].frames)] == []
+
+
 def test_a_wrong_expectation_is_reported_as_a_failure(reasoner):
     scenario = runner.load(ROOT / "paper" / "boxed_in.json")
     scenario.frames[0].expect.action = Action.accelerate
