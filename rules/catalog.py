@@ -11,8 +11,8 @@ A catalog file is plain clingo syntax plus `%!` annotation comments:
 A `rule` annotation names every statement that follows it up to the next
 `rule` annotation. Within a rule block, `%! reads head(Args) :: "..."` is how
 an atom reads when that rule derived it, in place of the predicate's template:
-a value the rule assumes reads as assumed, not as measured. Rules are also compiled to plain tuples (terms.py) for the
-justifier, and indexed by the predicates they need so that a frame grounds
+a value the rule assumes reads as assumed, not as measured. Rules are also
+compiled to plain tuples (terms.py) for the justifier, and indexed by the predicates they need so that a frame grounds
 only the rules that can fire on its facts.
 """
 
@@ -318,10 +318,19 @@ def signature_of(head: ast.AST) -> tuple[str, int]:
     raise CatalogError(f"unsupported head {head}")
 
 
-def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[str, PredTemplate]], set[tuple[str, int]]]:
-    """Map each `%! rule` block's first line to its RuleInfo; collect templates and hidden predicates."""
+@dataclass(frozen=True)
+class _Annotations:
+    blocks: dict[int, RuleInfo]  # each `%! rule` block's first line -> its RuleInfo
+    templates: list[tuple[str, PredTemplate]]  # ("pred" or "term", its template)
+    hidden: set[tuple[str, int]]
+    reads: list[tuple[str, int, PredTemplate]]  # (rule id, line, how its head reads)
+
+
+def _annotations(text: str, path: str) -> _Annotations:
+    """Map each `%! rule` block's first line to its RuleInfo; collect templates, rules' own words and hidden predicates."""
     blocks: dict[int, RuleInfo] = {}
-    templates: list[tuple[str, PredTemplate]] = []  # ("pred", "term" or "reads <rule id>:<line>", its template)
+    templates: list[tuple[str, PredTemplate]] = []
+    reads: list[tuple[str, int, PredTemplate]] = []
     hidden: set[tuple[str, int]] = set()
     current: dict[str, str] = {}
     start = 0
@@ -365,8 +374,10 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
                 if fmt is not None and fmt not in TEMPLATE_FORMATS:
                     raise CatalogError(f"{path}:{number}: unknown format {fmt!r} in {placeholder.group(0)}"
                                        f" (known: {', '.join(sorted(TEMPLATE_FORMATS))})")
-            templates.append((f"reads {current['rule']}:{number}" if key == "reads" else key,
-                              PredTemplate(name, args, template)))
+            if key == "reads":
+                reads.append((current["rule"], number, PredTemplate(name, args, template)))
+            else:
+                templates.append((key, PredTemplate(name, args, template)))
         elif key == "rule":
             close()
             current, start = {"rule": value}, number
@@ -377,19 +388,17 @@ def _annotations(text: str, path: str) -> tuple[dict[int, RuleInfo], list[tuple[
             if "says" in current and "source" in current:
                 blocks[start] = RuleInfo(current["rule"], current["says"], current["source"], path, start)
     close()
-    return blocks, templates, hidden
+    return _Annotations(blocks, templates, hidden, reads)
 
 
 def _compile_file(path: str, text: str, catalog: Catalog) -> None:
-    blocks, templates, hidden = _annotations(text, path)
-    catalog.hidden |= hidden
-    reads: dict[tuple[str, tuple[str, int]], int] = {}  # a rule's own templates, with their lines
-    for key, template in templates:
-        if key.startswith("reads "):
-            rule_id, line = key.removeprefix("reads ").rsplit(":", 1)
-            catalog.rule_templates[(rule_id, template.signature)] = template
-            reads[(rule_id, template.signature)] = int(line)
-        elif key == "term" and not template.params:  # a constant's words: its own, apart from any predicate's
+    found = _annotations(text, path)
+    blocks = found.blocks
+    catalog.hidden |= found.hidden
+    for rule_id, _, template in found.reads:
+        catalog.rule_templates[(rule_id, template.signature)] = template
+    for key, template in found.templates:
+        if key == "term" and not template.params:  # a constant's words: its own, apart from any predicate's
             catalog.words[template.name] = template.template
         else:
             catalog.templates[template.signature] = template
@@ -449,10 +458,10 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
             )
         )
     derived = {(rule.info.id, rule.signature) for rule in catalog.compiled}
-    for (rule_id, signature), line in reads.items():
-        if (rule_id, signature) not in derived:
-            raise CatalogError(f"{path}:{line}: 'reads' gives words for {signature[0]}/{signature[1]},"
-                               f" which rule {rule_id} does not derive")
+    for rule_id, line, template in found.reads:
+        if (rule_id, template.signature) not in derived:
+            name, arity = template.signature
+            raise CatalogError(f"{path}:{line}: 'reads' gives words for {name}/{arity}, which rule {rule_id} does not derive")
 
 
 def _computed_head_arguments(head: ast.AST, body: tuple[Literal, ...]) -> tuple[Term, tuple[Literal, ...]]:
