@@ -18,7 +18,7 @@ from typing import Union
 
 from pydantic import ValidationError
 
-from discern.rules.scene import Action, IntersectionStage, Scene, Zone, describe_errors
+from discern.rules.scene import Action, IntersectionStage, Scene, Zone, describe_error
 
 Term = Union[int, float, str, "Compound", list]
 
@@ -28,15 +28,22 @@ class Compound:
     name: str
     args: tuple
 
+    def __repr__(self) -> str:  # in every message, as the file writes it: pos(0, 3, 4)
+        return _show(self)
+
 
 class AvcsrError(ValueError):
     """A frame file that cannot be read; the message names file, line and problem."""
 
 
+# Prolog's own spellings are read as Prolog reads them: 'car' is the atom car, /* ... */ a comment, 1.0e1 a float.
 _TOKEN = re.compile(
-    r"\s*(?:(?P<comment>%[^\n]*)|(?P<num>-?\d+(?:\.\d+)?(?![\w.]\d))|(?P<atom>[a-z][A-Za-z0-9_]*)"
+    r"\s*(?:(?P<comment>%[^\n]*|/\*(?s:.*?)\*/)|(?P<num>-?\d+(?:\.\d+)?(?:[eE][+-]?\d+)?(?![\w.]\d))"
+    r"|(?P<atom>[a-z][A-Za-z0-9_]*)|(?P<quoted>'(?:[^'\\\n]|''|\\.)*')"
     r"|(?P<var>[A-Z_][A-Za-z0-9_]*)|(?P<punct>[(),\[\]|])|(?P<end>\.(?=\s|$|%))|(?P<bad>\S))"
 )
+_UNSUPPORTED = {'"': "a double-quoted string", "/": "an operator or an unclosed /* comment",
+                "'": "an unclosed quoted atom", "{": "a curly term", ":": "an operator (:-, a module qualifier)"}
 
 
 def _tokens(text: str, path: str):
@@ -46,9 +53,13 @@ def _tokens(text: str, path: str):
         kind = m.lastgroup
         value = m.group(kind)
         if kind == "comment":
+            line += value.count("\n")
             continue
         if kind == "bad":
-            raise AvcsrError(f"{path}:{line}: unexpected character {value!r}")
+            what = _UNSUPPORTED.get(value)
+            raise AvcsrError(f"{path}:{line}: unexpected character {value!r}" + (f" ({what}: not part of a fact)" if what else ""))
+        if kind == "quoted":
+            kind, value = "atom", value[1:-1].replace("''", "'")
         yield kind, value, line
         line += value.count("\n")
 
@@ -83,7 +94,7 @@ class _Parser:
     def term(self) -> Term:
         kind, tok, line = self.take()
         if kind == "num":
-            return float(tok) if "." in tok else int(tok)
+            return float(tok) if "." in tok or "e" in tok.lower() else int(tok)
         if kind == "var":
             raise AvcsrError(f"{self.path}:{line}: variable {tok} in a fact (facts must be ground)")
         if tok == "[":
@@ -292,6 +303,18 @@ def _key(f: Compound) -> str:
     return f.name
 
 
+# The scene's fields each fact fills, so that a value the scene model refuses is named by its fact and line.
+_EGO_FIELDS = {"self_speed": ("ego", "speed"), "self_lane": ("ego", "lane"), "intent": ("ego", "intent"),
+               "self_pred_path": ("ego", "predicted_path"), "speed_limit": ("speed_limit",),
+               "intersection": ("intersection",)}
+_LISTS = ("objects", "lanes", "traffic_lights", "signs", "sensors")
+# AV-CSR's own indicator words (its entities.pl) that the scene model has no word for, read as none with a note.
+_SIDELESS_INDICATORS = {
+    "turn_signals": "a turn signal without its side, which the scene's left and right need",
+    "tail_lights": "tail lights, which signal nothing",
+}
+
+
 def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) -> tuple[Scene, Action | None, list[str]]:
     data: dict = {"frame_id": t, "lanes": [], "objects": [], "traffic_lights": [], "signs": [], "sensors": []}
     ego: dict = {"zone": zone}
@@ -299,6 +322,8 @@ def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) ->
     held: dict[str, tuple[Compound, int]] = {}
     object_paths: list[tuple[Compound, int]] = []
     crossings: list[tuple[Term, Term]] = []
+    origins: dict[tuple, tuple[Compound, int]] = {}  # a field of the scene -> the fact that filled it
+    notes: list[str] = []
     for f, line in facts:
         key = _key(f)
         if key in held:
@@ -312,16 +337,27 @@ def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) ->
         if f.name == "obj_pred_path":
             object_paths.append((f, line))
             continue
+        lengths = {name: len(data[name]) for name in _LISTS}
         try:
             expected = _read_fact(f, data, ego, crossings) or expected
         except (ValueError, TypeError, AttributeError, IndexError) as exc:
             raise AvcsrError(f"{path}:{line}: {f.name}/{len(f.args)} cannot be read: {exc}") from None
-    notes = _intersection_stage(data, held, t, path)
+        for name, before in lengths.items():
+            origins.update({(name, i): (f, line) for i in range(before, len(data[name]))})
+        if f.name in _EGO_FIELDS:
+            origins[_EGO_FIELDS[f.name]] = f, line
+        if f.name == "self_lane":
+            origins[("lanes",)] = f, line  # the one check of the lanes as a whole: the ego's lane is among them
+        if f.name == "obj_meta" and f.args[5] in _SIDELESS_INDICATORS:
+            notes.append(f"{path.name}:{line}: {_show(f)}: indicator {f.args[5]} is "
+                         f"{_SIDELESS_INDICATORS[f.args[5]]}: read as none")
+    notes += _intersection_stage(data, held, t, path)
     for f, line in object_paths:
-        owners = [obj for obj in data["objects"] if obj["id"] == f.args[0]]
+        owners = [i for i, obj in enumerate(data["objects"]) if obj["id"] == f.args[0]]
         if not owners:
             raise AvcsrError(f"{path}:{line}: {_show(f)}: frame {t} has no obj_meta for object {_show(f.args[0])}")
-        owners[0]["predicted_path"] = f.args[1]
+        data["objects"][owners[0]]["predicted_path"] = f.args[1]
+        origins[("objects", owners[0], "predicted_path")] = f, line
     data["path_crossings"] = [
         {"ego_path": p, "object_path": q}
         for p, q in crossings
@@ -331,7 +367,19 @@ def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) ->
     try:
         return Scene.model_validate(data), expected, notes
     except ValidationError as exc:
-        raise AvcsrError(f"{path}: frame {t}:\n{describe_errors(exc)}") from None
+        raise AvcsrError("\n".join(_problem(err, origins, path, t) for err in exc.errors(include_url=False))) from None
+
+
+def _problem(err: dict, origins: dict[tuple, tuple[Compound, int]], path: Path, t: int) -> str:
+    """A value the scene model refuses, named by the fact and line it came from: `file:6: obj_meta(...): class: ...`."""
+    loc = tuple(err["loc"])
+    for cut in range(len(loc), 0, -1):
+        if loc[:cut] in origins:
+            fact, line = origins[loc[:cut]]
+            field = ".".join(map(str, loc[cut:]))
+            return f"{path}:{line}: {_show(fact)}: {field + ': ' if field else ''}{describe_error(err)}"
+    where = ".".join(map(str, loc))
+    return f"{path}: frame {t}: {where + ': ' if where else ''}{describe_error(err)}"
 
 
 def _intersection_stage(data: dict, held: dict, t: int, path: Path) -> list[str]:
@@ -373,6 +421,7 @@ def _read_fact(f: Compound, data: dict, ego: dict, crossings: list) -> Action | 
         ego["intent"] = a[0]
     elif f.name == "obj_meta":
         _, oid, cls, pos, lane, indicator = a
+        indicator = "none" if indicator in _SIDELESS_INDICATORS else indicator
         x, y = _pair(pos, "pos")
         kind, lane_id = _pair(lane, "lane")
         data["objects"].append(
@@ -387,6 +436,8 @@ def _read_fact(f: Compound, data: dict, ego: dict, crossings: list) -> Action | 
         )
     elif f.name == "lanes":
         kind, ids = a[0], a[1]
+        if not isinstance(ids, list):
+            raise ValueError(f"expected a list of lane ids such as [1, 2], found {_show(ids)}")
         for lane_id in dict.fromkeys(ids):
             data["lanes"].append({"kind": kind, "id": lane_id})
     elif f.name == "traffic_light":

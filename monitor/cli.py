@@ -180,21 +180,29 @@ def _repeats(text: str) -> int:
 def cmd_scenarios(args: argparse.Namespace) -> int:
     frame_files, scenario_files = _scenario_inputs(args.paths)
     ok = True
+    unreadable_frames: list[str] = []
     if frame_files:
         from discern.adapters.avcsr import AvcsrError, read_file
         from discern.scenarios import paper_table
 
-        try:
-            frames = [frame for path in frame_files for frame in read_file(path)]
+        frames = []
+        for path in frame_files:  # a broken file is named, and the others still make the table
+            try:
+                frames += read_file(path)
+            except AvcsrError as exc:
+                unreadable_frames.append(str(exc))
+        if frames:
             rows = paper_table.run(frames, _reasoner(args), repeats=args.repeats)
-        except AvcsrError as exc:
-            raise UserError(str(exc)) from None
-        print(paper_table.format_rows(rows))
-        print()
-        print(paper_table.format_table(rows))
-        for row in rows if args.explain else ():
-            print(f"\n{row.frame.scenario} frame {row.frame.frame}:\n{_indented(row.verdict.justification.text)}")
-        ok = all(r.agrees is not False for r in rows)  # a frame without expected_action is not scored
+            print(paper_table.format_rows(rows))
+            print()
+            print(paper_table.format_table(rows))
+            for row in rows if args.explain else ():
+                print(f"\n{row.frame.scenario} frame {row.frame.frame}:\n{_indented(row.verdict.justification.text)}")
+            ok = all(r.agrees is not False for r in rows)  # a frame without expected_action is not scored
+        for reason in unreadable_frames:
+            print(f"discern: error: {reason}", file=sys.stderr)
+        if unreadable_frames and len(frame_files) > 1:
+            print(f"{len(unreadable_frames)} of {len(frame_files)} AV-CSR files not read")
     if scenario_files:
         from discern.scenarios import runner
 
@@ -217,6 +225,8 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
         if unreadable:
             return 2  # bad input, as for one file alone
         ok = ok and failed == 0
+    if unreadable_frames:
+        return 2
     return 0 if ok else 1
 
 

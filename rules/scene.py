@@ -394,6 +394,19 @@ def _cut(text: str, limit: int) -> str:
     return text if len(text) <= limit else f"{text[:limit]}... (cut from {len(text)} characters)"
 
 
+def describe_error(err: dict) -> str:
+    """One problem of a ValidationError (an item of `errors()`) in words, with the offending value, without its field."""
+    message = err["msg"].removeprefix("Value error, ")
+    if err["type"] == "enum":
+        expected = err.get("ctx", {}).get("expected", "")
+        return f"unknown value {_shown(err['input'])} (expected one of {expected})"
+    if err["type"] == "missing":
+        return "is required but missing"
+    if err["type"] != "value_error" and "input" in err and err["type"] not in ("model_type", "dict_type"):
+        return f"{message} (got {_shown(err['input'])})"
+    return message
+
+
 def describe_errors(exc: ValidationError, root: str = "", limit: Optional[int] = None) -> str:
     """One line per problem, naming the field path, the problem and the offending value; each line bounded.
 
@@ -405,16 +418,7 @@ def describe_errors(exc: ValidationError, root: str = "", limit: Optional[int] =
     for err in errors[:limit]:
         # a whole-scene check names its fields itself
         path = ".".join(_cut(str(p), MAX_PATH_PART) for p in (root, *err["loc"]) if p != "")
-        message = err["msg"].removeprefix("Value error, ")
-        if err["type"] == "value_error":
-            pass
-        elif err["type"] == "enum":
-            expected = err.get("ctx", {}).get("expected", "")
-            message = f"unknown value {_shown(err['input'])} (expected one of {expected})"
-        elif err["type"] in ("missing",):
-            message = "is required but missing"
-        elif "input" in err and err["type"] not in ("model_type", "dict_type"):
-            message = f"{message} (got {_shown(err['input'])})"
+        message = describe_error(err)
         lines.append(_cut(f"{path}: {message}" if path else message, MAX_PROBLEM))
     if len(errors) > len(lines):
         lines.append(f"... and {len(errors) - len(lines)} more")

@@ -258,3 +258,45 @@ def test_an_unknown_or_missing_environment_is_read_as_city_with_a_note(tmp_path,
 @pytest.mark.parametrize("text", ["", "% City - nothing here\n", "% City\npath_intersects(sp1, op1).\n"])
 def test_a_file_without_frames_is_refused(tmp_path, text):
     assert refused(tmp_path, text).endswith("f.pl: no frames: no fact names a frame T")
+
+
+@pytest.mark.parametrize("fact, message", [
+    ("obj_meta(1, 4, motorbike, pos(0, 30), lane(current, 1), none).",
+     "f.pl:9: obj_meta(1, 4, motorbike, pos(0, 30), lane(current, 1), none): class: unknown value 'motorbike'"),
+    ("obj_meta(1, 4, car, pos(0, 100000), lane(current, 1), none).",
+     "f.pl:9: obj_meta(1, 4, car, pos(0, 100000), lane(current, 1), none): position.y: Input should be less than"),
+    ("traffic_light(blue, 1).", "f.pl:9: traffic_light(blue, 1): colour: unknown value 'blue'"),
+    ("obj_meta(1, 4, car, pos(0, f(3)), lane(current, 1), none).",
+     "f.pl:9: obj_meta(1, 4, car, pos(0, f(3)), lane(current, 1), none): position.y: Input should be a valid number (got f(3))"),
+    ("obj_meta(1, 4, car, pos(0, 3, 4), lane(current, 1), none).",
+     "f.pl:9: obj_meta/6 cannot be read: expected pos(_, _), found pos(0, 3, 4)"),
+    ("lanes(oncoming, abc, 1).", "f.pl:9: lanes/3 cannot be read: expected a list of lane ids such as [1, 2], found abc"),
+])
+def test_a_value_the_scene_refuses_is_named_by_its_fact_and_line(tmp_path, fact, message):
+    """Once 'frame 1:' and 'objects.0.class', a list position the file never wrote, on a second line."""
+    said = refused(tmp_path, BASE + fact + "\n")
+    assert said.startswith(str(tmp_path / message.split(":", 1)[0]) + ":" + message.split(":", 1)[1]) and "\n" not in said
+
+
+def test_the_speed_of_a_frame_is_named_by_its_fact_when_the_scene_refuses_it(tmp_path):
+    said = refused(tmp_path, BASE.replace("self_speed(8, 1).", "self_speed(-8, 1)."))
+    assert said == f"{tmp_path / 'f.pl'}:3: self_speed(-8, 1): Input should be greater than or equal to 0 (got -8)"
+
+
+def test_prologs_own_spellings_read_as_prolog_reads_them(tmp_path):
+    """'car' is the atom car, /* */ a comment and 1.2e1 a float: once each was an 'unexpected character'."""
+    (frame,) = read(tmp_path, BASE + "/* a\n block */ obj_meta(1, 4, 'car', pos(0, 1.2e1), lane(current, 1), none).\n")
+    car = frame.scene.objects[0]
+    assert (car.cls.value, car.position.y) == ("car", 12.0)
+    assert "unexpected character '\"' (a double-quoted string: not part of a fact)" in refused(
+        tmp_path, BASE + 'intent("continue_in_lane", 1).\n')
+
+
+@pytest.mark.parametrize("indicator, said", [
+    ("turn_signals", "a turn signal without its side, which the scene's left and right need"),
+    ("tail_lights", "tail lights, which signal nothing"),
+])
+def test_av_csrs_own_indicator_words_are_read_as_none_with_a_note(tmp_path, indicator, said):
+    (frame,) = read(tmp_path, BASE + OBJECT.replace("none)", f"{indicator})"))
+    assert frame.scene.objects[0].indicator.value == "none"
+    assert any(f"indicator {indicator} is {said}: read as none" in note for note in frame.notes)

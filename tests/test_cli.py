@@ -490,3 +490,14 @@ def test_the_example_proposal_is_judged_as_its_own_action_or_as_the_one_given_in
     assert capsys.readouterr().out.startswith("override change_lane_left with brake")
     assert main(["check", proposal, "--proposed", "brake"]) == 0
     assert capsys.readouterr().out.startswith("approve brake")
+
+
+def test_a_broken_frame_file_among_good_ones_is_named_and_the_others_still_make_the_table(tmp_path, capsys, avcsr_dir):
+    """One bad .pl in a folder once stopped the whole table: no row for the good files."""
+    good = sorted(avcsr_dir.glob("*.pl"))[0]
+    (tmp_path / good.name).write_text(good.read_text())
+    (tmp_path / "broken.pl").write_text(good.read_text().replace("car,", "motorbike,", 1))
+    assert main(["scenarios", "run", str(tmp_path), "--repeats", "1"]) == 2
+    captured = capsys.readouterr()
+    assert good.stem in captured.out and "1 of 2 AV-CSR files not read" in captured.out
+    assert "broken.pl:" in captured.err and "class: unknown value 'motorbike'" in captured.err
