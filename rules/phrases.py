@@ -50,13 +50,15 @@ _SETTINGS = {
     "turn_gap_ms": ("time a turn takes to clear", "s", 1000), "decel": ("firm braking deceleration", "m/s²", 100),
     "accel_step": ("speed one accelerate adds", "m/s", 100),
     "speed_margin": ("margin allowed over the limit", "m/s", 100), "turn_speed": ("fastest turning speed", "m/s", 100),
-    "stopped_speed": ("speed under which the ego has stopped", "m/s", 100), "min_gap": ("minimum gap", "m", 100),
+    "stopped_speed": ("speed under which a vehicle counts as stopped", "m/s", 100), "min_gap": ("minimum gap", "m", 100),
     "range_match": ("distance within which a range reading is an object's", "m", 100),
     "confirm_frames": ("number of frames that confirm a reading", "", 1),
     "confirm_ms": ("time that confirms a reading", "s", 1000),
     "track_frames": ("number of frames that establish a track", "", 1),
     "track_ms": ("time that establishes a track", "s", 1000),
 }
+_DISTANCE_SETTING = ("", "m", 100)  # a setting _SETTINGS does not name: a distance in cm
+_SETTING_FORMATS = {"s": "ms", "m": "m", "m/s": "mps"}  # a setting's unit (_SETTINGS) as a template format
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "limit": "some speed", "ms": "some time",
             "ahead": "somewhere", "right": "somewhere", "along": "some speed", "across": "some speed",
             "closing": "some speed", "lane": "a lane", "detail": "", "paren": ""}
@@ -134,7 +136,7 @@ class Phrasebook:
     def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
         if name in ("param", "window_param") and len(args) == 2 and args[0] is not None and args[1] is not None:
             setting = args[0].name
-            label, unit, scale = _SETTINGS.get(setting, (setting.replace("_dist", "_distance").replace("_", " "), "m", 100))
+            label, unit, scale = _SETTINGS.get(setting, (setting.replace("_dist", "_distance").replace("_", " "), *_DISTANCE_SETTING[1:]))
             return f"the {label} is {args[1].number / scale:g} {unit}".rstrip()
         template = self.catalog.templates.get((name, len(args)))
         if template is None:
@@ -171,6 +173,12 @@ class Phrasebook:
         for term in [rule.head] + [lit.atom for lit in rule.body if lit.is_atom]:
             if term[0] != "f":
                 continue
+            if term[1] in ("param", "window_param") and len(term[2]) == 2 and term[2][0][0] == "s":
+                setting, value = term[2][0][1].name, term[2][1]  # a setting's unit: turn_gap_ms is a time
+                fmt = _SETTING_FORMATS.get(_SETTINGS.get(setting, _DISTANCE_SETTING)[1])
+                if value[0] == "v" and fmt is not None:
+                    formats.setdefault(value[1], fmt)
+                continue
             template = self.catalog.templates.get((term[1], len(term[2])))
             if template is None:
                 continue
@@ -187,7 +195,10 @@ class Phrasebook:
         left, guards = lit.comparison
         terms = [left] + [t for _, t in guards]
         ops = [op for op, _ in guards]
-        fmt = next((formats[v] for t in terms for v in sorted(term_vars(t)) if v in formats), None)
+        # A side that is one variable says the unit; a computed one may mix units (|X| * 1000 / VX is a time made of
+        # a distance and a speed), so its variables' units count only where no side is one variable.
+        fmt = next((formats[t[1]] for t in terms if t[0] == "v" and t[1] in formats), None) or next(
+            (formats[v] for t in terms for v in sorted(term_vars(t)) if v in formats), None)
         values: list[Optional[Symbol]] = []
         for term in terms:
             try:

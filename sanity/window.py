@@ -27,11 +27,16 @@ CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Sourc
 PICTURE = {Source.camera, Source.fused}  # sources that classify signs from a picture (def.read_from_a_picture)
 EGO_LENGTH, EGO_WIDTH = 4.6, 2.0
 HALF_LANE = 1.75  # m: half a lane, the ego's corridor when predicting crossings
-# The classes the catalog calls motor vehicles (def.motor_vehicle: an automobile, not a vulnerable road user): ahead,
-# one of unknown speed keeps pace with the ego; anything else ahead stands; whatever is behind keeps pace
-# (def.closing_unknown_vehicle, def.closing_unknown_thing, def.rear_closing_unknown). A test holds this to the catalog.
+# How the catalog moves an object of unknown speed, mirrored here (tests hold these to the catalog): ahead, a motor
+# vehicle (def.motor_vehicle: an automobile, not a vulnerable road user) keeps pace with the ego, unless it is in an
+# oncoming or a crossing lane, and anything else stands (def.closing_unknown_vehicle, def.closing_unknown_across,
+# def.closing_unknown_thing); behind, a thing that cannot move by itself stands and the rest keep pace
+# (def.rear_closing_thing, def.rear_closing_unknown).
 MOTOR_VEHICLES = frozenset({ObjectClass.car, ObjectClass.truck, ObjectClass.bus, ObjectClass.bike,
                             ObjectClass.motorcycle, ObjectClass.emergency_vehicle})
+STANDS_BY_NATURE = frozenset({ObjectClass.traffic_light, ObjectClass.plastic_bag, ObjectClass.roadblock,
+                              ObjectClass.barrier, ObjectClass.traffic_cone, ObjectClass.debris})
+AGAINST_TRAFFIC = frozenset({LaneKind.oncoming, LaneKind.cross_left, LaneKind.cross_right})
 # Typical footprint (length, width) per class when the detector gives no size.
 FOOTPRINT = {
     ObjectClass.car: (4.5, 1.8),
@@ -476,10 +481,12 @@ def _extent(obj: DetectedObject) -> tuple[float, float]:
 
 
 def _relative_velocity(obj: DetectedObject, ego_speed: float) -> tuple[float, float]:
-    """Velocity relative to the ego; an unknown speed as the catalog assumes it (MOTOR_VEHICLES)."""
+    """Velocity relative to the ego; an unknown speed as the catalog assumes it (MOTOR_VEHICLES, STANDS_BY_NATURE)."""
     if obj.velocity is not None:
         return obj.velocity.x, obj.velocity.y - ego_speed
-    if obj.position.y < 0 or obj.cls in MOTOR_VEHICLES:
+    if obj.position.y < 0:
+        return (0.0, -ego_speed) if obj.cls in STANDS_BY_NATURE else (0.0, 0.0)
+    if obj.cls in MOTOR_VEHICLES and (obj.lane is None or obj.lane.kind not in AGAINST_TRAFFIC):
         return 0.0, 0.0
     return 0.0, -ego_speed
 

@@ -614,3 +614,37 @@ def test_reasons_worded_alike_are_both_argued_when_their_own_reasons_differ(reas
     assert "moving in beside car 1 needs a headway gap of 10.0 m  [def.headway_gap]" in text
     html_page = render_html(verdict)
     assert "moving in beside car 1 needs a headway gap of 10.0 m" in html_page
+
+
+def test_an_oncoming_car_of_unknown_speed_is_not_said_to_keep_pace_with_the_traffic(reasoner):
+    """'closes in at 0.0 m/s' of an oncoming car: oncoming traffic does not drive away ahead of the ego."""
+    sc = scene(speed=5, intent="enter_left_lane", other_lanes=("oncoming",), objects=[obj("car", -3.5, 15, lane=1, kind="oncoming")],
+               intersection={"type": "four_way", "stage": "enter", "distance": 0.0})
+    text = reasoner.decide(sc, "turn_left", explain=True).justification.text
+    assert "car 1, whose speed is unknown, is in an oncoming or a crossing lane and so not driving away ahead: taken " \
+           "to stand, it is closed in on at the ego's own 5.0 m/s" in text
+    assert "keep pace" not in text
+
+
+def test_a_thing_behind_that_cannot_move_is_said_to_stand_not_to_keep_pace(reasoner):
+    sc = scene(speed=10, lane=1, lanes=2, objects=[obj("traffic_cone", 3.5, -4, lane=2)])
+    text = reasoner.decide(sc, "change_lane_right", explain=True).justification.text
+    assert "traffic cone 1 behind cannot move by itself and stands: its closing speed is -10.0 m/s" in text
+    assert "keep pace" not in text
+
+
+def test_a_time_made_of_a_distance_and_a_speed_reads_in_seconds():
+    """'-X * 1000 / VX < G' with G a time setting once read '17.9 m/s < 50.0 m/s'."""
+    from discern.scenarios import runner
+    from discern.sanity.jurisdiction import reasoner_for
+
+    scenario = runner.load(Path(__file__).resolve().parents[1] / "scenarios" / "rules" / "tr.crossing_user.stepping_in.json")
+    text = runner.run(scenario, reasoner_for("us"))[0].verdict.justification.text
+    assert "1.8 s < 5.0 s" in text and "m/s < 50.0 m/s" not in text
+
+
+def test_a_70_mph_sign_read_as_31_3_m_s_is_usual_on_a_highway(reasoner):
+    """31.3 m/s is 70 mph rounded; it once read as above the usual 31.29 m/s and was doubted as unusual."""
+    sc = sanity_scene(speed=25.0, zone="highway", limit=31.3, signs=[{"kind": "speed_limit", "value": 31.3, "source": "camera"}])
+    verdict = reasoner.decide(sc, "accelerate", explain=True)
+    assert "is doubted: unusual" not in verdict.justification.text and not any(r.startswith("san.limit") for r in verdict.rules)

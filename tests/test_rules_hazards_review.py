@@ -140,3 +140,13 @@ def test_the_comfortable_rate_is_never_above_the_firm_one():
     assert slippery.decide(yellow(30, 10.0), "cruise").decision.value == "approve"
     assert decide(yellow(30, 10.0), "cruise").action.value == "brake"  # 26.7 m at 3 m/s²
     assert decide(yellow(20, 10.0), "cruise").decision.value == "approve"  # 18.3 m braking firmly, 26.7 m comfortably
+
+
+@pytest.mark.parametrize("kind", ["cross_left", "cross_right"])
+def test_a_vehicle_of_unknown_speed_across_the_egos_path_is_not_taken_to_drive_away(kind):
+    """A car labelled in a crossing lane, standing 20 m ahead in the ego's path, was taken to keep pace with the
+    traffic (closing at 0 m/s, a 10 m gap): speeding up towards it at 15 m/s was approved."""
+    across = scene(speed=15, limit=20, other_lanes=(kind,), objects=[obj("car", 0, 20, lane=1, kind=kind)])
+    assert overridden_with_brake(decide(across, "accelerate"))
+    in_the_egos_lane = scene(speed=15, limit=20, objects=[obj("car", 0, 20, lane=1)])  # AV-CSR's reading: it keeps pace
+    assert decide(in_the_egos_lane, "accelerate").decision.value == "approve"

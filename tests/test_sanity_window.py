@@ -303,16 +303,19 @@ def test_outlines_reach_away_from_the_ego_from_their_nearest_face():
 
 
 def test_a_lost_vehicle_of_unknown_speed_is_moved_as_the_catalog_assumes_it(reasoner):
-    """Ahead, a motor vehicle keeps pace and anything else stands (a bicycle too); behind, all keep pace."""
-    from discern.sanity.window import MOTOR_VEHICLES
+    """Ahead, a motor vehicle keeps pace and anything else stands (a bicycle too); behind, all but things keep pace."""
+    from discern.sanity.window import MOTOR_VEHICLES, STANDS_BY_NATURE
 
     solved = reasoner.solve(scene(), "cruise")
     assert MOTOR_VEHICLES == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("motor_vehicle", 1)}
+    assert STANDS_BY_NATURE == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("stands_by_nature", 1)}
     for cls, ahead_after in [("car", 2000), ("bicycle", 1900), ("pedestrian", 1900)]:  # lost for 0.1 s at 10 m/s
         seen = [at(0.1 * i, speed=10.0, objects=[obj(7, cls, 0.0, 20.0, 1)]) for i in range(3)]
         assert f"remembered_pos(7,0,{ahead_after})." in facts(seen + [at(0.3, speed=10.0)]), cls
     behind = [at(0.1 * i, speed=10.0, objects=[obj(7, "pedestrian", -3.5, -5.0, 1)]) for i in range(3)]
     assert "remembered_pos(7,-350,-500)." in facts(behind + [at(0.3, speed=10.0)])
+    cone = [at(0.1 * i, speed=10.0, objects=[obj(7, "traffic_cone", -3.5, -5.0, 1)]) for i in range(3)]
+    assert "remembered_pos(7,-350,-600)." in facts(cone + [at(0.3, speed=10.0)])
 
 
 def test_a_lost_object_ahead_of_the_bumper_is_read_by_the_sensor_facing_it():
