@@ -218,7 +218,8 @@ class Prover:
             return only
         if len(worst) > self.alternatives:  # say that the list is cut, not that it is all
             more = len(worst) - self.alternatives
-            text = f"and {more} other way{'s' if more > 1 else ''} it could apply, each failing as well"
+            text = (f"and {more} other ways it could apply, each failing as well" if more > 1
+                    else "and 1 other way it could apply, failing as well")
             reasons.append(JustificationNode(literal=rule.info.id, holds=False, kind="blocked", text=text))
         return JustificationNode(literal=rule.info.id, holds=False, text=f"rule {rule.info.id} does not apply",
                                  rule=rule.info.id, kind="blocked", children=reasons)

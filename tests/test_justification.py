@@ -57,7 +57,7 @@ def test_preference_is_explained_by_the_better_actions_not_by_rank_numbers(reaso
 def test_articles_agree_with_the_word_they_precede(reasoner):
     texts = [reasoner.decide(scene(speed=4, objects=[obj(kind, 0, 5, lane=1)]), "accelerate", explain=True)
              .justification.text for kind in ("unknown", "debris")]
-    assert "object 1 is an unknown" in texts[0] and "object 1 is debris" in texts[1]
+    assert "object 1 is an object of unknown kind" in texts[0] and "object 1 is debris" in texts[1]
     assert not [text for text in texts if re.search(r"\ba (?:[aeiu]|debris)", text)]
 
 
