@@ -28,15 +28,15 @@ PICTURE = {Source.camera, Source.fused}  # sources that classify signs from a pi
 EGO_LENGTH, EGO_WIDTH = 4.6, 2.0
 HALF_LANE = 1.75  # m: half a lane, the ego's corridor when predicting crossings
 # How the catalog moves an object of unknown speed, mirrored here (tests hold these to the catalog): ahead, a motor
-# vehicle (def.motor_vehicle: an automobile, not a vulnerable road user) keeps pace with the ego, unless it is in an
-# oncoming or a crossing lane, and anything else stands (def.closing_unknown_vehicle, def.closing_unknown_across,
+# vehicle (def.motor_vehicle: an automobile, not a vulnerable road user) keeps pace with the ego, unless it is in a
+# crossing lane, and anything else stands (def.closing_unknown_vehicle and _oncoming, def.closing_unknown_across,
 # def.closing_unknown_thing); behind, a thing that cannot move by itself stands and the rest keep pace
 # (def.rear_closing_thing, def.rear_closing_unknown).
 MOTOR_VEHICLES = frozenset({ObjectClass.car, ObjectClass.truck, ObjectClass.bus, ObjectClass.bike,
                             ObjectClass.motorcycle, ObjectClass.emergency_vehicle})
 STANDS_BY_NATURE = frozenset({ObjectClass.traffic_light, ObjectClass.plastic_bag, ObjectClass.roadblock,
                               ObjectClass.barrier, ObjectClass.traffic_cone, ObjectClass.debris})
-AGAINST_TRAFFIC = frozenset({LaneKind.oncoming, LaneKind.cross_left, LaneKind.cross_right})
+CROSSING = frozenset({LaneKind.cross_left, LaneKind.cross_right})
 # Typical footprint (length, width) per class when the detector gives no size.
 FOOTPRINT = {
     ObjectClass.car: (4.5, 1.8),
@@ -486,7 +486,7 @@ def _relative_velocity(obj: DetectedObject, ego_speed: float) -> tuple[float, fl
         return obj.velocity.x, obj.velocity.y - ego_speed
     if obj.position.y < 0:
         return (0.0, -ego_speed) if obj.cls in STANDS_BY_NATURE else (0.0, 0.0)
-    if obj.cls in MOTOR_VEHICLES and (obj.lane is None or obj.lane.kind not in AGAINST_TRAFFIC):
+    if obj.cls in MOTOR_VEHICLES and (obj.lane is None or obj.lane.kind not in CROSSING):
         return 0.0, 0.0
     return 0.0, -ego_speed
 
