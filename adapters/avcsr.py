@@ -73,9 +73,14 @@ class _Parser:
     def peek(self):
         return self.tokens[self.pos] if self.pos < len(self.tokens) else (None, None, self.tokens[-1][2] if self.tokens else 1)
 
+    def at(self, mark: str) -> bool:
+        """Whether the next token is this punctuation mark: a quoted atom that spells one ('[') is an atom."""
+        kind, tok, _ = self.peek()
+        return kind in ("punct", "end") and tok == mark
+
     def take(self, value: str | None = None):
         kind, tok, line = self.peek()
-        if kind is None or (value is not None and tok != value):
+        if kind is None or (value is not None and not self.at(value)):
             found = "the end of the file" if kind is None else repr(tok)
             raise AvcsrError(f"{self.path}:{line}: expected {value or 'a term'}, found {found}")
         self.pos += 1
@@ -97,21 +102,21 @@ class _Parser:
             return float(tok) if "." in tok or "e" in tok.lower() else int(tok)
         if kind == "var":
             raise AvcsrError(f"{self.path}:{line}: variable {tok} in a fact (facts must be ground)")
-        if tok == "[":
+        if kind == "punct" and tok == "[":
             items: list = []
-            if self.peek()[1] != "]":
+            if not self.at("]"):
                 items.append(self.term())
-                while self.peek()[1] == ",":
+                while self.at(","):
                     self.take(",")
                     items.append(self.term())
             self.take("]")
             return items
         if kind != "atom":
             raise AvcsrError(f"{self.path}:{line}: unexpected {tok!r}")
-        if self.peek()[1] == "(":
+        if self.at("("):
             self.take("(")
             args = [self.term()]
-            while self.peek()[1] == ",":
+            while self.at(","):
                 self.take(",")
                 args.append(self.term())
             self.take(")")
@@ -348,7 +353,7 @@ def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) ->
             origins[_EGO_FIELDS[f.name]] = f, line
         if f.name == "self_lane":
             origins[("lanes",)] = f, line  # the one check of the lanes as a whole: the ego's lane is among them
-        if f.name == "obj_meta" and f.args[5] in _SIDELESS_INDICATORS:
+        if f.name == "obj_meta" and isinstance(f.args[5], str) and f.args[5] in _SIDELESS_INDICATORS:
             notes.append(f"{path.name}:{line}: {_show(f)}: indicator {f.args[5]} is "
                          f"{_SIDELESS_INDICATORS[f.args[5]]}: read as none")
     notes += _intersection_stage(data, held, t, path)
@@ -421,7 +426,7 @@ def _read_fact(f: Compound, data: dict, ego: dict, crossings: list) -> Action | 
         ego["intent"] = a[0]
     elif f.name == "obj_meta":
         _, oid, cls, pos, lane, indicator = a
-        indicator = "none" if indicator in _SIDELESS_INDICATORS else indicator
+        indicator = "none" if isinstance(indicator, str) and indicator in _SIDELESS_INDICATORS else indicator
         x, y = _pair(pos, "pos")
         kind, lane_id = _pair(lane, "lane")
         data["objects"].append(

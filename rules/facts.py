@@ -52,7 +52,7 @@ class Params:
     tailgate_dist: float = 8.0  # m, a follower closer than this makes braking for nothing unsafe
     crossing_dist: float = 15.0  # m, vulnerable road users crossing nearer than this block a turn
     turn_gap_s: float = 5.0  # time a turn across traffic takes to clear: traffic due sooner blocks it
-    stopped_speed: float = 0.5  # m/s, slower than this the ego has come to a stop
+    stopped_speed: float = 0.5  # m/s, slower than this a vehicle, the ego or another, has stopped
     range_match: float = 3.0  # m, a range reading this close to an object's distance is that object
     lane_width: float = 3.5  # m, places objects reported without a lane; a side reading within it is in the next lane
     accel_step: float = 0.5  # m/s an accelerate adds before the next decision: nearer the limit than this, it would pass it

@@ -300,3 +300,11 @@ def test_av_csrs_own_indicator_words_are_read_as_none_with_a_note(tmp_path, indi
     (frame,) = read(tmp_path, BASE + OBJECT.replace("none)", f"{indicator})"))
     assert frame.scene.objects[0].indicator.value == "none"
     assert any(f"indicator {indicator} is {said}: read as none" in note for note in frame.notes)
+
+
+@pytest.mark.parametrize("fact, said", [
+    ("lanes(current, '[' 1], 1).", "f.pl:9: expected ), found '1'"),  # a quoted '[' is an atom, not a list's start
+    ("obj_meta(1, 4, car, pos(0, 30), lane(current, 1), [x]).", "f.pl:9: obj_meta(1, 4, car, pos(0, 30), lane(current, 1), [x]): indicator:"),
+])
+def test_a_quoted_mark_is_no_punctuation_and_a_list_is_no_indicator(tmp_path, fact, said):
+    assert said in refused(tmp_path, BASE + fact + "\n")

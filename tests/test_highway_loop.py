@@ -135,6 +135,7 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
         (["--faults", ","], "fault set ',' names no fault kind"),
         (["--variants", "planner,planner"], "--variants names 'planner' twice: its episodes would count twice"),
         (["--monitor", "--param", "decel=4"], "--param has no effect with --monitor: the monitor decides with its own"),
+        (["--monitor", "--record", "rec"], "--record has nothing to add with --monitor: the monitor logs every proposal"),
         (["--variants", ","], "--variants names no variant"),
         (["--duration", "nan"], "--duration must be a finite number of seconds above 0"),
         (["--duration", "inf"], "--duration must be a finite number of seconds above 0"),
@@ -183,8 +184,9 @@ def test_planner_weights_that_are_not_finite_are_refused(tmp_path, capsys):
         f"discern eval: error: {diverged} holds NaN or infinite weights: a diverged training run, not a planner\n")
 
 
-def test_an_evaluation_whose_monitor_stops_answering_stops_instead_of_counting_fail_safe_brakes():
-    """A monitor gone mid-run once gave a 'discern' row of the client's fail-safe brakes, and exit status 0."""
+def test_an_evaluation_stops_at_the_first_step_its_monitor_gives_no_verdict_for():
+    """A monitor gone mid-run once gave a 'discern' row of the client's fail-safe brakes, and exit status 0; whenever the
+    monitor stops answering, the episode's step is where the evaluation stops (here the first: none ever answered)."""
     from tests.monitor_process import endpoint, free_port
 
     gone = endpoint(free_port())

@@ -217,3 +217,16 @@ def test_a_one_frame_low_misread_between_two_settled_readings_is_no_limit_to_fal
     assert US.decide(frames[-1], "cruise", history=frames[:-1]).decision.value == "approve"
     gone = frames[:4] + [_tailgated_highway([], frame=5, timestamp=0.4)]  # the 5 mph sign has left the view
     assert limit_in_force(gone[-1], gone[:-1]) == 31.29
+
+
+@pytest.mark.parametrize("reading, misread", [(11.2, False), (13.4, True)])
+def test_a_25_mph_sign_read_as_11_2_m_s_is_no_unusual_reading_for_the_stop_sign_evidence(reading, misread):
+    """11.2 m/s is 25 mph rounded, the usual residential limit (11.18 m/s); with a car braking ahead at a crossing, it
+    was once still read as a stickered stop sign, while 30 mph (13.4 m/s) rightly is."""
+    from tests.scenes import obj as car, scene as plain_scene
+
+    sc = plain_scene(speed=8, limit=reading, zone="residential",
+                     intersection={"type": "four_way", "stage": "arriving", "distance": 20.0},
+                     objects=[car("car", 0, 12, lane=1, vy=1.0, indicator="brake_light")],
+                     signs=[{"kind": "speed_limit", "value": reading, "source": "camera"}])
+    assert ("san.stop.misread_sign" in US.decide(sc, "cruise").rules) is misread

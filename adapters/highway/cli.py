@@ -108,6 +108,9 @@ def _run_eval(args: argparse.Namespace) -> int:
     if args.env not in SUPPORTED:
         problems.append(f"unsupported --env {args.env!r} (choose from {', '.join(SUPPORTED)})")
     params = _params(args.param, problems)
+    if args.monitor and args.record is not None:
+        problems.append("--record has nothing to add with --monitor: the monitor logs every proposal and verdict "
+                        "itself, with the parameters it decides with (`discern serve --log-dir DIR`)")
     if args.monitor and args.param:
         problems.append("--param has no effect with --monitor: the monitor decides with its own parameters; "
                         "give them to it (`discern serve --param decel=4 --param accel_step=2.5`)")

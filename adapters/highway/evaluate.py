@@ -100,9 +100,8 @@ def _recorder(setup: Setup):
         from discern.monitor.config import LogSettings
         from discern.monitor.log.writer import McapLogWriter
 
-        # the in-process reasoner's parameters; a running monitor decides with its own defaults
-        params = {} if setup.monitor else dict(setup.params)
-        _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), "highway-eval", params)
+        # the in-process reasoner's: a running monitor logs its own verdicts, with its own parameters
+        _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), "highway-eval", dict(setup.params))
     return _worker["recorder"]
 
 
@@ -356,13 +355,17 @@ def evaluate(
         for variant in variants
         for episode in range(episodes)
     ]
+    if setup.monitor and setup.record is not None:
+        raise ValueError("a running monitor logs its own verdicts, with its own parameters: record with its --log-dir")
     bar = tqdm(total=len(tasks), desc="episodes", unit="ep", disable=not progress)
     results = []
     if jobs <= 1:
-        for task in tasks:
-            results.append(_run_task(task))
-            bar.update()
-        close_recorder()
+        try:
+            for task in tasks:
+                results.append(_run_task(task))
+                bar.update()
+        finally:  # a log cut short by an episode that failed still gets its summary
+            close_recorder()
     else:
         with multiprocessing.get_context("spawn").Pool(jobs) as pool:
             for result in pool.imap(_run_task, tasks, chunksize=2):
