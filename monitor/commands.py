@@ -27,11 +27,11 @@ from .config import (
     STATUS_PERIOD_MAX_S,
     STATUS_PERIOD_MIN_S,
     LogSettings,
-    path_arg,
     MonitorConfig,
     ZenohSettings,
     check_number,
     default_monitor_id,
+    path_arg,
     without_rust_locations,
 )
 
