@@ -86,7 +86,7 @@ def test_audit_report_renders_in_a_browser_with_plots_and_every_tree(capsys, tmp
     # a disagreement's full justification tree: the prohibition and why it holds, collapsible
     car_a = dom[dom.index("car_a frame 1 ") : dom.index("car_a frame 3 ")]
     assert '<span class="holds">accelerate is forbidden, because</span><span class="rule">acc.at_limit</span>' in car_a
-    for premise in ("the ego drives at 31.0 m/s", "the speed limit in force is 30.0 m/s", "31.5 m/s &gt; 30.0 m/s"):
+    for premise in ("the ego drives at 31.0 m/s", "the speed limit in force is 30.0 m/s", "31.5 m/s (70.5 mph) &gt; 30.0 m/s (67.1 mph)"):
         assert f'<span class="holds">{premise}' in car_a, premise
     assert car_a.count("<details") >= 3  # nested, each level collapsible
     # the fail-safe rules say what they are in the per-rule table, as the catalog's do
