@@ -320,6 +320,10 @@ _SIDELESS_INDICATORS = {
 }
 
 
+def _sideless(indicator: Term) -> bool:
+    return isinstance(indicator, str) and indicator in _SIDELESS_INDICATORS
+
+
 def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) -> tuple[Scene, Action | None, list[str]]:
     data: dict = {"frame_id": t, "lanes": [], "objects": [], "traffic_lights": [], "signs": [], "sensors": []}
     ego: dict = {"zone": zone}
@@ -353,7 +357,7 @@ def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) ->
             origins[_EGO_FIELDS[f.name]] = f, line
         if f.name == "self_lane":
             origins[("lanes",)] = f, line  # the one check of the lanes as a whole: the ego's lane is among them
-        if f.name == "obj_meta" and isinstance(f.args[5], str) and f.args[5] in _SIDELESS_INDICATORS:
+        if f.name == "obj_meta" and _sideless(f.args[5]):
             notes.append(f"{path.name}:{line}: {_show(f)}: indicator {f.args[5]} is "
                          f"{_SIDELESS_INDICATORS[f.args[5]]}: read as none")
     notes += _intersection_stage(data, held, t, path)
@@ -426,7 +430,7 @@ def _read_fact(f: Compound, data: dict, ego: dict, crossings: list) -> Action | 
         ego["intent"] = a[0]
     elif f.name == "obj_meta":
         _, oid, cls, pos, lane, indicator = a
-        indicator = "none" if isinstance(indicator, str) and indicator in _SIDELESS_INDICATORS else indicator
+        indicator = "none" if _sideless(indicator) else indicator
         x, y = _pair(pos, "pos")
         kind, lane_id = _pair(lane, "lane")
         data["objects"].append(

@@ -59,7 +59,7 @@ _SETTINGS = {
     "track_frames": ("number of frames that establish a track", "", 1),
     "track_ms": ("time that establishes a track", "s", 1000),
 }
-_DISTANCE_SETTING = ("", "m", 100)  # a setting _SETTINGS does not name: a distance in cm
+_DISTANCE_UNIT = ("m", 100)  # a setting _SETTINGS does not name: a distance in cm
 _SETTING_FORMATS = {"s": "ms", "m": "m", "m/s": "mps"}  # a setting's unit (_SETTINGS) as a template format
 _UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "limit": "some speed", "ms": "some time",
             "ahead": "somewhere", "right": "somewhere", "along": "some speed", "across": "some speed",
@@ -138,7 +138,7 @@ class Phrasebook:
     def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
         if name in ("param", "window_param") and len(args) == 2 and args[0] is not None and args[1] is not None:
             setting = args[0].name
-            label, unit, scale = _SETTINGS.get(setting, (setting.replace("_dist", "_distance").replace("_", " "), *_DISTANCE_SETTING[1:]))
+            label, unit, scale = _SETTINGS.get(setting, (setting.replace("_dist", "_distance").replace("_", " "), *_DISTANCE_UNIT))
             return f"the {label} is {args[1].number / scale:g} {unit}".rstrip()
         template = self.catalog.templates.get((name, len(args)))
         if template is None:
@@ -177,7 +177,8 @@ class Phrasebook:
                 continue
             if term[1] in ("param", "window_param") and len(term[2]) == 2 and term[2][0][0] == "s":
                 setting, value = term[2][0][1].name, term[2][1]  # a setting's unit: turn_gap_ms is a time
-                fmt = _SETTING_FORMATS.get(_SETTINGS.get(setting, _DISTANCE_SETTING)[1])
+                unit = _SETTINGS[setting][1] if setting in _SETTINGS else _DISTANCE_UNIT[0]
+                fmt = _SETTING_FORMATS.get(unit)
                 if value[0] == "v" and fmt is not None:
                     formats.setdefault(value[1], fmt)
                 continue
