@@ -12,7 +12,8 @@ Who does what:
 Every proposal is answered exactly once: whoever claims the request first sends.
 Every answer is logged after the payload it answered: on the proposal channel if
 the payload is a proposal, on the rejected channel if not. A fail-safe sent
-before the worker read the payload is logged once the worker has (_AnswerLog).
+before the worker read the payload is logged once the worker has, or after
+HOLD_S unread (_AnswerLog), so a stalled worker does not keep it from the log.
 What the monitor keeps per vehicle (its verdict publisher, its last permitted
 actions) goes once the vehicle has been silent for longer than its window and
 budget: memory follows the vehicles heard from lately, not every one ever seen.
@@ -48,6 +49,8 @@ log = logging.getLogger(__name__)
 
 JSON = zenoh.Encoding.APPLICATION_JSON
 EXCERPT_BYTES = 512
+EXPIRED_KEPT = 10_000  # answers logged unread whose worker's late word is still expected
+HOLD_S = 0.5  # longest a sent answer waits for its worker's word before it is logged: with the log's flush, a kill -9 loses about a second
 
 
 @dataclass(eq=False)
@@ -332,17 +335,21 @@ class MonitorServer:
         """Send refusals, and at its deadline a fail-safe for every request still open; forget silent vehicles."""
         pending = self._pending
         next_sweep = time.monotonic() + EXPIRY_SWEEP_S
+        next_hold_check = time.monotonic() + HOLD_S / 2
         while not self._stopping.is_set():
             if time.monotonic() >= next_sweep:
                 self._forget_silent(time.monotonic())
                 next_sweep = time.monotonic() + EXPIRY_SWEEP_S
+            if self.answers is not None and time.monotonic() >= next_hold_check:
+                self.answers.expire(time.time_ns() - int(HOLD_S * 1e9))
+                next_hold_check = time.monotonic() + HOLD_S / 2
             while self._refusals:
                 req, reason, kind = self._refusals.popleft()
                 self._answer(req, self._refuse(req, reason, kind))
             if not pending:
                 self._wake.clear()
                 if not pending and not self._refusals:
-                    self._wake.wait(0.5)
+                    self._wake.wait(HOLD_S / 2)
                 continue
             req = pending[0]
             if req.answered:
@@ -353,7 +360,7 @@ class MonitorServer:
                 # Later requests have later deadlines; a refusal or stop() wakes us early.
                 self._wake.clear()
                 if not self._refusals:
-                    self._wake.wait(delay)
+                    self._wake.wait(min(delay, HOLD_S / 2))
                 continue
             pending.popleft()
             # Perhaps not read yet: the monitor's process never parses a payload (see _AnswerLog), so a malformed one
@@ -469,8 +476,9 @@ class _AnswerLog:
     def __init__(self, writer: McapLogWriter):
         self.writer = writer
         self._lock = threading.Lock()
-        self._unread: dict[int, tuple[Request, Answer, int]] = {}  # answered, payload not read yet
+        self._unread: dict[int, tuple[Request, Answer, int]] = {}  # answered, payload not read yet (oldest first)
         self._read: dict[int, Optional[str]] = {}  # read, answer not sent yet: why it is no proposal (None: it is)
+        self._logged_unread: deque[int] = deque(maxlen=EXPIRED_KEPT)  # held past HOLD_S and logged: later word ignored
 
     def claim(self, req: Request, answer: Answer) -> bool:
         """Claim the request for this answer (Request.claim) and log the answer, or hold it for the worker's word."""
@@ -491,10 +499,26 @@ class _AnswerLog:
         with self._lock:
             waiting = self._unread.pop(rid, None)
             if waiting is None:
-                self._read[rid] = not_proposal
+                if rid in self._logged_unread:
+                    self._logged_unread.remove(rid)
+                else:
+                    self._read[rid] = not_proposal
             else:
                 req, answer, sent_ns = waiting
                 self._write(req, answer, not_proposal, sent_ns)
+
+    def expire(self, older_than_ns: int) -> None:
+        """Log the answers sent before `older_than_ns` whose payloads are still unread, as not read in time: a worker
+        stalled for seconds would otherwise keep every fail-safe it caused out of the log until it woke."""
+        why = f"not read in time: its decision worker had not read it {HOLD_S:g} s after the fail-safe was sent"
+        with self._lock:
+            while self._unread:
+                rid, (req, answer, sent_ns) = next(iter(self._unread.items()))
+                if sent_ns >= older_than_ns:
+                    break
+                del self._unread[rid]
+                self._write(req, answer, why, sent_ns)
+                self._logged_unread.append(rid)
 
     def flush(self, why: str) -> None:
         """Log the answers whose payloads no worker will read, as refused for `why`."""

@@ -43,3 +43,31 @@ def test_sigkill_leaves_a_log_readable_up_to_the_last_second(tmp_path):
     assert must_have <= verdict_frames and must_have <= proposal_frames
     assert any(r.kind == "status" for r in records)
     assert "truncated" in report.summary()
+
+
+def test_sigkill_while_the_worker_stalls_keeps_the_fail_safes_sent_before_the_last_second(tmp_path):
+    """The fail-safes a stalled worker causes are logged within HOLD_S, not when the worker wakes (or never)."""
+    proc, ep = serve("--id", "stalled", "--budget-ms", "50", "--test-only-decision-delay-ms", "4000",
+                     "--log-dir", str(tmp_path), "--log-flush-s", str(FLUSH_S))
+    answered: dict[int, float] = {}
+    try:
+        with Monitor("waiting", connect=[ep], timeout=5) as monitor:
+            frame, stop_at = 0, time.monotonic() + 3.0
+            while time.monotonic() < stop_at:
+                verdict = monitor.check(highway_scene(frame, 8), "cruise")
+                assert verdict.failsafe
+                answered[frame] = time.monotonic()
+                frame += 1
+                time.sleep(0.05)
+            killed_at = time.monotonic()
+            proc.kill9()
+    finally:
+        proc.stop()
+
+    records = list(read_log(tmp_path, RecoveryReport()))
+    verdict_frames = {r.verdict.frame_id for r in records if r.kind == "verdict" and r.vehicle == "waiting"}
+    must_have = {f for f, t in answered.items() if killed_at - t > LOSS_BOUND_S}
+    assert len(must_have) > 10
+    assert must_have <= verdict_frames
+    unread = [r for r in records if r.kind == "rejected" and r.vehicle == "waiting"]
+    assert unread and all(r.rejected.error.startswith("not read in time") for r in unread)
