@@ -13,7 +13,8 @@ Every proposal is answered exactly once: whoever claims the request first sends.
 Every answer is logged after the payload it answered: on the proposal channel if
 the payload is a proposal, on the rejected channel if not. A fail-safe sent
 before the worker read the payload is logged once the worker has, or after
-HOLD_S unread (_AnswerLog), so a stalled worker does not keep it from the log.
+HOLD_S unread, read by the monitor itself then (_AnswerLog): a stalled worker
+does not keep it from the log.
 What the monitor keeps per vehicle (its verdict publisher, its last permitted
 actions) goes once the vehicle has been silent for longer than its window and
 budget: memory follows the vehicles heard from lately, not every one ever seen.
@@ -40,7 +41,8 @@ from .decision_worker import Job, Outcome, WorkerSettings
 from .log import McapLogWriter, RejectedInput, vehicle_topic
 from .log.channels import STATUS_TOPIC
 from .protocol import (
-    RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, encode, failsafe_verdict, invalid_vehicle, peek_frame,
+    RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, InputError, decode_proposal, encode, failsafe_verdict,
+    invalid_vehicle, peek_frame,
 )
 from .status import MonitorStatus, StatusCounters
 from .vehicle_state import EXPIRY_MARGIN_S, EXPIRY_SWEEP_S, PermittedMemory
@@ -49,6 +51,7 @@ log = logging.getLogger(__name__)
 
 JSON = zenoh.Encoding.APPLICATION_JSON
 EXCERPT_BYTES = 512
+READ_HERE_BYTES = 256 * 1024  # a held payload up to this size is read by the monitor itself (a 200-object one: about 60 KB)
 EXPIRED_KEPT = 10_000  # answers logged unread whose worker's late word is still expected
 HOLD_S = 0.5  # longest a sent answer waits for its worker's word before it is logged: with the log's flush, a kill -9 loses about a second
 
@@ -508,16 +511,16 @@ class _AnswerLog:
                 self._write(req, answer, not_proposal, sent_ns)
 
     def expire(self, older_than_ns: int) -> None:
-        """Log the answers sent before `older_than_ns` whose payloads are still unread, as not read in time: a worker
-        stalled for seconds would otherwise keep every fail-safe it caused out of the log until it woke."""
-        why = f"not read in time: its decision worker had not read it {HOLD_S:g} s after the fail-safe was sent"
+        """Log the answers sent before `older_than_ns` whose payloads are still unread: a worker stalled for seconds
+        would otherwise keep every fail-safe it caused out of the log until it woke. Such a payload is read here, as
+        its worker would (rare, and bounded by READ_HERE_BYTES); a larger one is logged as not read in time."""
         with self._lock:
             while self._unread:
                 rid, (req, answer, sent_ns) = next(iter(self._unread.items()))
                 if sent_ns >= older_than_ns:
                     break
                 del self._unread[rid]
-                self._write(req, answer, why, sent_ns)
+                self._write(req, answer, _not_proposal(req), sent_ns)
                 self._logged_unread.append(rid)
 
     def flush(self, why: str) -> None:
@@ -539,6 +542,20 @@ class _AnswerLog:
         else:
             self.rejected(req, not_proposal or answer.error or "no payload")
         self.writer.write(vehicle_topic(topic_vehicle, "verdict"), "verdict", answer.verdict, sent_ns)
+
+
+def _not_proposal(req: Request) -> Optional[str]:
+    """Why a payload its worker has not read is no proposal (None: it is one), read as the worker reads it."""
+    if req.payload is None:
+        return "no payload"
+    if len(req.payload) > READ_HERE_BYTES:
+        return (f"not read in time: its decision worker had not read it {HOLD_S:g} s after the fail-safe was sent, "
+                f"and at {len(req.payload)} bytes it is not read outside a worker")
+    try:
+        decode_proposal(req.payload, req.vehicle)
+    except InputError as exc:
+        return str(exc)
+    return None
 
 
 def _direct(callback):

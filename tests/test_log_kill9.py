@@ -66,8 +66,8 @@ def test_sigkill_while_the_worker_stalls_keeps_the_fail_safes_sent_before_the_la
 
     records = list(read_log(tmp_path, RecoveryReport()))
     verdict_frames = {r.verdict.frame_id for r in records if r.kind == "verdict" and r.vehicle == "waiting"}
+    proposal_frames = {r.proposal.scene.frame_id for r in records if r.kind == "proposal"}
     must_have = {f for f, t in answered.items() if killed_at - t > LOSS_BOUND_S}
     assert len(must_have) > 10
-    assert must_have <= verdict_frames
-    unread = [r for r in records if r.kind == "rejected" and r.vehicle == "waiting"]
-    assert unread and all(r.rejected.error.startswith("not read in time") for r in unread)
+    assert must_have <= verdict_frames and must_have <= proposal_frames  # read by the monitor, not the stalled worker
+    assert not any(r.kind == "rejected" for r in records)
