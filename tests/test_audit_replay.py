@@ -185,6 +185,20 @@ def test_a_monitors_rotated_files_are_cut_into_runs_each_led_in_by_the_file_befo
     assert len(plan_tasks([str(p) for p in rotated], parts=1)) == 1
 
 
+def test_a_rotated_file_replayed_alone_is_led_in_by_the_files_before_it_in_its_directory(logs, tmp_path):
+    """car_m's overrides rest on a pedestrian seen in frames the earlier file holds: replayed alone, the later file
+    still gets that history from the file its monitor run wrote before it, so nothing reads as changed."""
+    with open(logs["memory"], "rb") as f:
+        count = sum(1 for _ in make_reader(f).iter_messages(log_time_order=False))
+    parts = [tmp_path / f"discern-m1-20260101T00000{i}-0a1b2c3d-000{i}.mcap" for i in range(2)]
+    rewrite(logs["memory"], parts, splits=(count // 2,))
+    [task] = plan_tasks([str(parts[1])])
+    assert task.lead_in == (str(parts[0]),)
+    catalog = ReplayCatalog.of(catalog_dirs())
+    alone = replay_logs([str(parts[1])], catalog, workers=1).tally
+    assert alone.frames > 0 and alone.changes == []
+
+
 def test_a_rotated_log_replays_as_the_whole_one_in_one_process_or_split_by_vehicle(logs, rotated, tolerant):
     catalog = ReplayCatalog.of([str(tolerant)])
     whole = replay_logs([str(logs["fleet"])], catalog, workers=1).tally

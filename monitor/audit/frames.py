@@ -170,16 +170,41 @@ def plan_tasks(paths: list[str], parts: int = 1, lead_in_s: float = LEAD_IN_SLAC
     even in bytes.
 
     A task's lead-in is the files before its first one in the sequence, back from the nearest, as
-    many as it takes to reach `lead_in_s` seconds before the task's first message. Fewer, longer
-    tasks read fewer lead-ins.
+    many as it takes to reach `lead_in_s` seconds before the task's first message; for the first task,
+    the files its monitor run wrote just before the first one given, where they lie beside it: a rotated
+    file audited alone still has the history its frames were decided with. Fewer, longer tasks read
+    fewer lead-ins.
     """
     tasks = []
     for sequence in _sequences([str(p) for p in log_files(paths)]):
-        done = 0
+        before = _earlier_in_run(sequence[0])
         for stretch in _even_runs(sequence, parts):
-            tasks.append(FrameTask(tuple(stretch), _lead_in(sequence[:done], stretch, lead_in_s)))
-            done += len(stretch)
+            tasks.append(FrameTask(tuple(stretch), _lead_in(before, stretch, lead_in_s)))
+            before = before + stretch
     return tasks
+
+
+def _earlier_in_run(first: str) -> list[str]:
+    """The files the same monitor run wrote right before `first`, in its directory, oldest first (none for a file
+    named without a run)."""
+    named = _ROTATED.match(Path(first).name)
+    if named is None or named.group(2) is None:
+        return []
+    index = int(named.group(3))
+    siblings: dict[int, str] = {}
+    try:
+        entries = list(Path(first).parent.iterdir())
+    except OSError:
+        return []
+    for entry in entries:
+        other = _ROTATED.match(entry.name)
+        if other is not None and other.group(1, 2) == named.group(1, 2) and int(other.group(3)) < index:
+            siblings[int(other.group(3))] = str(entry)
+    earlier: list[str] = []
+    while index - 1 in siblings:  # back to the first gap
+        index -= 1
+        earlier.insert(0, siblings[index])
+    return earlier
 
 
 def _sequences(files: list[str]) -> list[list[str]]:
