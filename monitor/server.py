@@ -152,7 +152,8 @@ class MonitorServer:
         self.pool.start()  # workers load the rules before zenoh starts any thread
         self.session = zenoh.open(zenoh_config)
         if self.config.log is not None:
-            self.log = McapLogWriter(self.config.log, self.config.monitor_id, self.config.param_values())
+            self.log = McapLogWriter(self.config.log, self.config.monitor_id, self.config.param_values(),
+                                     self.config.jurisdiction, self.config.window_s)
             self.answers = _AnswerLog(self.log)
         self._spawn("discern-watchdog", self._watch)
         if self.log is not None:

@@ -15,6 +15,9 @@ from discern.monitor.audit.aggregate import Aggregates, audit_logs
 from discern.monitor.audit.frames import PENDING_PER_VEHICLE, plan_tasks
 from discern.monitor.audit.replay import ReplayCatalog, replay_logs
 from discern.monitor.client import Monitor
+from discern.monitor.config import LogSettings
+from discern.monitor.log import log_metadata
+from discern.monitor.log.writer import McapLogWriter
 from discern.rules.catalog import catalog_dirs
 from tests.audit_logs import (
     CLEAR_FRAMES,
@@ -439,3 +442,36 @@ def test_a_misspelt_rule_annotation_in_an_edited_catalog_is_refused_naming_its_f
     lp, err = refused_rules(capsys, tmp_path, logs, text)
     assert err.startswith(f"discern audit: rules catalog: {lp}:5: not an annotation: '%! rules x.b'")
     assert "Traceback" not in err
+
+
+def test_a_replay_decides_with_the_jurisdiction_and_window_the_monitor_logged(capsys, tmp_path):
+    """A UK monitor's approvals near a school-zone sign are the UK pack's: replayed on the US default they read as
+    rule changes. The log records the pack and the window, and the replay takes them."""
+    def send(endpoint: str) -> None:
+        with Monitor("car_uk", connect=[endpoint], timeout=10.0) as car:
+            for i in range(5):
+                assert car.check(scene(speed=12, limit=13, sign="school_zone", frame=i + 1), "accelerate").decision \
+                    .value == "approve"
+
+    files = serve_log(tmp_path / "uk", "uk", send, jurisdiction="uk", window_s=1.5)
+    metadata = log_metadata(files[0])
+    assert (metadata["jurisdiction"], metadata["window_s"]) == ("uk", "1.5")
+    code, doc, _ = replay(capsys, tmp_path, str(tmp_path / "uk"), "--workers", "1")
+    assert code == 0 and doc["changes"] == []
+    code, doc, _ = replay(capsys, tmp_path, str(tmp_path / "uk"), "--workers", "1", "--jurisdiction", "us")
+    assert code == 1 and len(doc["changes"]) == 5
+
+
+def test_recorded_settings_this_version_cannot_use_are_refused_naming_the_file(capsys, tmp_path):
+    for name, params in (("unknown", {"bogus": 1.0}), ("negative", {"decel": -3.0})):
+        McapLogWriter(LogSettings(directory=tmp_path / name), "m", params).close()
+        code, _, err = audit(capsys, "--replay", str(tmp_path / name), "-q")
+        assert code == 2 and "recorded reasoning parameters this version cannot use" in err and name in err
+        assert "Traceback" not in err
+
+
+def test_a_file_without_the_writers_metadata_does_not_block_a_replay(capsys, tmp_path):
+    McapLogWriter(LogSettings(directory=tmp_path), "m", {"decel": 4.0}).close()
+    (tmp_path / "discern-m-20260101T000000-0000.mcap").write_bytes(b"")  # an empty file beside it
+    code, _, err = audit(capsys, "--replay", str(tmp_path), "-q", "--workers", "1")
+    assert code == 0 and "different settings" not in err

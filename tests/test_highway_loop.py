@@ -344,7 +344,7 @@ def test_logs_decided_with_different_parameters_are_not_replayed_as_one(tmp_path
         McapLogWriter(LogSettings(directory=tmp_path / name), "m", params).close()
     assert cli_main(["audit", "--replay", str(tmp_path / "a"), str(tmp_path / "b"), "-q"]) == 2
     err = capsys.readouterr().err
-    assert "the logs were decided with different reasoning parameters" in err and '{"decel": 4.0}' in err
+    assert "the logs were decided with different settings" in err and '{"decel": 4.0}' in err
 
 
 def test_the_judge_counts_holding_a_speed_above_the_limit_as_speeding_and_slowing_down_as_not():

@@ -66,7 +66,7 @@ def register(subparsers) -> None:
     p.add_argument(
         "--jurisdiction",
         choices=JURISDICTIONS,
-        help="with --replay: the rule pack the monitor ran with (default: us, the monitor's)",
+        help="with --replay: decide with this rule pack (default: the one the log recorded, else us)",
     )
     p.add_argument(
         "--vehicle", action="append", default=[], metavar="PATTERN", help="only these vehicles (shell pattern)"
@@ -91,7 +91,8 @@ def register(subparsers) -> None:
         "--window",
         type=float,
         metavar="SECONDS",
-        help="with --replay: the monitor's history window (default: its default)",
+        help="with --replay: decide with this history window (default: the one the log recorded, else the monitor's "
+        "default)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="print the totals only, not the listing")
     p.set_defaults(func=run)
@@ -140,21 +141,23 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         except ValueError as exc:
             raise UsageError(str(exc)) from None
     from . import replay_report
-    from .replay import ReplayCatalog, recorded_params, replay_logs
+    from .replay import ReplayCatalog, recorded_setup, replay_logs
 
     values, problems = Params.overrides(args.param or [])
     if problems:
         raise UsageError("; ".join(problems))
     try:
-        params = {**recorded_params(paths), **values}
+        recorded = recorded_setup(paths)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    catalog = ReplayCatalog.of(args.rules, args.jurisdiction or "us", params)
+    params = {**recorded.params, **values}
+    window = args.window if args.window is not None else recorded.window_s
+    catalog = ReplayCatalog.of(args.rules, args.jurisdiction or recorded.jurisdiction or "us", params)
     try:
         catalog.load()
     except CatalogError as exc:  # names the file and line it could not read
         raise UsageError(f"rules catalog: {exc}") from None
-    result = replay_logs(paths, catalog, filters, args.workers, args.window, args.compare_rules)
+    result = replay_logs(paths, catalog, filters, args.workers, window, args.compare_rules)
     nothing_read = _warn_unreadable(result.tally.recovery)
     sys.stdout.write(replay_report.render_text(result, listing=not args.quiet))
     _write(args.csv, lambda: replay_report.render_csv(result))

@@ -39,10 +39,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Sequence
 
-from discern.monitor.config import MonitorConfig
-from discern.monitor.log import FileRecovery, RecoveryReport, log_metadata
+from discern.monitor.config import MonitorConfig, check_number
+from discern.monitor.log import FileRecovery, RecoveryReport, log_files, log_metadata
 from discern.rules.catalog import Catalog, catalog_dirs, load_catalog, load_driving_rules
-from discern.rules.engine import Reasoner, Request, jurisdiction_pack
+from discern.rules.engine import JURISDICTIONS, Reasoner, Request, jurisdiction_pack
 from discern.rules.facts import Params
 from discern.rules.scene import Action
 from discern.rules.verdict import Decision, Verdict
@@ -398,23 +398,52 @@ class ReplayCatalog:
         return f"{', '.join(self.dirs)} ({self.jurisdiction} rules{params})"
 
 
-def recorded_params(paths: Sequence[str]) -> dict[str, float]:
-    """The reasoning parameters the logs' verdicts were decided with (the writer's metadata; none: the defaults).
+@dataclass(frozen=True)
+class RecordedSetup:
+    """What the logs' verdicts were decided with, as the writer recorded it (None: not recorded, the defaults)."""
 
-    A replay with other parameters would report every decision they change as a rule change. Raises
-    ValueError when the files disagree: each set is its own replay.
+    params: dict[str, float]
+    jurisdiction: Optional[str] = None
+    window_s: Optional[float] = None
+
+
+def recorded_setup(paths: Sequence[str]) -> RecordedSetup:
+    """The reasoning parameters, rule pack and history window of the logs' monitor (the writer's metadata).
+
+    A replay with another setup would report every decision it changes as a rule change. Files without the
+    writer's metadata (empty, foreign, cut before it) say nothing and are passed over. Raises ValueError naming
+    the files when they disagree (each setup is its own replay) or a recorded value this version cannot use.
     """
-    first: dict[str, str] = {}  # the parameters as recorded -> the first file that has them
-    for path in paths:
-        first.setdefault(log_metadata(path).get("params", "{}"), str(path))
+    first: dict[tuple[str, str, str], str] = {}  # the setup as recorded -> the first file that has it
+    for path in log_files(paths):
+        metadata = log_metadata(path)
+        if metadata:
+            setup = (metadata.get("params", "{}"), metadata.get("jurisdiction", ""), metadata.get("window_s", ""))
+            first.setdefault(setup, str(path))
     if len(first) > 1:
-        shown = "; ".join(f"{path}: {params}" for params, path in first.items())
-        raise ValueError(f"the logs were decided with different reasoning parameters ({shown}): replay them apart")
-    recorded = next(iter(first), "{}")
+        shown = "; ".join(f"{path}: params {p}, jurisdiction {j or '-'}, window {w or '-'} s"
+                          for (p, j, w), path in first.items())
+        raise ValueError(f"the logs were decided with different settings ({shown}): replay them apart")
+    if not first:
+        return RecordedSetup({})
+    (params, jurisdiction, window), path = next(iter(first.items()))
     try:
-        return {str(name): float(value) for name, value in json.loads(recorded).items()}
+        pairs = [f"{name}={value}" for name, value in json.loads(params).items()]
     except (ValueError, AttributeError, TypeError):
-        raise ValueError(f"{next(iter(first.values()))}: unreadable reasoning parameters {recorded!r}") from None
+        raise ValueError(f"{path}: unreadable reasoning parameters {params!r}") from None
+    values, problems = Params.overrides(pairs)
+    if problems:
+        raise ValueError(f"{path}: recorded reasoning parameters this version cannot use: {'; '.join(problems)}")
+    if jurisdiction and jurisdiction not in JURISDICTIONS:
+        raise ValueError(f"{path}: recorded jurisdiction {jurisdiction!r} is none this version knows "
+                         f"({', '.join(JURISDICTIONS)})")
+    try:
+        window_s = float(window) if window else None
+        if window_s is not None:
+            check_number("window_s", window_s, 0, unit=" s", above=True)
+    except ValueError:
+        raise ValueError(f"{path}: unreadable recorded history window {window!r}") from None
+    return RecordedSetup(values, jurisdiction or None, window_s)
 
 
 def replay_logs(
