@@ -426,7 +426,10 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         if stm.ast_type != ast.ASTType.Rule:
             raise CatalogError(f"{path}:{stm.location.begin.line}: only rules and facts belong in a catalog")
         info = owner(stm.location.begin.line)
+        normal = stm.head.ast_type == ast.ASTType.Literal and stm.head.atom.ast_type == ast.ASTType.SymbolicAtom
         if not stm.body:
+            if not normal:  # a choice, a disjunction or a constraint: no fact the prover could cite
+                raise CatalogError(f"{path}:{stm.location.begin.line}: only normal rules and facts are supported")
             catalog.facts.append(stm)
             for atom in _ground_fact(stm):
                 catalog.fact_predicates.add(atom.name)
@@ -436,7 +439,7 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
             continue
         if info is None:
             raise CatalogError(f"{path}:{stm.location.begin.line}: rule has no '%! rule' annotation")
-        if stm.head.ast_type != ast.ASTType.Literal or stm.head.atom.ast_type != ast.ASTType.SymbolicAtom:
+        if not normal:
             raise CatalogError(f"{path}:{stm.location.begin.line}: {info.id}: only normal rules are supported")
         body = tuple(compile_literal(lit) for lit in stm.body)
         head, computed = _computed_head_arguments(stm.head.atom.symbol, body)
@@ -641,6 +644,9 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
     return catalog
 
 
+DECIDING = ("action", "permitted", "recommended")  # what a verdict is read from: a driving catalog must define them
+
+
 def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] = ()) -> Catalog:
     """A catalog with these driving-rules directories in place of rules/catalog; the sanity rules stay.
 
@@ -662,6 +668,13 @@ def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] 
             raise CatalogError(
                 f"rules directory {directory} defines no driving rules (no `%! rule` other than def.* and ent.*)"
             )
+    defined = {rule.signature[0] for rule in catalog.compiled} | catalog.fact_predicates
+    missing = [name for name in DECIDING if name not in defined]
+    if missing:  # every action would be "forbidden by no rule", none recommended
+        raise CatalogError(
+            f"rules directories {', '.join(map(str, given))} define no {', '.join(n + '/1' for n in missing)}: "
+            "the decision rules (as in rules/catalog/90_decision.lp) are missing"
+        )
     return catalog
 
 

@@ -1,7 +1,9 @@
+import shutil
+
 import pytest
 from clingo import Function
 
-from discern.rules.catalog import CatalogError, load_catalog
+from discern.rules.catalog import CatalogError, catalog_dirs, load_catalog, load_driving_rules
 
 
 def test_catalog_has_at_least_35_driving_rules_each_with_english_and_source(reasoner):
@@ -127,3 +129,17 @@ def test_every_shipped_catalog_loads_each_annotated_rule_under_its_own_id():
         annotated = sorted(line.split()[2] for path in (root / directory).glob("*.lp")
                            for line in path.read_text(encoding="utf-8").splitlines() if line.startswith("%! rule "))
         assert sorted(rule.id for rule in load_catalog([root / directory]).rules) == annotated, directory
+
+
+@pytest.mark.parametrize("statement", ["{ c }.", "a | b.", ":- ."])
+def test_a_bodiless_choice_disjunction_or_constraint_is_rejected_with_its_line(tmp_path, statement):
+    with pytest.raises(CatalogError, match=r"r\.lp:4: only normal rules and facts are supported"):
+        load_catalog(write_rules(tmp_path, "%! rule x.c\n%! says C.\n%! source s\n" + statement + "\n"))
+
+
+def test_a_rules_directory_without_the_decision_rules_is_refused(tmp_path):
+    edited = tmp_path / "rules"
+    shutil.copytree(catalog_dirs()[0], edited)
+    (edited / "90_decision.lp").unlink()
+    with pytest.raises(CatalogError, match=r"define no action/1, permitted/1, recommended/1: the decision rules"):
+        load_driving_rules([edited])
