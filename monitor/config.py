@@ -106,6 +106,7 @@ def listen_endpoints(config: zenoh.Config) -> list[str]:
 
 
 _IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
+ZENOH_DEFAULT_LISTEN = ("tcp/[::]:0", "tcp/0.0.0.0:0")  # what zenoh listens on when a configuration names nothing
 
 
 def check_listen_ports(endpoints: list[str]) -> None:
@@ -114,8 +115,10 @@ def check_listen_ports(endpoints: list[str]) -> None:
         address = re.split(r"[?#]", endpoint, maxsplit=1)[0]  # without zenoh's ?metadata and #config
         protocol = address.partition("/")[0]
         if protocol in _IP_PROTOCOLS and address.rpartition(":")[2] == "0":
-            raise ValueError(f"listen endpoint {endpoint!r}: port 0 is not supported, as zenoh does not say "
-                             "which free port it takes: name a port")
+            default = " (zenoh's own default, as the configuration names no listen.endpoints)" if (
+                endpoint in ZENOH_DEFAULT_LISTEN) else ""
+            raise ValueError(f"listen endpoint {endpoint!r}{default}: port 0 is not supported, as zenoh does not "
+                             "say which free port it takes: name a port (--listen, or listen.endpoints)")
 
 
 _RUST_LOCATION = re.compile(r" at /\S+?\.rs:\d+\.?")

@@ -16,6 +16,8 @@ from discern.adapters.avcsr import read_dir
 from discern.rules.engine import Reasoner
 from discern.scenarios import paper_table, runner
 
+from .config import path_text
+
 REPO = Path(__file__).resolve().parents[1]
 KITTI = REPO.parent / "shared" / "avcsr" / "kitti"
 SCENARIOS = Path(runner.__file__).resolve().parent
@@ -127,6 +129,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     # Refused before anything runs: the closed loop would refuse these only after minutes of the rest.
     if args.episodes < 1:
         raise UserError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.kitti is not None and not Path(args.kitti).is_dir():  # named on purpose: a typo must not skip the table
+        raise UserError(f"--kitti {args.kitti}: not a directory of AV-CSR frame files")
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out}: not a directory")
     try:
@@ -134,7 +138,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UserError(f"--out {out}: cannot create: {exc.strerror or exc}") from None
     reasoner = Reasoner()
-    ok = paper(reasoner, Path(args.kitti))
+    ok = paper(reasoner, Path(args.kitti) if args.kitti is not None else KITTI)
     verdict(reasoner)
     log_dir = sidecar(out)
     audit(log_dir, out)
@@ -144,7 +148,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def register(sub) -> None:
     demo = sub.add_parser("demo", help="run the main job: paper table, a verdict, the sidecar, the closed loop")
-    demo.add_argument("--kitti", default=str(KITTI), help="directory of the paper's AV-CSR frame files")
+    demo.add_argument("--kitti", type=path_text, default=None,
+                      help=f"directory of the paper's AV-CSR frame files (default: {KITTI}, skipped where it is missing)")
     demo.add_argument("--out", default="out", help="directory for logs, reports and plots")
     demo.add_argument("--episodes", type=int, default=3, help="closed-loop episodes per variant and fault set")
     demo.set_defaults(func=cmd_demo)

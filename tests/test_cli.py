@@ -434,6 +434,16 @@ def test_demo_refuses_no_episodes_before_running_anything(tmp_path, capsys, monk
     assert not (tmp_path / "out").exists()
 
 
+def test_demo_refuses_a_kitti_folder_named_on_purpose_that_is_not_there(tmp_path, capsys, monkeypatch):
+    """Only the default folder may be missing (a machine without the paper's frames): a typo must not skip the table."""
+    from discern.monitor import demo
+
+    monkeypatch.setattr(demo, "paper", lambda *a: pytest.fail("the demo ran before refusing --kitti"))
+    missing = tmp_path / "kiti"
+    assert main(["demo", "--kitti", str(missing), "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err == f"discern: error: --kitti {missing}: not a directory of AV-CSR frame files\n"
+
+
 def test_check_says_a_json_file_nested_too_deeply_is_no_scene(tmp_path, capsys):
     deep = tmp_path / "deep.json"
     deep.write_text("[" * 100_000)

@@ -133,6 +133,9 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
         (["--faults", "noise", "--noise", "2000"], "--noise must lie in [0, 100] metres, got 2000"),  # once a traceback
         (["--faults", ""], "fault set '' names no fault kind: give 'none' for a run without faults"),
         (["--faults", ","], "fault set ',' names no fault kind"),
+        (["--faults", "signs,", "missed"], "fault set 'signs,' has an empty kind: write a set without spaces"),
+        (["--variants", "planner", "--record", "rec"], "--record logs Discern's verdicts: add discern to --variants"),
+        (["--variants", "planner,rss", "--monitor"], "--monitor serves the discern variant: add discern to --variants"),
         (["--variants", "planner,planner"], "--variants names 'planner' twice: its episodes would count twice"),
         (["--monitor", "--param", "decel=4"], "--param has no effect with --monitor: the monitor decides with its own"),
         (["--monitor", "--record", "rec"], "--record has nothing to add with --monitor: the monitor logs every proposal"),
@@ -214,9 +217,11 @@ def test_cli_says_a_weights_file_that_holds_no_weights_is_not_the_planners(tmp_p
 @pytest.mark.parametrize("weights, message", [
     ("{tmp}", "planner weights {tmp}: a directory, not a weights file"),
     ("{tmp}/scene.json", "{tmp}/scene.json is not a planner weights file (a torch state dict from the trainer)"),
+    ("{tmp}/hi.pt", "{tmp}/hi.pt is not a planner weights file (a torch state dict from the trainer)"),  # a pickle opcode
 ])
 def test_cli_says_a_weights_path_that_is_no_weights_file_is_not_one(tmp_path, capsys, weights, message):
     (tmp_path / "scene.json").write_text('{"frame_id": 1}')
+    (tmp_path / "hi.pt").write_text("hi\n")
     weights, message = weights.format(tmp=tmp_path), message.format(tmp=tmp_path)
     code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "planner", "--faults", "none", "--quiet",
                      "--weights", weights, "--duration", "1", "--out", str(tmp_path / "out")])

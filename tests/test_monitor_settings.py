@@ -86,8 +86,21 @@ def test_a_router_refuses_to_listen_on_port_0_which_it_could_not_name(tmp_path):
         proc.stop()
     assert code == 2 and proc.lines == [
         "discern router: error: listen endpoint 'tcp/127.0.0.1:0': port 0 is not supported, "
-        "as zenoh does not say which free port it takes: name a port"
+        "as zenoh does not say which free port it takes: name a port (--listen, or listen.endpoints)"
     ], proc.output
+
+
+def test_a_zenoh_config_naming_no_listen_endpoint_is_told_that_zenohs_default_is_port_0(tmp_path):
+    config = tmp_path / "plain.json5"
+    config.write_text('{ mode: "peer" }\n')
+    proc = DiscernProcess("serve", "--zenoh-config", str(config), "--log-dir", str(tmp_path))
+    try:
+        code = proc.proc.wait(START_TIMEOUT_S)
+    finally:
+        proc.stop()
+    assert code == 2 and len(proc.lines) == 1, proc.output
+    assert "(zenoh's own default, as the configuration names no listen.endpoints): port 0 is not supported" in (
+        proc.lines[0]), proc.output
 
 
 @pytest.mark.parametrize(

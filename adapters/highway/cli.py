@@ -39,16 +39,16 @@ def demo(out: Path = Path("out/demo-highway"), episodes: int = 3, duration: floa
 
 
 def _options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--episodes", type=int, default=20, help="seeded episodes per variant and fault set")
+    parser.add_argument("--episodes", type=int, default=20, help="seeded episodes per variant and fault set (default: 20)")
     parser.add_argument(
         "--faults",
         nargs="+",
         default=list(DEMO_FAULTS),
         metavar="SET",
         help="fault sets, each 'none', 'all' or a comma list of noise, missed, phantoms, signs "
-        "(e.g. --faults none signs,missed)",
+        "(e.g. --faults none signs,missed; default: %(default)s)",
     )
-    parser.add_argument("--variants", default="planner,discern,rss", help="comma list of planner, discern, rss")
+    parser.add_argument("--variants", default="planner,discern,rss", help="comma list of planner, discern, rss (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=0, help="first episode seed offset; also seeds the faults")
     parser.add_argument("--env", default="highway-fast-v0", help="highway-fast-v0 (default), highway-v0 or merge-v0")
     parser.add_argument("--duration", type=float, default=None, help="episode length in seconds (env default)")
@@ -68,7 +68,7 @@ def _options(parser: argparse.ArgumentParser) -> None:
         "the closed loop sets decel=4 (what highway-env's vehicle can brake) and accel_step=2.5 (half a step of "
         "its speed grid), e.g. --param headway_s=2",
     )
-    parser.add_argument("--jobs", type=int, default=1, help="worker processes")
+    parser.add_argument("--jobs", type=int, default=1, help="worker processes (default: 1)")
     parser.add_argument(
         "--monitor",
         nargs="?",
@@ -82,7 +82,7 @@ def _options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--no-judge", action="store_true", help="skip the ground-truth false-veto judge")
     parser.add_argument("--weights", type=path_text, default=None, help="planner weights (default: the packaged ones)")
-    parser.add_argument("--out", type=path_arg, default=Path("out/eval-highway"), help="folder for CSV, PNG and table")
+    parser.add_argument("--out", type=path_arg, default=Path("out/eval-highway"), help="folder for CSV, PNG and table (default: %(default)s)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -114,6 +114,10 @@ def _run_eval(args: argparse.Namespace) -> int:
     if args.monitor and args.param:
         problems.append("--param has no effect with --monitor: the monitor decides with its own parameters; "
                         "give them to it (`discern serve --param decel=4 --param accel_step=2.5`)")
+    if args.record is not None and "discern" not in variants:
+        problems.append("--record logs Discern's verdicts: add discern to --variants")
+    if args.monitor and variants and "discern" not in variants:
+        problems.append("--monitor serves the discern variant: add discern to --variants")
     if args.record is not None and args.jobs > 1:
         problems.append("--record writes one MCAP log from one process: use it with --jobs 1")
     if args.seed < 0:

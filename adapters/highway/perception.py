@@ -46,9 +46,13 @@ class Faults:
     @classmethod
     def preset(cls, kinds: str | list[str], seed: int = 0, **rates) -> "Faults":
         """Faults from names ('none', 'all' or a comma list of noise, missed, phantoms, signs)."""
-        names = [k.strip() for k in (kinds.split(",") if isinstance(kinds, str) else kinds) if k.strip()]
+        parts = [k.strip() for k in (kinds.split(",") if isinstance(kinds, str) else kinds)]
+        names = [k for k in parts if k]
         if not names:
             raise ValueError(f"fault set {kinds!r} names no fault kind: give 'none' for a run without faults")
+        if len(names) < len(parts):  # "signs," then "missed": the shell split "signs, missed" in two sets
+            raise ValueError(f"fault set {kinds!r} has an empty kind: write a set without spaces or stray commas "
+                             "(signs,missed), since a space starts the next set")
         if len(names) > 1 and {"none", "all"} & set(names):
             raise ValueError(f"fault set {','.join(names)!r}: 'none' and 'all' stand alone, not with other kinds")
         if names == ["all"]:

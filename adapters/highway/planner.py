@@ -114,8 +114,9 @@ class Planner:
         network = QNetwork()
         try:
             state = torch.load(path, map_location="cpu", weights_only=True)
-        except (pickle.UnpicklingError, RuntimeError, EOFError):
-            # torch's own reason advises weights_only=False, which would run whatever code the file holds
+        except (pickle.UnpicklingError, RuntimeError, EOFError, KeyError, ValueError, TypeError, AttributeError):
+            # Any of these from torch's unpickler, for a file whose first bytes happen to be pickle opcodes; torch's
+            # own reason advises weights_only=False, which would run whatever code the file holds.
             raise RuntimeError(f"{path} is not a planner weights file (a torch state dict from the trainer)") from None
         except OSError as exc:
             raise RuntimeError(f"planner weights {path}: cannot read: {exc.strerror or exc}") from None
