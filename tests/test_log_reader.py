@@ -187,6 +187,15 @@ def test_files_rotate_by_age(tmp_path):
     assert [r.proposal.scene.frame_id for r in read_log(writer.files)] == [0, 1]
 
 
+def test_an_idle_writer_does_not_rotate_into_files_with_no_message(tmp_path):
+    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_seconds=0.1), "idle")
+    writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(0, 2)))
+    time.sleep(0.5)  # five rotation periods, the first with a message, the others idle
+    writer.close()
+    assert len(writer.files) == 2  # the one with the message, and the one opened after it that stayed empty
+    assert [r.proposal.scene.frame_id for r in read_log(writer.files)] == [0]
+
+
 def test_merge_interleaves_files_by_log_time(tmp_path):
     for name, frames in (("a", (0, 2, 4)), ("b", (1, 3))):
         writer = McapLogWriter(LogSettings(directory=tmp_path / name), name)

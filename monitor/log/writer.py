@@ -82,6 +82,7 @@ class McapLogWriter:
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
         self._opened_at = 0.0
+        self._in_file = 0  # messages in the current file
         self._pending = 0  # records added since the last flush: lost if the file fails
         self._failing = False  # since a disk error, until a new file opens
         self.run = uuid.uuid4().hex
@@ -174,6 +175,7 @@ class McapLogWriter:
         self._writer.add_message(channel, log_time=log_time_ns, data=data, publish_time=log_time_ns)
         self.records += 1
         self._pending += 1
+        self._in_file += 1
 
     def _register(self, topic: str, kind: str) -> int:
         schema = self._schemas.get(kind)
@@ -207,6 +209,8 @@ class McapLogWriter:
             self._pending = 0
         too_big = self._stream.tell() >= self.settings.rotate_bytes
         too_old = now - self._opened_at >= self.settings.rotate_seconds
+        if too_old and not self._in_file:  # an idle monitor does not leave a trail of files with no message
+            self._opened_at, too_old = now, False
         if too_big or too_old:
             self._finish_file()
             self._open_file()
@@ -244,6 +248,7 @@ class McapLogWriter:
         self._channels.clear()
         self._schemas.clear()
         self._opened_at = time.monotonic()
+        self._in_file = 0
         self.files.append(path)
         log.info("logging to %s", path)
 
