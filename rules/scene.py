@@ -196,7 +196,8 @@ class Ego(Strict):
     speed: Speed = Field(description="ego speed, m/s")
     lane: int = Field(ge=1, le=MAX_LANE_ID, description="id of the ego's lane among the current lanes (1 = leftmost)")
     intent: Intent = Intent.continue_in_lane
-    zone: Zone = Zone.city
+    zone: Zone = Field(Zone.city, description="where the ego drives; omitted, a city is assumed (the strictest "
+                       "usual limits) and the verdict's notes say so")
     acceleration: Optional[MetresPerSecondSquared] = Field(None, description="m/s^2, if known")
     predicted_path: Optional[PathId] = Field(None, description="id of the ego's predicted path")
 
@@ -325,6 +326,9 @@ class Scene(Strict):
 
     @model_validator(mode="after")
     def _lanes_consistent(self) -> "Scene":
+        if "zone" not in self.ego.model_fields_set:  # the limits' plausibility rests on it: say it was not given
+            self.notes.append("ego.zone not given: a city zone is assumed, whose usual limits may doubt the readings "
+                              "of a faster road")
         if not any(l.kind is LaneKind.current for l in self.lanes):
             # The ego stands in a lane even when the frame lists none.
             self.lanes.append(Lane(kind=LaneKind.current, id=self.ego.lane))

@@ -276,7 +276,8 @@ def test_an_empty_path_id_is_refused_by_name_not_read_as_no_path(field):
 
 def test_a_path_crossing_naming_no_path_in_the_scene_is_noted():
     scene = Scene.model_validate({
-        "frame_id": 1, "ego": {"speed": 10, "lane": 1, "predicted_path": "p"}, "lanes": [{"kind": "current", "id": 1}],
+        "frame_id": 1, "ego": {"speed": 10, "lane": 1, "predicted_path": "p", "zone": "city"},
+        "lanes": [{"kind": "current", "id": 1}],
         "objects": [{"id": 3, "class": "car", "position": {"x": 0, "y": 12}, "predicted_path": "q"}],
         "path_crossings": [{"ego_path": "p", "object_path": "q"}, {"ego_path": "e", "object_path": "zz"}],
     })
@@ -315,3 +316,11 @@ def test_a_vehicle_id_is_valid_alike_in_the_key_the_client_and_the_schema(vehicl
     by_client = str(refused.value).startswith("style")
     assert by_key == by_schema == by_client, vehicle
     assert not by_key or vehicle.strip("\n") == vehicle
+
+
+def test_a_scene_without_its_zone_is_judged_as_in_a_city_and_says_so():
+    scene = Scene.model_validate({"frame_id": 1, "ego": {"speed": 10, "lane": 1}})
+    assert scene.ego.zone.value == "city"
+    assert any(n.startswith("ego.zone not given: a city zone is assumed") for n in scene.notes)
+    given = Scene.model_validate({"frame_id": 1, "ego": {"speed": 10, "lane": 1, "zone": "city"}})
+    assert not any(n.startswith("ego.zone") for n in given.notes)
