@@ -151,6 +151,10 @@ def _examples() -> list[Example]:
     city_85 = (scene(speed=16.0, limit=85 * MPH, signs=[limit_sign(85)]),)
     road_45 = [scene(frame=i, speed=20.2, zone="road", limit=45 * MPH, signs=[limit_sign(45)]) for i in (1, 2)]
     road_55 = scene(frame=3, speed=20.2, zone="road", limit=55 * MPH, signs=[limit_sign(55)])
+    truck_behind = (obj(2, "truck", 0.0, -5.0, 1, vy=31.0),)
+    highway_70 = [scene(frame=i, speed=31.0, zone="highway", limit=70 * MPH, signs=[limit_sign(70)], objects=truck_behind)
+                  for i in (1, 2, 3)]
+    highway_40 = scene(frame=4, speed=31.0, zone="highway", limit=40 * MPH, signs=[limit_sign(40)], objects=truck_behind)
     stop_line = {"type": "unsignaled", "stage": "arriving", "distance": 30.0, "stop_line": True}
     at_stop = {"type": "four_way", "stage": "at", "distance": 0.0}
     arriving = {"type": "four_way", "stage": "arriving", "distance": 25.0}
@@ -204,6 +208,10 @@ def _examples() -> list[Example]:
         Example("san.limit.debounce", "On a 45 mph road the reader shows 55 mph for one frame; the ego drives 20.2 m/s.",
                 (*road_45, road_55), Action.accelerate,
                 (road_45[1], road_55.model_copy(update={"frame_id": 4, "timestamp": 0.4}), road_55.model_copy(update={"frame_id": 5, "timestamp": 0.5}))),
+        Example("san.limit.debounce_drop",
+                "On a 70 mph highway the reader shows 40 mph for one frame; the ego drives 31 m/s with a truck 5 m behind.",
+                (*highway_70, highway_40), Action.cruise,
+                (*highway_70, highway_40, highway_40.model_copy(update={"frame_id": 5, "timestamp": 0.5}))),
         Example("san.limit.fallback_prior", "The one-frame 55 mph reading is doubted, so the 45 mph read before stays in force.",
                 (*road_45, road_55), Action.accelerate, (road_55,)),
         Example("san.limit.highway_floor",

@@ -276,17 +276,11 @@ def _runs(values: Iterable[Optional[int]]) -> list[_Run]:
 
 
 def _believed(runs: list[_Run], confirm: int) -> Optional[int]:
-    """The index of the run whose limit held at the end of `runs`: the last run read in enough frames in a row, or a
-    lower run read since it (a lower limit takes effect at once; a rise since, read in too few frames, does not).
-    The settled limit read again after a gap is the settled run still, not a new one-frame reading."""
+    """The index of the run whose limit held at the end of `runs`: the last run read in enough frames in a row
+    (a reading since it, up or down, read in too few frames, does not change the limit: san.limit.debounce,
+    san.limit.debounce_drop). The settled limit read again after a gap is the settled run still."""
     settled = [i for i, run in enumerate(runs) if run.value is not None and run.frames >= confirm]
-    if not settled:
-        return None
-    since = [(i, run.value) for i, run in enumerate(runs[settled[-1]:], settled[-1]) if run.value is not None]
-    lowest = min(value for _, value in since)
-    if lowest == runs[settled[-1]].value:
-        return settled[-1]
-    return max(i for i, value in since if value == lowest)
+    return settled[-1] if settled else None
 
 
 @dataclass(frozen=True)

@@ -38,11 +38,25 @@ def test_the_lower_of_map_and_sign_governs():
     assert limit_in_force(scene(zone="road", limit=24.0, map_speed_limit=20.0)) == 20.0
 
 
-def test_a_lower_reading_takes_effect_at_once_and_a_higher_one_on_its_second_frame():
+def test_a_reading_that_lowers_or_raises_a_settled_limit_takes_effect_on_its_second_frame():
     before = [scene(frame=i, zone="road", limit=20.0) for i in (1, 2)]
-    assert limit_in_force(scene(frame=3, zone="road", limit=15.0), before) == 15.0
-    assert limit_in_force(scene(frame=3, zone="road", limit=24.0), before) == 20.0
-    assert limit_in_force(scene(frame=4, zone="road", limit=24.0), before[1:] + [scene(frame=3, zone="road", limit=24.0)]) == 24.0
+    for reading in (15.0, 24.0):
+        assert limit_in_force(scene(frame=3, zone="road", limit=reading), before) == 20.0, reading
+        again = before[1:] + [scene(frame=3, zone="road", limit=reading)]
+        assert limit_in_force(scene(frame=4, zone="road", limit=reading), again) == reading
+
+
+def test_a_one_frame_low_reading_on_a_highway_does_not_brake_the_ego_with_a_truck_behind():
+    """70 mph settled, then one frame reads 40 (an exit ramp's sign): the ego holds its speed; the 70 read again after
+    it is the settled limit still, and stays in force when the sign has left the view."""
+    truck = (obj(9, "truck", 0.0, -5.0, 1, vy=31.0),)
+    readings = [70, 70, 70, 70, 40, 70, None]
+    frames = [scene(frame=i + 1, timestamp=0.1 * i, speed=31.0, zone="highway", limit=None, objects=truck,
+                    signs=[limit_sign(v)] if v else []) for i, v in enumerate(readings)]
+    for last in (5, 6, 7):
+        verdict = US.decide(frames[last - 1], "cruise", history=frames[:last - 1])
+        assert verdict.decision.value == "approve", (last, verdict.justification.summary)
+    assert "san.limit.debounce_drop" in US.decide(frames[4], "cruise", history=frames[:4]).rules
 
 
 def test_the_plausible_reading_wins_when_the_sign_and_the_perceived_limit_disagree():
@@ -108,10 +122,10 @@ def test_a_true_limit_outlives_the_taped_sign_that_followed_it_once_both_leave_v
         assert limit.arguments[0].number == round(true * MPH * 100), (last, limit)
 
 
-def test_a_lower_limit_read_in_one_frame_is_the_prior_of_a_doubted_reading_after_it():
+def test_a_lower_limit_read_in_one_frame_is_no_prior_for_a_doubted_reading_after_it():
     frames = _frames("road", [45, 45, 45, 35, 85, 85], dt=0.2)
     for last in (5, 6):
-        assert limit_in_force(frames[last - 1], frames[:last - 1]) == 15.65, last  # 35 mph, not the 45 before it
+        assert limit_in_force(frames[last - 1], frames[:last - 1]) == 20.12, last  # 45 mph, the settled one
 
 
 @pytest.mark.parametrize("hz, frames_65, raised", [

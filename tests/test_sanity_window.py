@@ -133,10 +133,11 @@ def test_prior_limit_is_the_last_settled_reading_before_the_current_one():
     assert "prior_limit(2000)." in found and "reading_run(3000,1)." in found
 
 
-def test_prior_limit_comes_with_its_run_so_a_one_frame_low_reading_can_be_told_from_a_settled_one():
+def test_a_one_frame_low_reading_is_no_prior_limit_the_settled_one_before_it_is_with_its_run():
     frames = [at(0.1 * i, limit=v) for i, v in enumerate([30.0, 30.0, 30.0, 2.0, 30.0])]
     found = facts(frames)
-    assert {"prior_limit(200).", "prior_run(200,1).", "prior_time(200,100)."} <= found
+    assert {"prior_limit(3000).", "prior_run(3000,3).", "prior_time(3000,300)."} <= found
+    assert "prior_limit(200)." not in found
 
 
 def test_a_limit_read_over_frames_is_remembered_when_the_sign_has_gone():
