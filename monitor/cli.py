@@ -212,10 +212,11 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
         outcomes, unreadable = runner.run_files(scenario_files, functools.lru_cache(maxsize=None)(lambda j: _reasoner(args, j)))
         for outcome in outcomes:
             status = "pass" if outcome.passed else "FAIL"
-            print(f"{status}  {outcome.scenario} #{outcome.index}: {outcome.verdict.justification.summary}")
+            summary = outcome.verdict.justification.summary if outcome.verdict else "no verdict"
+            print(f"{status}  {outcome.scenario} #{outcome.index}: {summary}")
             for problem in outcome.problems:
                 print(f"        {problem}")
-            if args.explain:
+            if args.explain and outcome.verdict:
                 print(_indented(outcome.verdict.justification.text))
         failed = sum(not o.passed for o in outcomes)
         for reason in unreadable:

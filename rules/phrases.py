@@ -52,6 +52,7 @@ _SETTINGS = {
     "overtake_dist": ("distance within which a slower vehicle ahead is overtaken", "m", 100),
     "move_over_dist": ("distance within which an emergency vehicle or a stopped school bus is given room", "m", 100),
     "speed_margin": ("margin allowed over the limit", "m/s", 100), "turn_speed": ("fastest turning speed", "m/s", 100),
+    "caution_speed": ("fastest speed under caution", "m/s", 100),
     "stopped_speed": ("speed under which a vehicle counts as stopped", "m/s", 100), "min_gap": ("minimum gap", "m", 100),
     "range_match": ("distance within which a range reading is an object's", "m", 100),
     "confirm_frames": ("number of frames that confirm a reading", "", 1),

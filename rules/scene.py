@@ -157,6 +157,7 @@ MAX_RANGE_M = 10_000.0  # farther than any sensor sees
 MAX_SPEED_MS = 150.0  # faster than any road vehicle; a closing speed of 300 m/s squared in cm/s fits 32 bits
 MAX_ID = 2**31 - 1  # clingo's largest integer
 MAX_LANE_ID = 1_000  # lanes are counted from the left, and the rules look one lane beyond
+MAX_TIMESTAMP_S = 1e12  # 31,700 years either side of the clock's zero; in ms still a whole number a float holds exactly
 MAX_FRAME_ID = 2**63 - 1  # a signed 64-bit counter, as planners and MCAP keep them
 # More entries than any sensor suite reports in one frame. It also bounds what refusing a hostile payload costs:
 # a list of 340,000 empty objects took the monitor 13 s to describe, error by error.
@@ -287,7 +288,7 @@ class Scene(Strict):
     """One frame of the world as the planner saw it."""
 
     frame_id: int = Field(ge=0, le=MAX_FRAME_ID)
-    timestamp: float = Field(0.0, allow_inf_nan=False, description="seconds")
+    timestamp: float = Field(0.0, ge=-MAX_TIMESTAMP_S, le=MAX_TIMESTAMP_S, allow_inf_nan=False, description="seconds")
     ego: Ego
     speed_limit: Optional[Speed] = Field(None, description="limit in force as perceived, m/s")
     map_speed_limit: Optional[Speed] = Field(None, description="limit from map data, m/s")

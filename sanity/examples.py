@@ -187,6 +187,10 @@ def _examples() -> list[Example]:
     stroller = obj(3, "pedestrian", 5.5, 22.0, vy=1.2, vx=0.0, sources=("camera", "lidar"))
     pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
     stop_sign = {"kind": "stop", "source": "camera"}
+    dark_signal = {"type": "signaled", "stage": "arriving", "distance": 20.0, "stop_line": True}
+    # a flashing red reported by perception, the ego slowing to a stop over four frames
+    flashing_red_at = tuple(scene(frame=i, speed=max(0.0, 3.0 - i), limit=13.0, lights=[{"colour": "red", "flashing": True}],
+                                  intersection=at_stop) for i in range(1, 5))
     return [
         # --- speed limits
         Example("san.limit.sign", "No limit in the perceived state, but the camera reads a 25 mph sign; the ego drives 12 m/s.",
@@ -335,6 +339,10 @@ def _examples() -> list[Example]:
                 tuple(flashing_red), Action.cruise, steady_red),
         Example("san.lights.flashing_red_stop", "Arriving at an intersection whose light flashes red.",
                 tuple(flashing_red), Action.cruise, steady_red),
+        Example("san.lights.dark_signal",
+                "The traffic lights of the intersection 20 m ahead are all dark; the ego drives 12 m/s (US: an all-way stop).",
+                (scene(speed=12.0, limit=15.6, lights=[{"colour": "none"}], intersection=dark_signal),), Action.accelerate,
+                (scene(speed=12.0, limit=15.6, lights=[{"colour": "green"}], intersection=dark_signal),)),
         Example("san.memory.red_light", "A red light seen a frame ago is dark now (not yet known to be flashing).",
                 red_then_dark, Action.cruise, steady_red),
         Example("san.memory.yellow_light", "A steady yellow seen a frame ago is hidden now; the ego can still stop before the line.",
@@ -397,6 +405,15 @@ def _examples() -> list[Example]:
                 (scene(speed=0.0, limit=11.0, intent="enter_right_lane", lights=[{"colour": "red"}], intersection=at_stop),),
                 Action.turn_right,
                 (scene(speed=4.0, limit=11.0, intent="enter_right_lane", lights=[{"colour": "red"}], intersection=at_stop),)),
+        Example("jur.us.flashing_red",
+                "Stopped at the line of an intersection whose light flashes red (US: a stop sign; under the UK's pack "
+                "the ego waits while it flashes).",
+                flashing_red_at, Action.accelerate, flashing_red_at, "us", "uk"),
+        Example("jur.us.dark_signal",
+                "The lights of the intersection ahead are all dark (US: an all-way stop; under the UK's pack an unmarked "
+                "junction, passed with great care).",
+                (scene(speed=12.0, limit=15.6, lights=[{"colour": "none"}], intersection=dark_signal),), Action.accelerate,
+                (scene(speed=12.0, limit=15.6, lights=[{"colour": "none"}], intersection=dark_signal),), "us", "uk"),
         Example("jur.uk", "Any scene under the UK pack.", (scene(),), Action.cruise, (scene(),), "uk", "us"),
         Example("jur.left_hand_traffic", "A slower truck ahead on a UK motorway: overtake on the right.",
                 (scene(speed=20.0, zone="highway", limit=29.0, lanes=2, objects=[obj(1, "truck", 0.0, 30.0, 1, vy=15.0)]),),

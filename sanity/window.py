@@ -146,6 +146,7 @@ class WindowProvider:
         out: list[str] = []
         out.extend(_world_facts(scene))
         out.extend(_predicted_conflicts(scene, self.config.horizon_s))
+        out.extend(_dark_signal(scene))
         window = self.window(scene, history)
         if window:
             c = self.config
@@ -373,6 +374,13 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
         if LightColour.yellow in last.steady:
             out.append("light_seen_recently(yellow).")
     return out
+
+
+def _dark_signal(scene: Scene) -> list[str]:
+    """Traffic lights in view with none of them lit (out, or unreadable): still a signal, one that shows nothing,
+    where the core gives a lamp of colour "none" no fact at all."""
+    lights = scene.traffic_lights
+    return ["signal_dark."] if lights and all(l.colour is LightColour.none for l in lights) else []
 
 
 def _recent_run(states: Sequence[Optional[bool]], times: Sequence[float], config: WindowConfig) -> tuple[int, int, int]:

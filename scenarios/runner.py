@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import Callable, Iterable, Optional
 
 from pydantic import ValidationError
 
@@ -23,7 +23,7 @@ class ScenarioError(ValueError):
 class FrameOutcome:
     scenario: str
     index: int
-    verdict: Verdict
+    verdict: Optional[Verdict]  # None: deciding the frame raised, which `problems` says
     problems: list[str] = field(default_factory=list)
 
     @property
@@ -64,8 +64,12 @@ def run(scenario: Scenario, reasoner: Reasoner) -> list[FrameOutcome]:
     outcomes = []
     history = []
     for index, frame in enumerate(scenario.frames):
-        verdict = reasoner.decide(frame.scene, frame.proposed, history=tuple(history), explain=True)
-        outcomes.append(FrameOutcome(scenario.name, index, verdict, check(verdict, frame.expect)))
+        try:
+            verdict = reasoner.decide(frame.scene, frame.proposed, history=tuple(history), explain=True)
+        except Exception as exc:  # a frame the engine cannot judge is a failed frame, not the end of the run
+            outcomes.append(FrameOutcome(scenario.name, index, None, [f"deciding the frame raised {type(exc).__name__}: {exc}"]))
+        else:
+            outcomes.append(FrameOutcome(scenario.name, index, verdict, check(verdict, frame.expect)))
         history.append(frame.scene)
     return outcomes
 

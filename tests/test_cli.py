@@ -511,3 +511,18 @@ def test_a_broken_frame_file_among_good_ones_is_named_and_the_others_still_make_
     captured = capsys.readouterr()
     assert good.stem in captured.out and "1 of 2 AV-CSR files not read" in captured.out
     assert "broken.pl:" in captured.err and "class: unknown value 'motorbike'" in captured.err
+
+
+def test_a_scenario_frame_that_raises_fails_with_a_message_and_a_nonzero_exit(tmp_path, capsys, monkeypatch):
+    """A frame the engine could not judge printed a traceback and left the run's exit status 0."""
+    from discern.rules.engine import Reasoner
+
+    def boom(self, scene, proposed, history=(), **kw):
+        raise OverflowError("cannot convert float infinity to integer")
+
+    monkeypatch.setattr(Reasoner, "decide", boom)
+    scenario = ROOT / "scenarios" / "rules" / "acc.cut_in.json"
+    assert main(["scenarios", "run", str(scenario)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL" in out and "deciding the frame raised OverflowError: cannot convert float infinity to integer" in out
+    assert "Traceback" not in out and "0 passed" in out

@@ -558,13 +558,14 @@ def test_an_ambulance_far_behind_is_not_pulled_over_for():
     assert verdict.decision is Decision.approve and "san.emergency.give_way" not in verdict.rules
 
 
-@pytest.mark.parametrize("y, vy", [(-100.0, None), (-100.0, 30.0), (60.0, 0.0), (120.0, 15.0), (100.0, -10.0)])
+@pytest.mark.parametrize("y, vy", [(-100.0, None), (-100.0, 30.0), (60.0, None), (120.0, 15.0), (100.0, -10.0)])
 def test_an_ambulance_near_and_coming_or_being_caught_up_is_pulled_over_for(y, vy):
-    """Behind within the move-over distance and keeping pace or closing; ahead standing, slower, or coming back."""
+    """Behind within the move-over distance and keeping pace or closing; ahead of unknown speed, slower, or coming
+    back (one measured to stand is passed: test_a_standing_emergency_vehicle_is_passed_slowly_not_waited_for)."""
     verdict = _decide(_ambulance(0.0, y, vy=vy), Action.cruise)
     assert verdict.decision is Decision.override and "san.emergency.give_way" in verdict.rules, (y, vy)
     assert verdict.action in (Action.pull_over, Action.brake), (y, vy)  # head-on in the ego's lane, it brakes
-    assert "is an emergency vehicle on duty near the ego and not moving away from it" in verdict.justification.text
+    assert "is an emergency vehicle on duty coming near the ego, not standing and not moving away from it" in verdict.justification.text
 
 
 # --- lane labels that contradict the measured position: the position wins, close ahead only
@@ -596,3 +597,170 @@ def test_a_pedestrian_labelled_on_the_sidewalk_but_straight_ahead_is_in_the_ego_
 ])
 def test_labels_that_fit_or_are_far_keep_their_lane(case, frame):
     assert "san.lane.position_over_label" not in _decide((frame,), Action.accelerate).rules, case
+
+
+# --- emergency vehicles standing or coming: passed with room, or given way to without cutting in front of them
+
+def _run(frames, proposed: Action, jurisdiction: str = "us"):
+    return reasoner_for(jurisdiction).decide(frames[-1], proposed, history=frames[:-1], explain=True)
+
+
+def _police_on_the_shoulder(speed: float):
+    police = obj(4, "emergency_vehicle", 3.5, 100.0, 1, kind="shoulder", vy=0.0, emergency_lights=True)
+    return tuple(scene(frame=i, speed=speed, zone="road", limit=24.5, other_lanes=("shoulder",), objects=[police])
+                 for i in (1, 2, 3))
+
+
+def test_a_standing_emergency_vehicle_is_passed_slowly_not_waited_for():
+    fast = _run(_police_on_the_shoulder(24.0), Action.cruise)
+    assert (fast.decision, fast.action) == (Decision.override, Action.brake)
+    assert {"san.emergency.move_over", "san.caution.slow_down"} <= set(fast.rules)
+    assert "san.emergency.give_way" not in fast.rules
+    assert "is an emergency vehicle on duty standing beside the ego's path" in fast.justification.text
+    assert "the fastest speed under caution is 6.71 m/s" in fast.justification.text
+    for proposed in (Action.accelerate, Action.cruise):
+        standing = _run(_police_on_the_shoulder(0.0), proposed)
+        assert standing.decision is Decision.approve, proposed
+
+
+def test_an_ambulance_parked_across_an_undivided_road_is_passed_slowly_but_one_coming_is_given_way_to():
+    def ambulance(vy):
+        siren = obj(4, "emergency_vehicle", -3.5, 80.0, 1, kind="oncoming", vy=vy, emergency_lights=True)
+        return tuple(scene(frame=i, speed=0.0, zone="road", limit=24.5, other_lanes=("oncoming",), objects=[siren])
+                     for i in (1, 2, 3))
+
+    assert _run(ambulance(0.0), Action.accelerate).decision is Decision.approve
+    coming = _run(ambulance(-15.0), Action.accelerate)
+    assert (coming.decision, coming.action) == (Decision.override, Action.pull_over)
+    assert "san.emergency.give_way" in coming.rules
+
+
+def _fire_truck(ego_lane: int, x: float):
+    truck = obj(4, "emergency_vehicle", x, 60.0, 2, vy=0.0, emergency_lights=True)
+    return tuple(scene(frame=i, speed=20.0, lane=ego_lane, lanes=2, zone="highway", limit=29.0, objects=[truck])
+                 for i in (1, 2))
+
+
+def test_the_ego_never_moves_into_the_lane_of_a_stopped_emergency_vehicle():
+    cruise = _run(_fire_truck(1, 3.5), Action.cruise)
+    assert (cruise.decision, cruise.action) == (Decision.override, Action.brake)  # slows to pass it, no lane away
+    towards = _run(_fire_truck(1, 3.5), Action.change_lane_right)
+    assert towards.decision is Decision.override and towards.action is not Action.change_lane_right
+    assert "san.emergency.move_over" in towards.rules
+    assert "change lane right is forbidden" in towards.justification.text
+
+
+def test_in_the_lane_of_a_stopped_emergency_vehicle_the_ego_moves_out_of_it():
+    for jurisdiction in ("us", "uk"):
+        away = _run(_fire_truck(2, 0.0), Action.change_lane_left, jurisdiction)
+        assert away.decision is Decision.approve, jurisdiction
+        cruise = _run(_fire_truck(2, 0.0), Action.cruise, jurisdiction)
+        assert (cruise.decision, cruise.action) == (Decision.override, Action.change_lane_left), jurisdiction
+        assert "san.emergency.move_over" in cruise.rules
+
+
+@pytest.mark.parametrize("jurisdiction, ego_lane, x, kerb", [("us", 1, 3.5, Action.change_lane_right),
+                                                             ("uk", 2, -3.5, Action.change_lane_left)])
+def test_the_ego_does_not_cut_in_front_of_an_emergency_vehicle_coming_up_in_the_kerb_lane(jurisdiction, ego_lane, x, kerb):
+    siren = obj(4, "emergency_vehicle", x, -30.0, 3 - ego_lane, vy=30.0, emergency_lights=True)
+    frames = tuple(scene(frame=i, speed=20.0, lane=ego_lane, lanes=2, zone="highway", limit=29.0, objects=[siren])
+                   for i in (1, 2))
+    cruise = _run(frames, Action.cruise, jurisdiction)
+    assert cruise.decision is Decision.override and cruise.action is not kerb
+    assert "san.emergency.give_way" in cruise.rules
+    cut_in = _run(frames, kerb, jurisdiction)
+    assert cut_in.decision is Decision.override and cut_in.action is not kerb
+
+
+def test_a_lane_change_away_from_an_emergency_vehicle_on_the_kerb_side_answers_it():
+    siren = obj(4, "emergency_vehicle", 3.5, -30.0, 3, vy=30.0, emergency_lights=True)
+    frames = tuple(scene(frame=i, speed=20.0, lane=2, lanes=3, zone="highway", limit=29.0, objects=[siren]) for i in (1, 2))
+    assert _run(frames, Action.change_lane_left).decision is Decision.approve
+    towards = _run(frames, Action.change_lane_right)
+    assert towards.decision is Decision.override and {"clr.hazard", "san.emergency.give_way"} <= set(towards.rules)
+
+
+# --- flashing red: a stop sign only at a US intersection; elsewhere the ego stays stopped while it flashes
+
+FLASHING_RED = [{"colour": "red", "flashing": True}]
+
+
+def _stopping_at_a_flashing_red(**kw):
+    return tuple(scene(frame=i, speed=max(0.0, 3.0 - i), limit=13.0, lights=FLASHING_RED, **kw) for i in range(1, 6))
+
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_a_flashing_red_away_from_an_intersection_holds_the_stop(jurisdiction):
+    verdict = _run(_stopping_at_a_flashing_red(), Action.accelerate, jurisdiction)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert "san.lights.flashing_red_stop" in verdict.rules
+    assert "a red light flashes where traffic stops and waits while it flashes" in verdict.justification.text
+
+
+def test_a_flashing_red_at_an_intersection_is_a_stop_sign_in_the_us_and_holds_the_stop_in_the_uk():
+    frames = _stopping_at_a_flashing_red(intersection={"type": "four_way", "stage": "at", "distance": 0.0})
+    assert _run(frames, Action.accelerate, "us").decision is Decision.approve  # stopped: go when clear
+    uk = _run(frames, Action.accelerate, "uk")
+    assert (uk.decision, uk.action) == (Decision.override, Action.brake)
+    assert "san.lights.flashing_red_stop" in uk.rules
+
+
+# --- caution is a speed cap, not a standstill
+
+def _flashing_yellow(speed: float):
+    at = {"type": "four_way", "stage": "at", "distance": 0.0}
+    return tuple(scene(frame=i, speed=speed, limit=13.0, lights=[{"colour": "yellow", "flashing": True}], intersection=at)
+                 for i in range(1, 5))
+
+
+@pytest.mark.parametrize("speed", [0.0, 3.0])
+def test_at_a_flashing_yellow_the_ego_may_move_off_up_to_the_cautious_speed(speed):
+    assert _run(_flashing_yellow(speed), Action.accelerate).decision is Decision.approve
+
+
+def test_at_a_flashing_yellow_the_ego_slows_to_the_cautious_speed_from_above():
+    verdict = _run(_flashing_yellow(12.0), Action.cruise)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert {"san.caution.slow_down", "san.lights.flashing_yellow_caution"} <= set(verdict.rules)
+    near = _run(_flashing_yellow(6.5), Action.accelerate)
+    assert near.decision is Decision.override and "san.caution.no_speeding_up" in near.rules
+
+
+def test_a_uk_school_bus_is_passed_slowly_from_a_standstill():
+    bus = obj(4, "bus", -3.5, 20.0, 1, kind="shoulder", vy=0.0, emergency_lights=True)
+    frames = tuple(scene(frame=i, speed=0.0, limit=13.0, other_lanes=("shoulder",), objects=[bus]) for i in (1, 2, 3))
+    assert _run(frames, Action.accelerate, "uk").decision is Decision.approve
+    assert _run(frames, Action.accelerate, "us").decision is Decision.override  # the US stops for it
+
+
+# --- a dark signal is still a signal
+
+DARK = {"type": "signaled", "stage": "arriving", "distance": 20.0, "stop_line": True}
+
+
+def test_a_dark_signal_is_an_all_way_stop_in_the_us():
+    verdict = _run((scene(speed=12.0, limit=15.6, lights=[{"colour": "none"}], intersection=DARK),), Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert {"san.lights.dark_signal", "brake.stop_sign"} <= set(verdict.rules)
+    assert "the traffic lights in view are all dark" in verdict.justification.text
+
+
+def test_a_dark_signal_is_passed_with_great_care_in_the_uk_giving_way_to_cross_traffic():
+    dark = [{"colour": "none"}]
+    verdict = _run((scene(speed=12.0, limit=15.6, lights=dark, intersection=DARK),), Action.accelerate, "uk")
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert {"san.lights.dark_signal", "san.caution.no_speeding_up"} <= set(verdict.rules)
+    slow = _run((scene(speed=4.0, limit=15.6, lights=dark, intersection=DARK),), Action.accelerate, "uk")
+    assert slow.decision is Decision.approve
+    car = obj(5, "car", -12.0, 20.0, 1, kind="cross_left", vy=0.0, vx=10.0)
+    crossing = _run((scene(speed=4.0, limit=15.6, lights=dark, other_lanes=("cross_left",), objects=[car],
+                           intersection={**DARK, "distance": 3.0}),), Action.accelerate, "uk")
+    assert crossing.decision is Decision.override and "san.lights.dark_signal" in crossing.rules
+
+
+def test_a_red_seen_before_the_lights_went_dark_still_holds_the_ego():
+    frames = (scene(frame=1, speed=6.0, limit=15.6, lights=[{"colour": "red"}], intersection=DARK),
+              scene(frame=2, speed=5.0, limit=15.6, lights=[{"colour": "none"}], intersection=DARK))
+    for jurisdiction in ("us", "uk"):
+        verdict = _run(frames, Action.accelerate, jurisdiction)
+        assert verdict.decision is Decision.override and "san.memory.red_light" in verdict.rules, jurisdiction

@@ -483,3 +483,15 @@ def test_the_windows_footprints_have_the_catalogs_typical_lengths(reasoner):
     lengths = {sym.arguments[0].name: sym.arguments[1].number for sym in reasoner.catalog.fact_rule
                if sym.name == "typical_length"}
     assert lengths and {c: round(FOOTPRINT[ObjectClass(c)][0] * 100) for c in lengths} == lengths
+
+
+def test_a_timestamp_too_large_for_the_windows_clock_is_refused_by_the_scene_model():
+    """1e306 s overflowed to infinity in whole milliseconds and crashed the window; the model now bounds it."""
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError, match="timestamp"):
+        scene(frame=1, timestamp=1e306)
+    with pytest.raises(ValidationError, match="timestamp"):
+        scene(frame=1, timestamp=-1e306)
+    early, late = scene(frame=1, timestamp=1e12 - 0.1), scene(frame=2, timestamp=1e12)
+    assert WindowProvider().facts(late, [early])  # the largest allowed timestamps still make a window
