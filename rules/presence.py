@@ -87,6 +87,10 @@ class PresenceSlicer:
         exact, also_derived = (frozenset(p for p, regex in among if regex.search(facts) is None) for among in checks)
         return names, exact, also_derived
 
+    def kind_count(self) -> int:
+        """How many kinds of frame it has learned a slice for."""
+        return len(self._learned)
+
     def learned(self, kind: Kind) -> Optional[Slice]:
         """The slice learned for frames of this kind (None before the first such frame)."""
         return self._learned.get(kind)

@@ -419,3 +419,13 @@ def test_an_idle_worker_drops_the_windows_of_vehicles_that_fall_silent(monkeypat
     finally:
         monitor_end.send(decision_worker.STOP)
         waiting.join(10)
+
+
+def test_a_worker_warms_up_on_frames_of_its_own_without_touching_a_vehicle_window_or_its_batch_timing():
+    """Warming up readies the reasoner for a planner's first frames; no vehicle's history or deadline estimate may
+    carry the warm-up's frames."""
+    judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
+    kinds_before = judge.reasoner.slicer.kind_count()
+    judge.warm_up()
+    assert judge.vehicles == {} and not judge.time.known
+    assert judge.reasoner.slicer.kind_count() > kinds_before
