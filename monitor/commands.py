@@ -119,9 +119,8 @@ def register(subparsers) -> None:
 def _zenoh_arguments(parser, *, listen_default, connect_default=None, modes=True) -> None:
     if modes:
         parser.add_argument("--mode", choices=("peer", "client", "router"), default=None, help="zenoh mode (default: peer)")
-    parser.add_argument(
-        "--listen", action="append", metavar="ENDPOINT", help=f"endpoint to listen on (default: {listen_default or 'none'})"
-    )
+    listens = f"{listen_default}; none with --mode client" if listen_default and modes else listen_default or "none"
+    parser.add_argument("--listen", action="append", metavar="ENDPOINT", help=f"endpoint to listen on (default: {listens})")
     parser.add_argument(
         "--connect",
         action="append",

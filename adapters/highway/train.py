@@ -123,7 +123,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=_at_least(1), default=50_000,
                         help="training steps, at least 1 (default: 50000, as the shipped weights)")
     parser.add_argument("--seed", type=_at_least(0), default=0, help="seed, at least 0 (the environment's seeds are)")
-    parser.add_argument("--out", type=Path, default=Path("adapters/highway/weights/dqn_highway_fast.pt"))
+    parser.add_argument("--out", type=Path, default=Path("adapters/highway/weights/dqn_highway_fast.pt"),
+                        help="where to write the trained weights (default: %(default)s, the packaged ones)")
     args = parser.parse_args(argv)
     # Checked before training, which would otherwise fail at its first save, minutes or hours in.
     if args.out.is_dir():
