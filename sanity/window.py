@@ -107,6 +107,7 @@ class _Summary:
     flashing: frozenset[LightColour]
     steady: frozenset[LightColour]  # colours some light of which is not flagged flashing
     stop_sign: bool
+    school_sign: bool
     speed: int  # the ego's, cm/s
     objects: dict[int, DetectedObject]  # by id
     ids: frozenset[int]
@@ -126,6 +127,7 @@ class _Summary:
             flashing=frozenset(l.colour for l in scene.traffic_lights if l.flashing and l.colour is not LightColour.none),
             steady=frozenset(l.colour for l in scene.traffic_lights if not l.flashing and l.colour is not LightColour.none),
             stop_sign=any(s.kind is SignKind.stop for s in scene.signs),
+            school_sign=any(s.kind is SignKind.school_zone for s in scene.signs),
             speed=cm(scene.ego.speed),
             objects={o.id: o for o in scene.objects},
             ids=frozenset(o.id for o in scene.objects),
@@ -431,10 +433,13 @@ def _flashes(on: list[bool], times: list[float], config: WindowConfig, whole_lit
 
 
 def _sign_facts(now: _Summary, past: list[_Summary]) -> list[str]:
-    """A stop sign seen before and hidden now (the only sign whose memory the rules use)."""
+    """A stop sign or a school-zone sign seen before and out of view now (the signs whose memory the rules use)."""
+    out = []
     if not now.stop_sign and any(p.stop_sign for p in past):
-        return ["sign_seen_recently(stop)."]
-    return []
+        out.append("sign_seen_recently(stop).")
+    if not now.school_sign and any(p.school_sign for p in past):
+        out.append("sign_seen_recently(school_zone).")
+    return out
 
 
 def _approaches(scenes: Sequence[Scene]) -> list[Optional[int]]:
