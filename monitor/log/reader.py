@@ -220,7 +220,8 @@ def read_log(
     since_ns: Optional[int] = None,
     vehicles: Optional[Callable[[Optional[str]], bool]] = None,
 ) -> Iterator[LogRecord]:
-    """Every record of the given files, file after file (or merged by log time with `merge=True`).
+    """Every record of the given files, file after file (or merged by log time with `merge=True`, which keeps
+    every file open at once and takes each file's records in the order written: docs/protocol.md).
 
     Pass a `RecoveryReport` to learn, once iteration ends, how much of each file was read.
     A missing or unreadable file is reported and skipped, never raised. With `since_ns`,
