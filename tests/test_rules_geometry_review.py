@@ -118,3 +118,19 @@ def test_at_a_stop_sign_cross_traffic_due_within_the_turn_gap_holds_the_ego_on_a
     assert "brake.stop_sign_cross_traffic" in verdict.rules
     assert decide(stopped(-5.0), "accelerate").decision.value == "approve"  # due in 6 s, after the turn gap
     assert decide(stopped(15.0), "accelerate").decision.value == "approve"  # driving away
+
+
+# --- overtaking a lead that is faster than the ego --------------------------------------------------------------
+
+def test_a_lead_faster_than_the_ego_is_not_overtaken_and_a_forbidden_accelerate_is_held_at_cruise():
+    faster = obj("car", 0, 35, lane=2, vy=24.9)
+    sc = scene(speed=24.8, limit=25, zone="highway", lane=2, lanes=2, objects=[faster])
+    verdict = decide(sc, "accelerate")
+    assert (verdict.decision.value, verdict.action.value) == ("override", "cruise")
+    assert "acc.at_limit" in verdict.rules and "cll.overtake" not in verdict.rules
+    assert decide(sc, "cruise").recommended.value == "cruise"
+    # a lead slower than the ego still is overtaken
+    slower = scene(speed=24.8, limit=25, zone="highway", lane=2, lanes=2, objects=[obj("car", 0, 35, lane=2, vy=20)])
+    verdict = decide(slower, "cruise")
+    assert verdict.recommended.value == "change_lane_left"
+    assert "cll.overtake" in decide(slower, "change_lane_left").rules
