@@ -38,6 +38,7 @@ PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
 TEMPLATE_FORMATS = frozenset({
     "m", "mps", "ahead", "right",  # centimetres and cm/s as metres; signed positions as "5.0 m behind"
     "along", "across", "closing",  # signed speeds: "12.0 m/s against the ego's heading", "3.0 m/s to the left"
+    "decel",  # a deceleration in cm/s²: "3.0 m/s²"
     "limit",  # a speed limit in cm/s: m/s, and the unit of the pack's signs ("15.7 m/s (35 mph)")
     "obj", "ordinal", "ms",  # "car 3"; "2nd"; milliseconds as seconds
     "frames",  # a count of frames: "1 frame", "3 frames"

@@ -61,8 +61,8 @@ _SETTINGS = {
     "track_ms": ("time that establishes a track", "s", 1000),
 }
 _DISTANCE_UNIT = ("m", 100)  # a setting _SETTINGS does not name: a distance in cm
-_SETTING_FORMATS = {"s": "ms", "m": "m", "m/s": "mps"}  # a setting's unit (_SETTINGS) as a template format
-_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "limit": "some speed", "ms": "some time",
+_SETTING_FORMATS = {"s": "ms", "m": "m", "m/s": "mps", "m/s²": "decel"}  # a setting's unit (_SETTINGS) as a template format
+_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "decel": "some deceleration", "limit": "some speed", "ms": "some time",
             "ahead": "somewhere", "right": "somewhere", "along": "some speed", "across": "some speed",
             "closing": "some speed", "lane": "a lane", "detail": "", "paren": ""}
 _SIGN_UNITS = {"mph": 44.704}  # cm/s per unit a pack's speed_unit/1 may name
@@ -104,6 +104,8 @@ class Phrasebook:
             return f"{n / 100:.{digits}f} m"
         if fmt == "mps":
             return f"{n / 100:.{digits}f} m/s"
+        if fmt == "decel":
+            return f"{n / 100:.{digits}f} m/s²"
         if fmt == "closing":
             shown = f"{n / 100:.{digits}f} m/s"
             return shown if n >= 0 else f"{shown} (the gap grows by {-n / 100:.{digits}f} m/s)"
@@ -284,7 +286,7 @@ _SIGNED = {  # (at zero, positive, negative); the sign of a position or speed sa
     "along": ("0.0 m/s along the ego's heading", "{} m/s along the ego's heading", "{} m/s against the ego's heading"),
     "across": ("0.0 m/s sideways", "{} m/s to the right", "{} m/s to the left"),
 }
-_COMPARED = {"m": "m", "mps": "mps", "limit": "limit", "ms": "ms", "frames": "frames", "ordinal": "ordinal",
+_COMPARED = {"m": "m", "mps": "mps", "decel": "decel", "limit": "limit", "ms": "ms", "frames": "frames", "ordinal": "ordinal",
              "ahead": "ahead", "right": "right", "along": "along", "across": "across", "closing": "closing"}
 _LESS, _LESS_EQ, _MORE, _MORE_EQ = (int(o) for o in (_CMP.LessThan, _CMP.LessEqual, _CMP.GreaterThan,
                                                       _CMP.GreaterEqual))

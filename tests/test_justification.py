@@ -584,7 +584,7 @@ def test_a_rule_ruled_out_by_what_holds_says_so_without_a_double_negative(reason
 def test_signed_positions_that_differ_never_read_alike(reasoner):
     sc = scene(speed=10, lane=2, lanes=2, objects=[obj("car", -1.76, 4)])
     text = reasoner.decide(sc, "change_lane_left", explain=True).justification.text
-    assert "1.76 m to the left is left of 1.75 m to the left" in text
+    assert "1.76 m to the left is not right of 1.75 m to the left" in text
 
 
 def test_a_reading_of_a_few_hundredths_of_a_second_is_not_zero_seconds(reasoner):

@@ -129,6 +129,7 @@ CASES = {
     "acc.below_limit": (scene(speed=10, limit=15), scene(speed=15, limit=15)),
     "acc.lane_not_clear": (scene(speed=15, objects=[obj("car", 0, 13, lane=1)]), scene(objects=[obj("car", 0, 40, lane=1)])),
     "acc.red_light": (scene(light="red"), scene(light="green")),
+    "acc.yellow_light": (scene(light="yellow"), scene(light="yellow", intersection={"type": "signaled", "stage": "enter"})),
     "acc.at_limit": (scene(speed=15, limit=15), scene(speed=14, limit=15)),
     "acc.cut_in": (scene(speed=15, lane=2, lanes=2, limit=20, objects=[obj("car", -3, 3, lane=1, vy=11, indicator="right")]),
                    scene(speed=15, lane=2, lanes=2, limit=20, objects=[obj("car", -3, 3, lane=1, vy=11, indicator="left")])),
@@ -633,14 +634,15 @@ def test_a_pedestrian_in_the_oncoming_lane_blocks_the_turn_across_it():
 
 
 def test_accelerating_allows_for_the_gap_one_step_faster_needs():
-    # 18.4 m clears the 18.3 m stopping distance from 10 m/s, not the 19.7 m from 10.5 m/s one accel_step on
-    # a standing thing, not a person: a person in the lane within the overtaking distance forbids it anyway
-    just_beyond = scene(speed=10, objects=[obj("traffic_cone", 0, 18.4, lane=1)])
+    # a car driving at 2 m/s, 14 m ahead, clears the 13.3 m stopping distance from a closing speed of 8 m/s, not
+    # the 14.5 m from 8.5 m/s one accel_step on; a moving car, since the ego stops early (braking comfortably)
+    # for a standing thing or a person, which forbids accelerating farther out
+    just_beyond = scene(speed=10, objects=[obj("car", 0, 14, lane=1, vy=2)])
     verdict = decide(just_beyond, "accelerate")
     assert verdict.decision.value == "override" and "acc.lane_not_clear" in verdict.rules
     assert verdict.recommended.value != "accelerate"
-    assert "19.7 m" in REASONER.decide(just_beyond, "accelerate", explain=True).justification.text
-    assert decide(scene(speed=10, objects=[obj("traffic_cone", 0, 20, lane=1)]), "accelerate").decision.value == "approve"
+    assert "14.5 m" in REASONER.decide(just_beyond, "accelerate", explain=True).justification.text
+    assert decide(scene(speed=10, objects=[obj("car", 0, 15, lane=1, vy=2)]), "accelerate").decision.value == "approve"
 
 
 def test_a_follower_of_unknown_speed_in_the_next_lane_is_not_more_permissive_than_one_that_keeps_pace():

@@ -118,3 +118,71 @@ def test_at_a_stop_sign_cross_traffic_due_within_the_turn_gap_holds_the_ego_on_a
     assert "brake.stop_sign_cross_traffic" in verdict.rules
     assert decide(stopped(-5.0), "accelerate").decision.value == "approve"  # due in 6 s, after the turn gap
     assert decide(stopped(15.0), "accelerate").decision.value == "approve"  # driving away
+
+
+# --- what is dead ahead is in the ego's lane, whatever its label --------------------------------------------------
+
+def head_on(*objects, speed: float = 20, lane: int = 1, lanes: int = 1):
+    return scene(speed=speed, limit=24, zone="rural", lane=lane, lanes=lanes, other_lanes=("oncoming",),
+                 objects=list(objects))
+
+
+def test_what_is_dead_ahead_is_in_the_egos_lane_though_perception_labels_it_in_another_lane():
+    """12 m ahead, in line with the ego: no bend brings another lane there within the 15 m label check."""
+    scenes = {
+        "a car coming head-on": head_on(obj("car", 0, 12, lane=1, kind="oncoming", vy=-20)),
+        "a truck standing": head_on(obj("truck", 0, 12, lane=1, kind="oncoming", velocity=STANDING)),
+        "a pedestrian": head_on(obj("pedestrian", 0, 12, lane=1, kind="oncoming")),
+        "a pedestrian labelled in the next lane": head_on(obj("pedestrian", 0, 12, lane=1), lane=2, lanes=2),
+    }
+    for what, sc in scenes.items():
+        for proposed in ("accelerate", "cruise"):
+            verdict = REASONER.decide(sc, proposed, explain=True)
+            assert (verdict.decision.value, verdict.action.value) == ("override", "brake"), (what, proposed)
+            assert {"brake.obstacle_ahead", "san.lane.position_over_label"} <= set(verdict.rules), (what, proposed)
+            assert "over its lane label" in verdict.justification.text, what
+            assert "it names another lane of the road yet is in line with the ego" in verdict.justification.text
+
+
+def test_beyond_the_label_check_distance_a_lane_label_is_kept_as_a_curve_may_bring_that_lane_into_line():
+    oncoming_on_a_bend = head_on(obj("car", 0, 60, lane=1, kind="oncoming", vy=-20))
+    verdict = decide(oncoming_on_a_bend, "cruise")
+    assert verdict.decision.value == "approve" and "san.lane.position_over_label" not in verdict.rules
+
+
+# --- overtaking a lead that is faster than the ego --------------------------------------------------------------
+
+def test_a_lead_faster_than_the_ego_is_not_overtaken_and_a_forbidden_accelerate_is_held_at_cruise():
+    faster = obj("car", 0, 35, lane=2, vy=24.9)
+    sc = scene(speed=24.8, limit=25, zone="highway", lane=2, lanes=2, objects=[faster])
+    verdict = decide(sc, "accelerate")
+    assert (verdict.decision.value, verdict.action.value) == ("override", "cruise")
+    assert "acc.at_limit" in verdict.rules and "cll.overtake" not in verdict.rules
+    assert decide(sc, "cruise").recommended.value == "cruise"
+    # a lead slower than the ego still is overtaken
+    slower = scene(speed=24.8, limit=25, zone="highway", lane=2, lanes=2, objects=[obj("car", 0, 35, lane=2, vy=20)])
+    verdict = decide(slower, "cruise")
+    assert verdict.recommended.value == "change_lane_left"
+    assert "cll.overtake" in decide(slower, "change_lane_left").rules
+
+
+# --- the lane's edges, and vulnerable road users just beside it ---------------------------------------------------
+
+def test_an_object_on_the_lane_edge_is_in_the_lane_on_either_side_alike():
+    for x in (1.75, -1.75):
+        verdict = decide(scene(speed=13, limit=15.6, objects=[obj("pedestrian", x, 10)]), "accelerate")
+        assert (verdict.decision.value, verdict.action.value) == ("override", "brake"), x
+        assert "brake.obstacle_ahead" in verdict.rules, x
+
+
+def test_a_vulnerable_road_user_just_beside_the_egos_lane_is_not_passed_accelerating():
+    """1.8 m to either side, 0.05 m beyond the lane's edge: well within the 1 m side clearance (Highway Code 163, 213)."""
+    for x in (1.8, -1.8, 2.7):
+        verdict = REASONER.decide(scene(speed=13, limit=15.6, objects=[obj("pedestrian", x, 10)]), "accelerate",
+                                  explain=True)
+        assert (verdict.decision.value, verdict.action.value) == ("override", "cruise"), x
+        assert "acc.lane_not_clear" in verdict.rules
+        assert "is a vulnerable road user ahead just beside the ego's lane" in verdict.justification.text
+    # beyond the side clearance (1.75 m + 1 m), or behind the ego, they do not hold it back
+    for x, y in ((2.8, 10), (1.8, -3)):
+        assert decide(scene(speed=13, limit=15.6, objects=[obj("pedestrian", x, y)]), "accelerate").decision.value == "approve"

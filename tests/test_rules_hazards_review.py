@@ -150,3 +150,79 @@ def test_a_vehicle_of_unknown_speed_across_the_egos_path_is_not_taken_to_drive_a
     assert overridden_with_brake(decide(across, "accelerate"))
     in_the_egos_lane = scene(speed=15, limit=20, objects=[obj("car", 0, 20, lane=1)])  # AV-CSR's reading: it keeps pace
     assert decide(in_the_egos_lane, "accelerate").decision.value == "approve"
+
+
+# --- a stop sign read with no intersection known ------------------------------------------------------------------
+
+def test_a_stop_sign_with_no_intersection_known_is_stopped_at_then_passed_when_clear():
+    moving = scene(speed=10, limit=13.4, sign="stop")
+    for proposed in ("accelerate", "cruise"):
+        verdict = decide(moving, proposed)
+        assert overridden_with_brake(verdict) and "brake.stop_sign" in verdict.rules, proposed
+    # no rolling right turn through it
+    turning = scene(speed=8, limit=13.4, sign="stop", intent="enter_right_lane", other_lanes=CROSS)
+    verdict = decide(turning, "turn_right")
+    assert overridden_with_brake(verdict) and "brake.stop_sign" in verdict.rules
+    # stopped, with the way clear, the ego goes; with cross traffic near, it waits
+    assert decide(scene(speed=0, limit=13.4, sign="stop"), "accelerate").decision.value == "approve"
+    stopped_turning = scene(speed=0, limit=13.4, sign="stop", intent="enter_right_lane", other_lanes=CROSS)
+    assert decide(stopped_turning, "turn_right").decision.value == "approve"
+    coming = obj("car", -25, 6, lane=1, kind="cross_left", velocity={"x": 15.0, "y": 0.0})
+    busy = scene(speed=0, limit=13.4, sign="stop", other_lanes=CROSS, objects=[coming])
+    verdict = decide(busy, "accelerate")
+    assert overridden_with_brake(verdict) and "brake.stop_sign_cross_traffic" in verdict.rules
+
+
+# --- slowing early for a standing hazard --------------------------------------------------------------------------
+
+def test_the_ego_slows_early_for_a_pedestrian_or_a_standing_car_within_its_comfortable_stopping_distance():
+    """At 20 m/s braking comfortably (3 m/s²) takes 86.7 m with the reaction; firm braking (6 m/s²) 53.3 m."""
+    pedestrian = scene(speed=20, limit=29, zone="highway", objects=[obj("pedestrian", 0, 60, lane=1)])
+    standing_car = scene(speed=20, limit=29, zone="highway", objects=[obj("car", 0, 54, lane=1, velocity=STANDING)])
+    for sc in (pedestrian, standing_car):
+        for proposed in ("accelerate", "cruise"):
+            verdict = REASONERS["us"].decide(sc, proposed, explain=True)
+            assert overridden_with_brake(verdict), proposed
+            assert ("acc.lane_not_clear" if proposed == "accelerate" else "cruise.closing_in") in verdict.rules
+            assert "nearer than the ego" in verdict.justification.text and "braking comfortably" in verdict.justification.text
+    # beyond the comfortable stopping distance one step of accelerating on, from 10.5 m/s: 10.5 m + 10.5²/6 m = 28.9 m
+    far = scene(speed=10, limit=15.6, objects=[obj("car", 0, 29.5, lane=1, velocity=STANDING)])
+    assert decide(far, "accelerate").decision.value == "approve"
+    # a car of unknown speed is taken to move with the traffic: no early stop for it
+    assert decide(scene(speed=20, limit=29, zone="highway", objects=[obj("car", 0, 54, lane=1)]), "cruise").decision.value == "approve"
+
+
+# --- things the ego can drive over ----------------------------------------------------------------------------
+
+def test_a_plastic_bag_ahead_does_not_make_the_ego_brake_with_a_car_tailgating():
+    bag = obj("plastic_bag", 0, 20, lane=1)
+    tailgater = obj("car", 0, -5, lane=1, vy=15)
+    sc = scene(speed=15, limit=15.6, objects=[bag, tailgater])
+    verdict = decide(sc, "cruise")
+    assert verdict.decision.value == "approve" and "cruise.closing_in" not in verdict.rules
+    assert decide(sc, "brake").decision.value == "override"  # brake.no_phantom_braking: nothing to brake for
+    assert "brake.no_phantom_braking" in decide(sc, "brake").rules
+    assert decide(scene(speed=10, limit=15.6, objects=[bag]), "accelerate").decision.value == "approve"
+
+
+# --- a yellow light with no known distance to the line ----------------------------------------------------------
+
+def test_the_ego_does_not_accelerate_towards_a_yellow_light():
+    unknown = scene(speed=10, limit=13.4, light="yellow")
+    verdict = decide(unknown, "accelerate")
+    assert overridden_with_brake(verdict) and "acc.yellow_light" in verdict.rules
+    # too close to stop comfortably, it goes through at its speed, without speeding up
+    close = scene(speed=10, limit=13.4, light="yellow", intersection={"type": "signaled", "stage": "arriving", "distance": 12})
+    verdict = decide(close, "accelerate")
+    assert (verdict.decision.value, verdict.action.value) == ("override", "cruise") and "acc.yellow_light" in verdict.rules
+    assert decide(close, "cruise").decision.value == "approve"
+    inside = scene(speed=10, limit=13.4, light="yellow", intersection={"type": "signaled", "stage": "enter"})
+    assert decide(inside, "accelerate").decision.value == "approve"
+
+
+def test_decelerations_in_a_justification_read_in_metres_per_second_squared():
+    approach = scene(speed=10, limit=13.4, light="yellow",
+                     intersection={"type": "signaled", "stage": "arriving", "distance": 40})
+    text = REASONERS["us"].decide(approach, "accelerate", explain=True).justification.text
+    assert "3.0 m/s² ≤ 6.0 m/s²" in text and "comfortable braking is a deceleration of 3.0 m/s²" in text
+    assert "3.0 m/s ≤" not in text

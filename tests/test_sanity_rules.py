@@ -589,7 +589,7 @@ def test_a_pedestrian_labelled_on_the_sidewalk_but_straight_ahead_is_in_the_ego_
 
 
 @pytest.mark.parametrize("case, frame", [
-    ("a car in the listed lane on the right, in line ahead on a curve", _labelled(0.0, 8.0, 2, lanes=2)),
+    ("a car in the listed lane on the right, in line ahead on a curve beyond the label check", _labelled(0.0, 30.0, 2, lanes=2)),
     ("a car in a lane the scene does not list, far ahead", _labelled(0.0, 30.0, 7)),
     ("a car in a lane the scene does not list, beside the ego's lane", _labelled(3.5, 5.0, 7)),
     ("a pedestrian on the sidewalk beside the lane", _labelled(5.5, 5.0, 1, "sidewalk_right", "pedestrian",
