@@ -124,3 +124,17 @@ def test_a_school_bus_across_a_road_the_map_marks_divided_is_passed():
     """UVC 11-705(d): only separate roadways exempt the far side."""
     verdict = four_lanes_with_bus(1, divided=True)
     assert verdict.decision.value == "approve" and "san.school_bus.stop" not in verdict.rules
+
+
+def exit_lane(intent: str, ends_in: float, speed: float = 20.0):
+    return scene(speed=speed, limit=29.0, zone="highway", lane=1, lanes=2, intent=intent, lane_ends={2: ends_in})
+
+
+def test_the_ego_may_move_into_an_exit_lane_its_route_asks_for_though_the_lane_ends_ahead():
+    verdict = US.decide(exit_lane("merge_into_right_lane", 120), "change_lane_right")
+    assert verdict.decision.value == "approve" and "clr.intent_merge" in verdict.rules
+    by_choice = US.decide(exit_lane("continue_in_lane", 120), "change_lane_right")
+    assert by_choice.decision.value == "override" and "clr.target_lane_ends" in by_choice.rules
+    # within the stopping distance (53.3 m at 20 m/s) it ends too soon to be used
+    too_late = US.decide(exit_lane("merge_into_right_lane", 45), "change_lane_right")
+    assert too_late.decision.value == "override" and "clr.target_lane_ends" in too_late.rules
