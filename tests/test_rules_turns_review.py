@@ -126,6 +126,19 @@ def test_a_school_bus_across_a_road_the_map_marks_divided_is_passed():
     assert verdict.decision.value == "approve" and "san.school_bus.stop" not in verdict.rules
 
 
+@pytest.mark.parametrize("where", [{"x": 80, "y": 5}, {"x": 4, "y": -40}])
+def test_a_pedestrian_far_along_the_cross_road_or_behind_the_ego_does_not_block_its_turn(where):
+    def right_turn(x, y):
+        return scene(speed=2.0, limit=13.4, intent="enter_right_lane", other_lanes=("cross_right",),
+                     objects=[obj("pedestrian", x, y, lane=1, kind="cross_right")],
+                     intersection={"type": "four_way", "stage": "at"})
+
+    far = US.decide(right_turn(**where), "turn_right")
+    assert far.decision.value == "approve" and "tr.intent" in far.rules
+    at_the_corner = US.decide(right_turn(4, 5), "turn_right")
+    assert at_the_corner.decision.value == "override" and "tr.crossing_user" in at_the_corner.rules
+
+
 def exit_lane(intent: str, ends_in: float, speed: float = 20.0):
     return scene(speed=speed, limit=29.0, zone="highway", lane=1, lanes=2, intent=intent, lane_ends={2: ends_in})
 
