@@ -126,6 +126,36 @@ def test_a_school_bus_across_a_road_the_map_marks_divided_is_passed():
     assert verdict.decision.value == "approve" and "san.school_bus.stop" not in verdict.rules
 
 
+# The second turn review: unknown speeds, unlabelled traffic, red lights and unmarked junctions, bounds.
+
+def left_turn_at_green(*objects, speed: float = 3.0, stage: str = "at"):
+    return scene(speed=speed, limit=13.4, intent="enter_left_lane", light="green", other_lanes=("oncoming",),
+                 objects=objects, intersection={"type": "signaled", "stage": stage})
+
+
+def test_an_oncoming_car_of_unknown_speed_is_taken_to_arrive_at_the_limit_as_one_measured_there_would():
+    unknown = US.decide(left_turn_at_green(obj("car", -3.5, 50, lane=1, kind="oncoming")), "turn_left", explain=True)
+    assert (unknown.decision.value, unknown.action.value) == ("override", "brake")
+    assert "tl.yield_oncoming" in unknown.rules
+    text = unknown.justification.text
+    assert "would reach the ego's path in 3.0 s, because  [def.oncoming_worst_due]" in text
+    assert "[def.oncoming_unknown_close]" in text
+    at_the_limit = US.decide(left_turn_at_green(moving("car", -3.5, 50, "oncoming", vy=-13.4)), "turn_left")
+    assert at_the_limit.decision.value == "override" and "tl.yield_oncoming" in at_the_limit.rules
+    # one that would take longer than the turn gap even at the limit (100 m over 16.4 m/s: 6.1 s) does not hold it
+    assert US.decide(left_turn_at_green(obj("car", -3.5, 100, lane=1, kind="oncoming")), "turn_left").decision.value == "approve"
+
+
+def test_a_standing_oncoming_car_does_not_hold_a_left_turn_however_fast_the_ego_creeps():
+    standing = moving("car", -3.5, 8, "oncoming")
+    for speed in (0.0, 1.0, 2.0, 4.0):
+        verdict = US.decide(left_turn_at_green(standing, speed=speed), "turn_left")
+        assert verdict.decision.value == "approve" and "tl.intent" in verdict.rules, speed
+    creeping_towards = moving("car", -3.5, 8, "oncoming", vy=-2.0)
+    verdict = US.decide(left_turn_at_green(creeping_towards, speed=2.0), "turn_left")
+    assert verdict.decision.value == "override" and "tl.yield_oncoming" in verdict.rules
+
+
 @pytest.mark.parametrize("where", [{"x": 80, "y": 5}, {"x": 4, "y": -40}])
 def test_a_pedestrian_far_along_the_cross_road_or_behind_the_ego_does_not_block_its_turn(where):
     def right_turn(x, y):
