@@ -156,6 +156,29 @@ def test_a_standing_oncoming_car_does_not_hold_a_left_turn_however_fast_the_ego_
     assert verdict.decision.value == "override" and "tl.yield_oncoming" in verdict.rules
 
 
+def test_an_unlabelled_car_coming_towards_the_ego_on_the_passing_side_is_oncoming_traffic():
+    unlabelled = obj("car", -3.5, 20, velocity={"x": 0.0, "y": -15.0})
+    verdict = US.decide(left_turn_at_green(unlabelled), "turn_left", explain=True)
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+    assert "tl.yield_oncoming" in verdict.rules and "[def.oncoming_from_velocity]" in verdict.justification.text
+    mirrored = scene(speed=3.0, limit=13.4, intent="enter_right_lane", light="green", other_lanes=("oncoming",),
+                     objects=[obj("car", 3.5, 20, velocity={"x": 0.0, "y": -15.0})],
+                     intersection={"type": "signaled", "stage": "at"})
+    assert "tr.yield_oncoming" in UK.decide(mirrored, "turn_right").rules
+    # in the same-direction lanes, or driving the ego's way, it is no oncoming traffic
+    ahead_in_lane = obj("car", 0, 20, velocity={"x": 0.0, "y": 5.0})
+    assert US.decide(left_turn_at_green(ahead_in_lane), "turn_left").decision.value == "approve"
+
+
+def test_an_unlabelled_car_driving_across_the_egos_road_is_cross_traffic_for_a_turn():
+    unlabelled = obj("car", -20, 8, velocity={"x": 12.0, "y": 0.0})
+    verdict = US.decide(left_turn_at_green(unlabelled), "turn_left", explain=True)
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+    assert "tl.yield_cross_traffic" in verdict.rules and "[def.crossing_from_velocity]" in verdict.justification.text
+    driving_away = obj("car", -20, 8, velocity={"x": -12.0, "y": 0.0})
+    assert US.decide(left_turn_at_green(driving_away), "turn_left").decision.value == "approve"
+
+
 @pytest.mark.parametrize("where", [{"x": 80, "y": 5}, {"x": 4, "y": -40}])
 def test_a_pedestrian_far_along_the_cross_road_or_behind_the_ego_does_not_block_its_turn(where):
     def right_turn(x, y):
