@@ -179,6 +179,40 @@ def test_an_unlabelled_car_driving_across_the_egos_road_is_cross_traffic_for_a_t
     assert US.decide(left_turn_at_green(driving_away), "turn_left").decision.value == "approve"
 
 
+def red_light_right_turn(sign: str | None = None, light: str | None = "red"):
+    return scene(speed=0.0, limit=13.4, intent="enter_right_lane", light=light, sign=sign, other_lanes=("cross_left",),
+                 objects=[obj("car", -30, 8, lane=1, kind="cross_left")],
+                 intersection={"type": "signaled", "stage": "at"})
+
+
+def test_a_turn_on_red_yields_to_cross_traffic_of_unknown_speed_as_at_a_stop_sign():
+    on_red = US.decide(red_light_right_turn(), "turn_right", explain=True)
+    assert (on_red.decision.value, on_red.action.value) == ("override", "brake")
+    assert "tr.yield_cross_traffic" in on_red.rules
+    assert "the traffic light is red" in on_red.justification.text
+    at_stop_sign = US.decide(red_light_right_turn(sign="stop", light=None), "turn_right")
+    assert at_stop_sign.decision.value == "override" and "tr.yield_cross_traffic" in at_stop_sign.rules
+
+
+def unmarked_crossroads(x: float, **kw):
+    kind = "cross_right" if x > 0 else "cross_left"
+    return scene(speed=10.0, limit=13.4, other_lanes=("cross_left", "cross_right"),
+                 objects=[obj("car", x, 8, lane=1, kind=kind)],
+                 intersection={"type": "unsignaled", "stage": "arriving", "distance": 6, **kw})
+
+
+def test_at_an_unmarked_junction_the_ego_does_not_speed_up_into_cross_traffic_it_must_give_way_to():
+    from_the_right = US.decide(unmarked_crossroads(10), "accelerate")
+    assert (from_the_right.decision.value, from_the_right.action.value) == ("override", "brake")
+    assert "brake.uncontrolled_junction" in from_the_right.rules
+    # due in 2.2 s from the left: in the US the car on the left gives way; in the UK no one has priority
+    assert US.decide(unmarked_crossroads(-30), "accelerate").decision.value == "approve"
+    uk = UK.decide(unmarked_crossroads(-30), "accelerate")
+    assert uk.action.value == "brake" and "brake.uncontrolled_junction" in uk.rules
+    # on the major road the cross traffic gives way
+    assert US.decide(unmarked_crossroads(10, road="major"), "accelerate").decision.value == "approve"
+
+
 @pytest.mark.parametrize("where", [{"x": 80, "y": 5}, {"x": 4, "y": -40}])
 def test_a_pedestrian_far_along_the_cross_road_or_behind_the_ego_does_not_block_its_turn(where):
     def right_turn(x, y):
