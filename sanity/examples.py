@@ -52,6 +52,14 @@ def obj(oid: int, cls: str, x: float, y: float, lane: Optional[int] = None, kind
     return data
 
 
+def unmarked_crossroads(x: float) -> Scene:
+    """A car of unknown speed on the cross road, x metres to the side, at a crossroads nothing controls."""
+    kind = "cross_right" if x > 0 else "cross_left"
+    return scene(speed=10.0, limit=13.4, other_lanes=("cross_left", "cross_right"),
+                 objects=[obj(1, "car", x, 8.0, 1, kind=kind)],
+                 intersection={"type": "unsignaled", "stage": "arriving", "distance": 6.0})
+
+
 def limit_sign(mph: float) -> dict:
     return {"kind": "speed_limit", "value": round(mph * MPH, 3), "source": "camera"}
 
@@ -419,7 +427,15 @@ def _examples() -> list[Example]:
                 "junction, passed with great care).",
                 (scene(speed=12.0, limit=15.6, lights=[{"colour": "none"}], intersection=dark_signal),), Action.accelerate,
                 (scene(speed=12.0, limit=15.6, lights=[{"colour": "none"}], intersection=dark_signal),), "us", "uk"),
+        Example("jur.us.uncontrolled_junction",
+                "Arriving at 10 m/s, 6 m from the line of a crossroads no light or sign controls; a car of unknown speed "
+                "is 10 m to the right on the cross road (US).",
+                (unmarked_crossroads(10.0),), Action.accelerate, (unmarked_crossroads(10.0),), "us", "uk"),
         Example("jur.uk", "Any scene under the UK pack.", (scene(),), Action.cruise, (scene(),), "uk", "us"),
+        Example("jur.uk.unmarked_junction",
+                "Arriving at 10 m/s, 6 m from the line of an unmarked crossroads; a car of unknown speed is 30 m to the "
+                "left on the cross road (UK).",
+                (unmarked_crossroads(-30.0),), Action.accelerate, (unmarked_crossroads(-30.0),), "uk", "us"),
         Example("jur.left_hand_traffic", "A slower truck ahead on a UK motorway: overtake on the right.",
                 (scene(speed=20.0, zone="highway", limit=29.0, lanes=2, objects=[obj(1, "truck", 0.0, 30.0, 1, vy=15.0)]),),
                 Action.cruise, (scene(),), "uk", "us"),

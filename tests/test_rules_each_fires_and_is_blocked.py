@@ -117,6 +117,13 @@ CASES = {
         scene(sign="yield", intersection={"type": "unsignaled", "stage": "arriving", "distance": 10}, other_lanes=("cross_left",),
               objects=[obj("car", -30, 12, lane=1, kind="cross_left", velocity={"x": -12.0, "y": 0.0})]),
     ),
+    "brake.uncontrolled_junction": (
+        scene(intersection={"type": "unsignaled", "stage": "arriving", "distance": 8}, other_lanes=("cross_right",),
+              objects=[obj("car", 25, 10, lane=1, kind="cross_right", velocity={"x": -12.0, "y": 0.0})]),
+        scene(intersection={"type": "unsignaled", "stage": "arriving", "distance": 8, "road": "major"},
+              other_lanes=("cross_right",),
+              objects=[obj("car", 25, 10, lane=1, kind="cross_right", velocity={"x": -12.0, "y": 0.0})]),
+    ),
     "brake.merge_blocked": (
         scene(lane=2, lanes=2, intent="merge_into_left_lane", objects=[obj("car", -3.5, 3, lane=1)]),
         scene(lane=2, lanes=2, intent="merge_into_left_lane", objects=[obj("car", -3.5, 30, lane=1)]),

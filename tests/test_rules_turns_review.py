@@ -124,3 +124,117 @@ def test_a_school_bus_across_a_road_the_map_marks_divided_is_passed():
     """UVC 11-705(d): only separate roadways exempt the far side."""
     verdict = four_lanes_with_bus(1, divided=True)
     assert verdict.decision.value == "approve" and "san.school_bus.stop" not in verdict.rules
+
+
+# The second turn review: unknown speeds, unlabelled traffic, red lights and unmarked junctions, bounds.
+
+def left_turn_at_green(*objects, speed: float = 3.0, stage: str = "at"):
+    return scene(speed=speed, limit=13.4, intent="enter_left_lane", light="green", other_lanes=("oncoming",),
+                 objects=objects, intersection={"type": "signaled", "stage": stage})
+
+
+def test_an_oncoming_car_of_unknown_speed_is_taken_to_arrive_at_the_limit_as_one_measured_there_would():
+    unknown = US.decide(left_turn_at_green(obj("car", -3.5, 50, lane=1, kind="oncoming")), "turn_left", explain=True)
+    assert (unknown.decision.value, unknown.action.value) == ("override", "brake")
+    assert "tl.yield_oncoming" in unknown.rules
+    text = unknown.justification.text
+    assert "would reach the ego's path in 3.0 s, because  [def.oncoming_worst_due]" in text
+    assert "[def.oncoming_unknown_close]" in text
+    at_the_limit = US.decide(left_turn_at_green(moving("car", -3.5, 50, "oncoming", vy=-13.4)), "turn_left")
+    assert at_the_limit.decision.value == "override" and "tl.yield_oncoming" in at_the_limit.rules
+    # one that would take longer than the turn gap even at the limit (100 m over 16.4 m/s: 6.1 s) does not hold it
+    assert US.decide(left_turn_at_green(obj("car", -3.5, 100, lane=1, kind="oncoming")), "turn_left").decision.value == "approve"
+
+
+def test_a_standing_oncoming_car_does_not_hold_a_left_turn_however_fast_the_ego_creeps():
+    standing = moving("car", -3.5, 8, "oncoming")
+    for speed in (0.0, 1.0, 2.0, 4.0):
+        verdict = US.decide(left_turn_at_green(standing, speed=speed), "turn_left")
+        assert verdict.decision.value == "approve" and "tl.intent" in verdict.rules, speed
+    creeping_towards = moving("car", -3.5, 8, "oncoming", vy=-2.0)
+    verdict = US.decide(left_turn_at_green(creeping_towards, speed=2.0), "turn_left")
+    assert verdict.decision.value == "override" and "tl.yield_oncoming" in verdict.rules
+
+
+def test_an_unlabelled_car_coming_towards_the_ego_on_the_passing_side_is_oncoming_traffic():
+    unlabelled = obj("car", -3.5, 20, velocity={"x": 0.0, "y": -15.0})
+    verdict = US.decide(left_turn_at_green(unlabelled), "turn_left", explain=True)
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+    assert "tl.yield_oncoming" in verdict.rules and "[def.oncoming_from_velocity]" in verdict.justification.text
+    mirrored = scene(speed=3.0, limit=13.4, intent="enter_right_lane", light="green", other_lanes=("oncoming",),
+                     objects=[obj("car", 3.5, 20, velocity={"x": 0.0, "y": -15.0})],
+                     intersection={"type": "signaled", "stage": "at"})
+    assert "tr.yield_oncoming" in UK.decide(mirrored, "turn_right").rules
+    # in the same-direction lanes, or driving the ego's way, it is no oncoming traffic
+    ahead_in_lane = obj("car", 0, 20, velocity={"x": 0.0, "y": 5.0})
+    assert US.decide(left_turn_at_green(ahead_in_lane), "turn_left").decision.value == "approve"
+
+
+def test_an_unlabelled_car_driving_across_the_egos_road_is_cross_traffic_for_a_turn():
+    unlabelled = obj("car", -20, 8, velocity={"x": 12.0, "y": 0.0})
+    verdict = US.decide(left_turn_at_green(unlabelled), "turn_left", explain=True)
+    assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
+    assert "tl.yield_cross_traffic" in verdict.rules and "[def.crossing_from_velocity]" in verdict.justification.text
+    driving_away = obj("car", -20, 8, velocity={"x": -12.0, "y": 0.0})
+    assert US.decide(left_turn_at_green(driving_away), "turn_left").decision.value == "approve"
+
+
+def red_light_right_turn(sign: str | None = None, light: str | None = "red"):
+    return scene(speed=0.0, limit=13.4, intent="enter_right_lane", light=light, sign=sign, other_lanes=("cross_left",),
+                 objects=[obj("car", -30, 8, lane=1, kind="cross_left")],
+                 intersection={"type": "signaled", "stage": "at"})
+
+
+def test_a_turn_on_red_yields_to_cross_traffic_of_unknown_speed_as_at_a_stop_sign():
+    on_red = US.decide(red_light_right_turn(), "turn_right", explain=True)
+    assert (on_red.decision.value, on_red.action.value) == ("override", "brake")
+    assert "tr.yield_cross_traffic" in on_red.rules
+    assert "the traffic light is red" in on_red.justification.text
+    at_stop_sign = US.decide(red_light_right_turn(sign="stop", light=None), "turn_right")
+    assert at_stop_sign.decision.value == "override" and "tr.yield_cross_traffic" in at_stop_sign.rules
+
+
+def unmarked_crossroads(x: float, **kw):
+    kind = "cross_right" if x > 0 else "cross_left"
+    return scene(speed=10.0, limit=13.4, other_lanes=("cross_left", "cross_right"),
+                 objects=[obj("car", x, 8, lane=1, kind=kind)],
+                 intersection={"type": "unsignaled", "stage": "arriving", "distance": 6, **kw})
+
+
+def test_at_an_unmarked_junction_the_ego_does_not_speed_up_into_cross_traffic_it_must_give_way_to():
+    from_the_right = US.decide(unmarked_crossroads(10), "accelerate")
+    assert (from_the_right.decision.value, from_the_right.action.value) == ("override", "brake")
+    assert "brake.uncontrolled_junction" in from_the_right.rules
+    # due in 2.2 s from the left: in the US the car on the left gives way; in the UK no one has priority
+    assert US.decide(unmarked_crossroads(-30), "accelerate").decision.value == "approve"
+    uk = UK.decide(unmarked_crossroads(-30), "accelerate")
+    assert uk.action.value == "brake" and "brake.uncontrolled_junction" in uk.rules
+    # on the major road the cross traffic gives way
+    assert US.decide(unmarked_crossroads(10, road="major"), "accelerate").decision.value == "approve"
+
+
+@pytest.mark.parametrize("where", [{"x": 80, "y": 5}, {"x": 4, "y": -40}])
+def test_a_pedestrian_far_along_the_cross_road_or_behind_the_ego_does_not_block_its_turn(where):
+    def right_turn(x, y):
+        return scene(speed=2.0, limit=13.4, intent="enter_right_lane", other_lanes=("cross_right",),
+                     objects=[obj("pedestrian", x, y, lane=1, kind="cross_right")],
+                     intersection={"type": "four_way", "stage": "at"})
+
+    far = US.decide(right_turn(**where), "turn_right")
+    assert far.decision.value == "approve" and "tr.intent" in far.rules
+    at_the_corner = US.decide(right_turn(4, 5), "turn_right")
+    assert at_the_corner.decision.value == "override" and "tr.crossing_user" in at_the_corner.rules
+
+
+def exit_lane(intent: str, ends_in: float, speed: float = 20.0):
+    return scene(speed=speed, limit=29.0, zone="highway", lane=1, lanes=2, intent=intent, lane_ends={2: ends_in})
+
+
+def test_the_ego_may_move_into_an_exit_lane_its_route_asks_for_though_the_lane_ends_ahead():
+    verdict = US.decide(exit_lane("merge_into_right_lane", 120), "change_lane_right")
+    assert verdict.decision.value == "approve" and "clr.intent_merge" in verdict.rules
+    by_choice = US.decide(exit_lane("continue_in_lane", 120), "change_lane_right")
+    assert by_choice.decision.value == "override" and "clr.target_lane_ends" in by_choice.rules
+    # within the stopping distance (53.3 m at 20 m/s) it ends too soon to be used
+    too_late = US.decide(exit_lane("merge_into_right_lane", 45), "change_lane_right")
+    assert too_late.decision.value == "override" and "clr.target_lane_ends" in too_late.rules
