@@ -131,6 +131,7 @@ def test_what_is_dead_ahead_is_in_the_egos_lane_though_perception_labels_it_in_a
     """12 m ahead, in line with the ego: no bend brings another lane there within the 15 m label check."""
     scenes = {
         "a car coming head-on": head_on(obj("car", 0, 12, lane=1, kind="oncoming", vy=-20)),
+        "a car labelled oncoming, of unknown speed": head_on(obj("car", 0, 12, lane=1, kind="oncoming")),
         "a truck standing": head_on(obj("truck", 0, 12, lane=1, kind="oncoming", velocity=STANDING)),
         "a pedestrian": head_on(obj("pedestrian", 0, 12, lane=1, kind="oncoming")),
         "a pedestrian labelled in the next lane": head_on(obj("pedestrian", 0, 12, lane=1), lane=2, lanes=2),
