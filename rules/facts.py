@@ -25,7 +25,7 @@ MAX_PARAM_TIME_S = 60.0
 MAX_PARAM_DECEL = 100.0  # m/s², ten times gravity
 MAX_PARAM_SPEED = 50.0  # m/s: a closing speed (up to twice MAX_SPEED_MS) raised by accel_step, times a minute, still fits
 _TIMES = frozenset({"reaction_s", "headway_s", "turn_gap_s"})
-_SPEEDS = frozenset({"stopped_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed"})
+_SPEEDS = frozenset({"stopped_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop"})
 
 
 def _largest(name: str) -> float:
@@ -60,7 +60,8 @@ class Params:
     turn_speed: float = 8.9408  # m/s (20 mph), the fastest the ego turns at an intersection
     turn_dist: float = 10.0  # m, a turn starts no farther than this before the stop line
     move_over_dist: float = 150.0  # m, an emergency vehicle nearer than this (either way) or a stopped school bus ahead
-    caution_speed: float = 6.7056  # m/s (15 mph), the fastest the ego drives where caution is called for
+    caution_speed: float = 6.7056  # m/s (15 mph), the slowest cautious speed (cautious_speed/1)
+    caution_drop: float = 8.9408  # m/s (20 mph), how far below the limit caution takes the ego (US Move Over laws)
 
     @classmethod
     def overrides(cls, pairs: list[str]) -> tuple[dict[str, float], list[str]]:

@@ -617,7 +617,7 @@ def test_a_standing_emergency_vehicle_is_passed_slowly_not_waited_for():
     assert {"san.emergency.move_over", "san.caution.slow_down"} <= set(fast.rules)
     assert "san.emergency.give_way" not in fast.rules
     assert "is an emergency vehicle on duty standing beside the ego's path" in fast.justification.text
-    assert "the fastest speed under caution is 6.71 m/s" in fast.justification.text
+    assert "the cautious speed relative to the road's is 15.6 m/s (34.8 mph)" in fast.justification.text
     for proposed in (Action.accelerate, Action.cruise):
         standing = _run(_police_on_the_shoulder(0.0), proposed)
         assert standing.decision is Decision.approve, proposed
@@ -637,8 +637,8 @@ def test_an_ambulance_parked_across_an_undivided_road_is_passed_slowly_but_one_c
 
 def _fire_truck(ego_lane: int, x: float):
     truck = obj(4, "emergency_vehicle", x, 60.0, 2, vy=0.0, emergency_lights=True)
-    return tuple(scene(frame=i, speed=20.0, lane=ego_lane, lanes=2, zone="highway", limit=29.0, objects=[truck])
-                 for i in (1, 2))
+    return tuple(scene(frame=i, speed=25.0, lane=ego_lane, lanes=2, zone="highway", limit=29.0, objects=[truck])
+                 for i in (1, 2))  # above the cautious speed on this highway: 29 m/s less 20 mph
 
 
 def test_the_ego_never_moves_into_the_lane_of_a_stopped_emergency_vehicle():
@@ -718,12 +718,25 @@ def test_at_a_flashing_yellow_the_ego_may_move_off_up_to_the_cautious_speed(spee
     assert _run(_flashing_yellow(speed), Action.accelerate).decision is Decision.approve
 
 
-def test_at_a_flashing_yellow_the_ego_slows_to_the_cautious_speed_from_above():
+def test_at_a_flashing_yellow_the_ego_is_told_to_slow_down_but_may_hold_its_speed():
+    """A flashing yellow beacon is advisory (MUTCD 4D.04: proceed with caution, no speed set): braking is recommended
+    above the cautious speed, holding the speed stays permitted, speeding up past it does not."""
     verdict = _run(_flashing_yellow(12.0), Action.cruise)
-    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
-    assert {"san.caution.slow_down", "san.lights.flashing_yellow_caution"} <= set(verdict.rules)
+    assert (verdict.decision, verdict.recommended) == (Decision.approve, Action.brake)
     near = _run(_flashing_yellow(6.5), Action.accelerate)
     assert near.decision is Decision.override and "san.caution.no_speeding_up" in near.rules
+
+
+def test_a_standing_emergency_vehicle_beside_a_fast_road_slows_the_ego_by_20_mph_not_to_15():
+    """Move Over laws: 20 mph below the limit where the ego cannot change lanes, not a crawl on a highway."""
+    police = obj(4, "emergency_vehicle", 3.5, 100.0, 1, kind="shoulder", vy=0.0, emergency_lights=True)
+    frames = tuple(scene(frame=i, speed=21.0, lanes=1, zone="highway", limit=31.3, other_lanes=("shoulder",),
+                         objects=[police]) for i in (1, 2, 3))
+    assert _run(frames, Action.cruise).decision is Decision.approve  # 47 mph, under 70 less 20
+    faster = tuple(f.model_copy(update={"ego": f.ego.model_copy(update={"speed": 28.0})}) for f in frames)
+    slowed = _run(faster, Action.cruise)
+    assert (slowed.decision, slowed.action) == (Decision.override, Action.brake)
+    assert "the ego goes no faster than 22.4 m/s (50 mph) under the caution called for" in slowed.justification.text
 
 
 def test_a_uk_school_bus_is_passed_slowly_from_a_standstill():
