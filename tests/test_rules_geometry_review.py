@@ -183,7 +183,16 @@ def test_a_vulnerable_road_user_just_beside_the_egos_lane_is_not_passed_accelera
                                   explain=True)
         assert (verdict.decision.value, verdict.action.value) == ("override", "cruise"), x
         assert "acc.lane_not_clear" in verdict.rules
-        assert "is a vulnerable road user ahead just beside the ego's lane" in verdict.justification.text
+        assert "is a vulnerable road user on the road ahead just beside the ego's lane" in verdict.justification.text
     # beyond the side clearance (1.75 m + 1 m), or behind the ego, they do not hold it back
     for x, y in ((2.8, 10), (1.8, -3)):
         assert decide(scene(speed=13, limit=15.6, objects=[obj("pedestrian", x, y)]), "accelerate").decision.value == "approve"
+
+
+def test_a_pedestrian_beside_the_lane_lets_the_ego_move_off_and_one_on_the_sidewalk_does_not_slow_it():
+    """Passing slowly is a speed, not a standstill; and a kerb separates a sidewalk's pedestrians from the road."""
+    waiting = obj("pedestrian", 2.6, 30, velocity=STANDING)
+    assert decide(scene(speed=0, limit=13.4, objects=[waiting]), "accelerate").decision.value == "approve"
+    on_sidewalk = obj("pedestrian", 2.6, 30, lane=1, kind="sidewalk_right", velocity=STANDING)
+    assert decide(scene(speed=8, limit=13.4, other_lanes=("sidewalk_right",), objects=[on_sidewalk]),
+                  "accelerate").decision.value == "approve"
