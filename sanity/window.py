@@ -279,11 +279,24 @@ def _runs(values: Iterable[Optional[int]]) -> list[_Run]:
 
 
 def _believed(runs: list[_Run], confirm: int) -> Optional[int]:
-    """The index of the run whose limit held at the end of `runs`: the last run read in enough frames in a row
-    (a reading since it, up or down, read in too few frames, does not change the limit: san.limit.debounce,
-    san.limit.debounce_drop). The settled limit read again after a gap is the settled run still."""
+    """The index of the run whose limit held at the end of `runs`: the last run read in enough frames in a row, or
+    the latest lower one read since it in enough frames altogether, gaps between them or not (a sign seen between
+    occlusions; san.limit.debounce_drop). A reading since it in too few frames does not change the limit, up or down
+    (san.limit.debounce); the settled limit read again after a gap is the settled run still."""
     settled = [i for i, run in enumerate(runs) if run.value is not None and run.frames >= confirm]
-    return settled[-1] if settled else None
+    if not settled:
+        return None
+    last = settled[-1]
+    since = runs[last + 1:]
+    lower = [i for i, run in enumerate(since, last + 1) if run.value is not None and run.value < runs[last].value
+             and sum(r.frames for r in since if r.value == run.value) >= confirm]
+    return lower[-1] if lower else last
+
+
+def _seen_facts(value: int, readings: list[frozenset[int]], last: int, clock: "_Clock") -> str:
+    """In how many frames of the window up to index `last` a limit was read, and for how long from the first."""
+    frames = [i for i, read in enumerate(readings[:last + 1]) if value in read]
+    return f"reading_seen({value},{len(frames)},{clock.lasted(frames[0], last)})."
 
 
 @dataclass(frozen=True)
@@ -320,11 +333,13 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
     out = sorted({f"misread_before({v},{e})." for p, lit in zip(past, signalled) for v, e in p.misread
                   if not (lit and e == LINE_EVIDENCE)})
     here = len(past)  # the current frame's index
+    readings = [p.readings for p in past] + [now.readings]
     for value in sorted(now.readings):
         first = here
         while first > 0 and value in past[first - 1].readings:
             first -= 1
         out.append(_run_facts(value, _Run(value, here - first + 1, first, here), clock))
+        out.append(_seen_facts(value, readings, here, clock))
     primary = now.primary
     runs = _runs(p.primary for p in past)
     if primary is None:  # no limit read now: the one read last is still a reading, with what held before it
@@ -332,7 +347,8 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
         if last is None:
             return out
         run = runs[last]
-        out.append(f"remembered_limit({run.value}).{_run_facts(run.value, run, clock)}")
+        out.append(f"remembered_limit({run.value}).{_run_facts(run.value, run, clock)}"
+                   + _seen_facts(run.value, readings, run.last, clock))
         runs = runs[:last]
     elif runs and runs[-1].value == primary:  # the current reading's own run
         runs.pop()
