@@ -146,10 +146,15 @@ def test_an_oncoming_car_of_unknown_speed_is_taken_to_arrive_at_the_limit_as_one
     assert US.decide(left_turn_at_green(obj("car", -3.5, 100, lane=1, kind="oncoming")), "turn_left").decision.value == "approve"
 
 
-def test_a_standing_oncoming_car_does_not_hold_a_left_turn_however_fast_the_ego_creeps():
-    standing = moving("car", -3.5, 8, "oncoming")
+def test_a_standing_oncoming_car_holds_a_left_turn_only_where_it_stands_in_its_sweep_however_fast_the_ego_creeps():
+    """A left turn's arc (10 to 15 m radius) crosses the oncoming lane 7.6 to 9.6 m ahead: a car standing there is an
+    obstacle in the turn's path; one waiting at its line across the intersection is not traffic that is due. Neither
+    depends on how fast the ego creeps (a standing car is never due)."""
+    in_the_sweep, across = moving("car", -3.5, 8, "oncoming"), moving("car", -3.5, 14, "oncoming")
     for speed in (0.0, 1.0, 2.0, 4.0):
-        verdict = US.decide(left_turn_at_green(standing, speed=speed), "turn_left")
+        blocked = US.decide(left_turn_at_green(in_the_sweep, speed=speed), "turn_left")
+        assert blocked.decision.value == "override" and blocked.rules == ["tl.oncoming_lane_blocked"], speed
+        verdict = US.decide(left_turn_at_green(across, speed=speed), "turn_left")
         assert verdict.decision.value == "approve" and "tl.intent" in verdict.rules, speed
     creeping_towards = moving("car", -3.5, 8, "oncoming", vy=-2.0)
     verdict = US.decide(left_turn_at_green(creeping_towards, speed=2.0), "turn_left")
