@@ -108,6 +108,7 @@ class _Summary:
     steady: frozenset[LightColour]  # colours some light of which is not flagged flashing
     stop_sign: bool
     school_sign: bool
+    dark: bool  # traffic lights in view, none of them lit
     speed: int  # the ego's, cm/s
     objects: dict[int, DetectedObject]  # by id
     ids: frozenset[int]
@@ -128,6 +129,7 @@ class _Summary:
             steady=frozenset(l.colour for l in scene.traffic_lights if not l.flashing and l.colour is not LightColour.none),
             stop_sign=any(s.kind is SignKind.stop for s in scene.signs),
             school_sign=any(s.kind is SignKind.school_zone for s in scene.signs),
+            dark=_dark(scene),
             speed=cm(scene.ego.speed),
             objects={o.id: o for o in scene.objects},
             ids=frozenset(o.id for o in scene.objects),
@@ -148,8 +150,9 @@ class WindowProvider:
         out: list[str] = []
         out.extend(_world_facts(scene))
         out.extend(_predicted_conflicts(scene, self.config.horizon_s))
-        out.extend(_dark_signal(scene))
         window = self.window(scene, history)
+        if not window and _dark(scene):  # no earlier frame to weigh it against
+            out.append("signal_dark.")
         if window:
             c = self.config
             out.append(
@@ -167,6 +170,7 @@ class WindowProvider:
                 out.append("light_seen_on_approach.")
             out.extend(_limit_facts(now, past, c.confirm_frames, clock, [a in lit for a in approach[:-1]]))
             out.extend(_light_facts(now, past, times, c, clock))
+            out.extend(_dark_signal(now, past, c, clock))
             out.extend(_sign_facts(now, past))
             out.extend(_memory_facts(scene, now, window, past, c, clock))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
@@ -394,11 +398,25 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
     return out
 
 
-def _dark_signal(scene: Scene) -> list[str]:
+def _dark(scene: Scene) -> bool:
+    return bool(scene.traffic_lights) and all(l.colour is LightColour.none for l in scene.traffic_lights)
+
+
+def _dark_signal(now: _Summary, past: list[_Summary], config: WindowConfig, clock: _Clock) -> list[str]:
     """Traffic lights in view with none of them lit (out, or unreadable): still a signal, one that shows nothing,
-    where the core gives a lamp of colour "none" no fact at all."""
-    lights = scene.traffic_lights
-    return ["signal_dark."] if lights and all(l.colour is LightColour.none for l in lights) else []
+    where the core gives a lamp of colour "none" no fact at all. Lights seen lit in the window must have been dark
+    as long as a reading needs (confirm_frames, confirm_s): one unlit frame of a green is a glitch, and braking for
+    it with a truck behind is phantom braking."""
+    if not now.dark:
+        return []
+    frames = past + [now]
+    first = len(frames) - 1
+    while first > 0 and frames[first - 1].dark:
+        first -= 1
+    if not any(f.lights for f in frames[:first]):  # never seen lit: dark as long as it has been seen
+        return ["signal_dark."]
+    dark_frames, lasted = len(frames) - first, clock.lasted(first, len(frames) - 1)
+    return ["signal_dark."] if dark_frames >= config.confirm_frames and lasted >= config.confirm_s * 1000 else []
 
 
 def _recent_run(states: Sequence[Optional[bool]], times: Sequence[float], config: WindowConfig) -> tuple[int, int, int]:

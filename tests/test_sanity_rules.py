@@ -771,6 +771,13 @@ def test_a_dark_signal_is_passed_with_great_care_in_the_uk_giving_way_to_cross_t
     assert crossing.decision is Decision.override and "san.lights.dark_signal" in crossing.rules
 
 
+def test_inside_a_uk_junction_with_dark_signals_the_ego_clears_it_rather_than_stopping_for_cross_traffic():
+    car = obj(5, "car", 8.0, 6.0, 1, kind="cross_right")
+    inside = (scene(speed=6.0, limit=13.4, lights=[{"colour": "none"}], other_lanes=("cross_right",), objects=[car],
+                    intersection={"type": "signaled", "stage": "enter"}),)
+    assert _run(inside, Action.cruise, "uk").decision is Decision.approve
+
+
 def test_a_red_seen_before_the_lights_went_dark_still_holds_the_ego():
     frames = (scene(frame=1, speed=6.0, limit=15.6, lights=[{"colour": "red"}], intersection=DARK),
               scene(frame=2, speed=5.0, limit=15.6, lights=[{"colour": "none"}], intersection=DARK))
