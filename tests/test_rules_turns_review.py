@@ -243,3 +243,13 @@ def test_the_ego_may_move_into_an_exit_lane_its_route_asks_for_though_the_lane_e
     # within the stopping distance (53.3 m at 20 m/s) it ends too soon to be used
     too_late = US.decide(exit_lane("merge_into_right_lane", 45), "change_lane_right")
     assert too_late.decision.value == "override" and "clr.target_lane_ends" in too_late.rules
+
+
+def test_in_the_exit_lane_its_route_asks_for_the_ego_is_not_sent_back_out_as_from_a_lane_drop():
+    """Entered, the exit lane 'ends' where the ego leaves the road with it: no merging back, no braking for its end."""
+    in_exit = scene(speed=20, lane=2, lanes=2, zone="highway", limit=29, intent="merge_into_right_lane",
+                    lane_ends={2: 50.0})
+    verdict = US.decide(in_exit, "cruise")
+    assert verdict.decision.value == "approve" and verdict.recommended.value != "change_lane_left"
+    dropping = scene(speed=20, lane=2, lanes=2, zone="highway", limit=29, lane_ends={2: 50.0})
+    assert US.decide(dropping, "cruise").action.value == "change_lane_left"  # a lane drop is still left
