@@ -13,22 +13,34 @@ FLUSH_S = 0.25
 LOSS_BOUND_S = 1.0
 
 
-def test_sigkill_leaves_a_log_readable_up_to_the_last_second(tmp_path):
-    proc, ep = serve("--id", "victim", "--budget-ms", "5000", "--log-dir", str(tmp_path), "--log-flush-s", str(FLUSH_S))
+def _answered_until_killed(proc, ep: str, vehicle: str, seconds: float, failsafe: bool, period_s: float):
+    """Ask every `period_s` for `seconds`, then kill -9 the monitor: when each frame was answered, and the kill's time.
+    Every verdict must be a fail-safe or none must, as `failsafe` says."""
     answered: dict[int, float] = {}
     try:
-        with Monitor("doomed", connect=[ep], timeout=5) as monitor:
-            frame, stop_at = 0, time.monotonic() + 2.5
+        with Monitor(vehicle, connect=[ep], timeout=5) as monitor:
+            frame, stop_at = 0, time.monotonic() + seconds
             while time.monotonic() < stop_at:
-                verdict = monitor.check(highway_scene(frame, 8), "cruise")
-                assert not verdict.failsafe
+                assert monitor.check(highway_scene(frame, 8), "cruise").failsafe is failsafe
                 answered[frame] = time.monotonic()
                 frame += 1
-                time.sleep(0.02)
+                time.sleep(period_s)
             killed_at = time.monotonic()
             proc.kill9()
     finally:
         proc.stop()
+    return answered, killed_at
+
+
+def _logged_frames(records, vehicle: str) -> tuple[set[int], set[int]]:
+    """The frames whose verdict, and whose proposal, the log holds."""
+    return ({r.verdict.frame_id for r in records if r.kind == "verdict" and r.vehicle == vehicle},
+            {r.proposal.scene.frame_id for r in records if r.kind == "proposal"})
+
+
+def test_sigkill_leaves_a_log_readable_up_to_the_last_second(tmp_path):
+    proc, ep = serve("--id", "victim", "--budget-ms", "5000", "--log-dir", str(tmp_path), "--log-flush-s", str(FLUSH_S))
+    answered, killed_at = _answered_until_killed(proc, ep, "doomed", 2.5, failsafe=False, period_s=0.02)
     assert proc.proc.returncode == -9
 
     report = RecoveryReport()
@@ -36,8 +48,7 @@ def test_sigkill_leaves_a_log_readable_up_to_the_last_second(tmp_path):
     [recovery] = report.files
     assert recovery.state == "truncated"  # no summary: it was killed
     assert 0 < recovery.recovered_bytes <= recovery.size_bytes
-    verdict_frames = {r.verdict.frame_id for r in records if r.kind == "verdict" and r.vehicle == "doomed"}
-    proposal_frames = {r.proposal.scene.frame_id for r in records if r.kind == "proposal"}
+    verdict_frames, proposal_frames = _logged_frames(records, "doomed")
     must_have = {f for f, t in answered.items() if killed_at - t > LOSS_BOUND_S}
     assert len(must_have) > 10
     assert must_have <= verdict_frames and must_have <= proposal_frames
@@ -49,24 +60,10 @@ def test_sigkill_while_the_worker_stalls_keeps_the_fail_safes_sent_before_the_la
     """The fail-safes a stalled worker causes are logged within HOLD_S, not when the worker wakes (or never)."""
     proc, ep = serve("--id", "stalled", "--budget-ms", "50", "--test-only-decision-delay-ms", "4000",
                      "--log-dir", str(tmp_path), "--log-flush-s", str(FLUSH_S))
-    answered: dict[int, float] = {}
-    try:
-        with Monitor("waiting", connect=[ep], timeout=5) as monitor:
-            frame, stop_at = 0, time.monotonic() + 3.0
-            while time.monotonic() < stop_at:
-                verdict = monitor.check(highway_scene(frame, 8), "cruise")
-                assert verdict.failsafe
-                answered[frame] = time.monotonic()
-                frame += 1
-                time.sleep(0.05)
-            killed_at = time.monotonic()
-            proc.kill9()
-    finally:
-        proc.stop()
+    answered, killed_at = _answered_until_killed(proc, ep, "waiting", 3.0, failsafe=True, period_s=0.05)
 
     records = list(read_log(tmp_path, RecoveryReport()))
-    verdict_frames = {r.verdict.frame_id for r in records if r.kind == "verdict" and r.vehicle == "waiting"}
-    proposal_frames = {r.proposal.scene.frame_id for r in records if r.kind == "proposal"}
+    verdict_frames, proposal_frames = _logged_frames(records, "waiting")
     must_have = {f for f, t in answered.items() if killed_at - t > LOSS_BOUND_S}
     assert len(must_have) > 10
     assert must_have <= verdict_frames and must_have <= proposal_frames  # read by the monitor, not the stalled worker
