@@ -124,6 +124,8 @@ def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
         out.append(f"lane({lane.kind.value},{lane.id}).")
         if lane.ends_in is not None and lane.kind.value == "current":
             out.append(f"lane_ends({lane.id},{cm(lane.ends_in)}).")
+            if lane.leaves_road:
+                out.append(f"lane_leaves_road({lane.id}).")
         if lane.speed_limit is not None:
             out.append(f"lane_speed_limit({lane.kind.value},{lane.id},{cm(lane.speed_limit)}).")
     for obj in scene.objects:

@@ -207,6 +207,8 @@ class Lane(Strict):
     kind: LaneKind
     id: int = Field(ge=1, le=MAX_LANE_ID, description="1 = leftmost lane of its kind")
     ends_in: Optional[NonNegMetres] = Field(None, description="metres ahead where this lane ends")
+    leaves_road: bool = Field(False, description="where it ends, this lane leaves the road (an exit or turn lane) "
+                              "rather than dropping into the next lane")
     speed_limit: Optional[Speed] = Field(None, description="map speed limit of this lane, m/s")
 
 

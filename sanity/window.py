@@ -284,23 +284,42 @@ def _runs(values: Iterable[Optional[int]]) -> list[_Run]:
 
 def _believed(runs: list[_Run], confirm: int) -> Optional[int]:
     """The index of the run whose limit held at the end of `runs`: the last run read in enough frames in a row, or
-    the latest lower one read since it in enough frames altogether, gaps between them or not (a sign seen between
-    occlusions; san.limit.debounce_drop). A reading since it in too few frames does not change the limit, up or down
-    (san.limit.debounce); the settled limit read again after a gap is the settled run still."""
+    the latest lower one read since it in enough frames, in a row or across frames that read nothing (a sign seen
+    between occlusions; san.limit.debounce_drop). A reading since it in too few frames does not change the limit, up
+    or down (san.limit.debounce); the settled limit read again after a gap is the settled run still."""
     settled = [i for i, run in enumerate(runs) if run.value is not None and run.frames >= confirm]
     if not settled:
         return None
     last = settled[-1]
-    since = runs[last + 1:]
-    lower = [i for i, run in enumerate(since, last + 1) if run.value is not None and run.value < runs[last].value
-             and sum(r.frames for r in since if r.value == run.value) >= confirm]
-    return lower[-1] if lower else last
+    for i in range(len(runs) - 1, last, -1):
+        run = runs[i]
+        if run.value is not None and run.value < runs[last].value and _read_since(runs, i, last) >= confirm:
+            return i
+    return last
 
 
-def _seen_facts(value: int, readings: list[frozenset[int]], last: int, clock: "_Clock") -> str:
-    """In how many frames of the window up to index `last` a limit was read, and for how long from the first."""
-    frames = [i for i, read in enumerate(readings[:last + 1]) if value in read]
-    return f"reading_seen({value},{len(frames)},{clock.lasted(frames[0], last)})."
+def _read_since(runs: list[_Run], i: int, settled: int) -> int:
+    """Frames reading run i's limit, counted back from it to the settled run, across runs that read nothing, until a
+    run that read another limit."""
+    count = 0
+    for run in reversed(runs[settled + 1:i + 1]):
+        if run.value == runs[i].value:
+            count += run.frames
+        elif run.value is not None:
+            break
+    return count
+
+
+def _seen_facts(value: int, readings: list[frozenset[int]], last: int, since: int, clock: "_Clock") -> str:
+    """In how many frames a limit was read, counted back from index `last` to `since` (after the settled limit
+    before it) across frames that read nothing, until one that read another limit; and for how long from the first."""
+    count, first = 0, last
+    for i in range(last, since - 1, -1):
+        if value in readings[i]:
+            count, first = count + 1, i
+        elif readings[i]:
+            break
+    return f"reading_seen({value},{count},{clock.lasted(first, last)})."
 
 
 @dataclass(frozen=True)
@@ -343,16 +362,18 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
         while first > 0 and value in past[first - 1].readings:
             first -= 1
         out.append(_run_facts(value, _Run(value, here - first + 1, first, here), clock))
-        out.append(_seen_facts(value, readings, here, clock))
     primary = now.primary
     runs = _runs(p.primary for p in past)
+    settled = [run for run in runs if run.value is not None and run.frames >= confirm]
+    since = settled[-1].last + 1 if settled else 0  # where readings start to count against the settled limit
+    out.extend(_seen_facts(value, readings, here, since, clock) for value in sorted(now.readings))
     if primary is None:  # no limit read now: the one read last is still a reading, with what held before it
         last = _believed(runs, confirm)
         if last is None:
             return out
         run = runs[last]
         out.append(f"remembered_limit({run.value}).{_run_facts(run.value, run, clock)}"
-                   + _seen_facts(run.value, readings, run.last, clock))
+                   + _seen_facts(run.value, readings, run.last, since, clock))
         runs = runs[:last]
     elif runs and runs[-1].value == primary:  # the current reading's own run
         runs.pop()
@@ -404,19 +425,22 @@ def _dark(scene: Scene) -> bool:
 
 def _dark_signal(now: _Summary, past: list[_Summary], config: WindowConfig, clock: _Clock) -> list[str]:
     """Traffic lights in view with none of them lit (out, or unreadable): still a signal, one that shows nothing,
-    where the core gives a lamp of colour "none" no fact at all. Lights seen lit in the window must have been dark
-    as long as a reading needs (confirm_frames, confirm_s): one unlit frame of a green is a glitch, and braking for
-    it with a truck behind is phantom braking."""
-    if not now.dark:
+    where the core gives a lamp of colour "none" no fact at all; still dark in a frame that has them out of view a
+    moment. Lights seen lit in the window must have been dark as long as a reading needs (confirm_frames, confirm_s):
+    one unlit frame of a green is a glitch, and braking for it with a truck behind is phantom braking."""
+    if now.lights:
         return []
     frames = past + [now]
     first = len(frames) - 1
-    while first > 0 and frames[first - 1].dark:
+    while first > 0 and not frames[first - 1].lights:  # dark, or out of view a moment: not lit since
         first -= 1
+    dark = [i for i in range(first, len(frames)) if frames[i].dark]
+    if not dark:
+        return []
     if not any(f.lights for f in frames[:first]):  # never seen lit: dark as long as it has been seen
         return ["signal_dark."]
-    dark_frames, lasted = len(frames) - first, clock.lasted(first, len(frames) - 1)
-    return ["signal_dark."] if dark_frames >= config.confirm_frames and lasted >= config.confirm_s * 1000 else []
+    lasted = clock.lasted(dark[0], len(frames) - 1)
+    return ["signal_dark."] if len(dark) >= config.confirm_frames and lasted >= config.confirm_s * 1000 else []
 
 
 def _recent_run(states: Sequence[Optional[bool]], times: Sequence[float], config: WindowConfig) -> tuple[int, int, int]:

@@ -156,6 +156,11 @@ def test_a_standing_oncoming_car_holds_a_left_turn_only_where_it_stands_in_its_s
         assert blocked.decision.value == "override" and blocked.rules == ["tl.oncoming_lane_blocked"], speed
         verdict = US.decide(left_turn_at_green(across, speed=speed), "turn_left")
         assert verdict.decision.value == "approve" and "tl.intent" in verdict.rules, speed
+    # before the line the turn has not begun: traffic standing short of the intersection is not in its sweep
+    queued = scene(speed=0.0, limit=13.4, intent="enter_left_lane", light="green", other_lanes=("oncoming",),
+                   intersection={"type": "signaled", "stage": "arriving", "distance": 9.0},
+                   objects=[moving("car", -3.5, 1, "oncoming")])
+    assert "tl.oncoming_lane_blocked" not in US.decide(queued, "turn_left").rules
     creeping_towards = moving("car", -3.5, 8, "oncoming", vy=-2.0)
     verdict = US.decide(left_turn_at_green(creeping_towards, speed=2.0), "turn_left")
     assert verdict.decision.value == "override" and "tl.yield_oncoming" in verdict.rules
@@ -231,8 +236,9 @@ def test_a_pedestrian_far_along_the_cross_road_or_behind_the_ego_does_not_block_
     assert at_the_corner.decision.value == "override" and "tr.crossing_user" in at_the_corner.rules
 
 
-def exit_lane(intent: str, ends_in: float, speed: float = 20.0):
-    return scene(speed=speed, limit=29.0, zone="highway", lane=1, lanes=2, intent=intent, lane_ends={2: ends_in})
+def exit_lane(intent: str, ends_in: float, speed: float = 20.0, exits: tuple = (2,)):
+    return scene(speed=speed, limit=29.0, zone="highway", lane=1, lanes=2, intent=intent, lane_ends={2: ends_in},
+                 exits=exits)
 
 
 def test_the_ego_may_move_into_an_exit_lane_its_route_asks_for_though_the_lane_ends_ahead():
@@ -243,13 +249,18 @@ def test_the_ego_may_move_into_an_exit_lane_its_route_asks_for_though_the_lane_e
     # within the stopping distance (53.3 m at 20 m/s) it ends too soon to be used
     too_late = US.decide(exit_lane("merge_into_right_lane", 45), "change_lane_right")
     assert too_late.decision.value == "override" and "clr.target_lane_ends" in too_late.rules
+    # a lane that drops into the next one is no way off the road, whatever the route says
+    dropping = US.decide(exit_lane("merge_into_right_lane", 120, exits=()), "change_lane_right")
+    assert dropping.decision.value == "override" and "clr.target_lane_ends" in dropping.rules
 
 
 def test_in_the_exit_lane_its_route_asks_for_the_ego_is_not_sent_back_out_as_from_a_lane_drop():
     """Entered, the exit lane 'ends' where the ego leaves the road with it: no merging back, no braking for its end."""
     in_exit = scene(speed=20, lane=2, lanes=2, zone="highway", limit=29, intent="merge_into_right_lane",
-                    lane_ends={2: 50.0})
+                    lane_ends={2: 50.0}, exits=(2,))
     verdict = US.decide(in_exit, "cruise")
     assert verdict.decision.value == "approve" and verdict.recommended.value != "change_lane_left"
-    dropping = scene(speed=20, lane=2, lanes=2, zone="highway", limit=29, lane_ends={2: 50.0})
-    assert US.decide(dropping, "cruise").action.value == "change_lane_left"  # a lane drop is still left
+    # the same lane not marked as leaving the road is a lane drop, however the route reads: still left
+    for intent in ("merge_into_right_lane", "continue_in_lane"):
+        dropping = scene(speed=20, lane=2, lanes=2, zone="highway", limit=29, intent=intent, lane_ends={2: 50.0})
+        assert US.decide(dropping, "cruise").action.value == "change_lane_left", intent
