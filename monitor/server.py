@@ -482,7 +482,8 @@ class _AnswerLog:
         self._lock = threading.Lock()
         self._unread: dict[int, tuple[Request, Answer, int]] = {}  # answered, payload not read yet (oldest first)
         self._read: dict[int, Optional[str]] = {}  # read, answer not sent yet: why it is no proposal (None: it is)
-        self._logged_unread: deque[int] = deque(maxlen=EXPIRED_KEPT)  # held past HOLD_S and logged: later word ignored
+        # held past HOLD_S and logged, oldest first: their worker's later word is ignored (a set, as a stall makes many)
+        self._logged_unread: dict[int, None] = {}
 
     def claim(self, req: Request, answer: Answer) -> bool:
         """Claim the request for this answer (Request.claim) and log the answer, or hold it for the worker's word."""
@@ -504,7 +505,7 @@ class _AnswerLog:
             waiting = self._unread.pop(rid, None)
             if waiting is None:
                 if rid in self._logged_unread:
-                    self._logged_unread.remove(rid)
+                    del self._logged_unread[rid]
                 else:
                     self._read[rid] = not_proposal
             else:
@@ -522,7 +523,9 @@ class _AnswerLog:
                     break
                 del self._unread[rid]
                 self._write(req, answer, _not_proposal(req), sent_ns)
-                self._logged_unread.append(rid)
+                self._logged_unread[rid] = None
+                if len(self._logged_unread) > EXPIRED_KEPT:  # a worker that died with them never answers
+                    del self._logged_unread[next(iter(self._logged_unread))]
 
     def flush(self, why: str) -> None:
         """Log the answers whose payloads no worker will read, as refused for `why`."""
