@@ -15,13 +15,14 @@ program text to parse.
 from __future__ import annotations
 
 import re
-from typing import Iterable
+from typing import Iterable, Optional
 
 from clingo import Control, Function, Number, Symbol, ast, parse_term
 
 from .answer_set import AnswerSet, shown_atoms
 from .catalog import Catalog, static_predicates
 from .fact_text import FACT_NAME, is_plain
+from .specialize import Specializer
 from .terms import Shape
 
 FRAME_PREDICATE = "discern_frame"  # discern_frame(K): frame K is in the batch
@@ -36,15 +37,20 @@ _FACT_START = re.compile(r'"(?:[^"\\]|\\.)*"|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)(
 class FrameTagger:
     """Adds the frame argument to the catalog's frame-dependent atoms and to a frame's fact text."""
 
-    def __init__(self, catalog: Catalog, shared: Iterable[str] = ()):
+    def __init__(self, catalog: Catalog, shared: Iterable[str] = (), specializer: Optional[Specializer] = None):
+        """`specializer`: the catalog's rules specialised to its static atoms (specialize.py), as grounded."""
         self.static = static_predicates(catalog, shared)
         self._var = ast.Variable(_LOC, _FRAME_VAR)
         # tagged once, up front: tagging on first use made a process's first batches several times slower
-        self._tagged = {id(stm): self._rule(stm) for stm in catalog.facts + [rule.statement for rule in catalog.compiled]}
+        self._tagged: dict[int, Optional[ast.AST]] = {}
+        for stm in catalog.facts + [rule.statement for rule in catalog.compiled]:
+            special = stm if specializer is None else specializer.statement(stm)
+            self._tagged[id(stm)] = None if special is None else self._rule(special)
 
     def program(self, statements: Iterable[ast.AST]) -> list[ast.AST]:
-        """The catalog statements given (a slice of the catalog), tagged."""
-        return [self._tagged[id(stm)] for stm in statements]
+        """The catalog statements given (a slice of the catalog), tagged; a rule that cannot fire left out."""
+        tagged = (self._tagged[id(stm)] for stm in statements)
+        return [stm for stm in tagged if stm is not None]
 
     def batch(self, texts: Iterable[str]) -> "BatchFacts":
         """The frames' facts, frame k's with k first in every atom, and the discern_frame fact of each."""

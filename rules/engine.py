@@ -105,8 +105,8 @@ class Reasoner:
         self._param_names = frozenset(FACT_NAME.findall(self._param_facts))
         self.providers = list(providers) if providers is not None else _default_providers()
         self._solve_hook = solve_hook
-        self._tagger = FrameTagger(self.catalog, shared=self._param_names)
         self.slicer = PresenceSlicer(self.catalog, self._param_facts, self._param_names)
+        self._tagger = FrameTagger(self.catalog, shared=self._param_names, specializer=self.slicer.specializer)
         self._controls = self.slicer.controls
         self._static_atoms: dict = {}  # shared by the proofs of all its frames (justify.Prover)
 

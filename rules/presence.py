@@ -29,6 +29,7 @@ from clingo import ast
 
 from .catalog import Catalog, static_predicates
 from .controls import PreparedControls
+from .specialize import Specializer
 from .fact_text import is_plain
 from .terms import ANY, Term, match, pattern_signature, pattern_text
 
@@ -59,6 +60,7 @@ class PresenceSlicer:
         self.static = static_predicates(catalog, shared)
         ahead = catalog.facts + [rule.statement for rule in catalog.compiled if rule.signature[0] in self.static]
         self._ahead = {id(statement) for statement in ahead}
+        self.specializer = Specializer(ahead, constant, self.static)
         self.controls = PreparedControls(self.program, ahead, constant)
         self._learned: dict[Kind, Slice] = {}  # a kind of frame -> its learned slice
         self._programs: dict[Slice, list[ast.AST]] = {}
@@ -101,7 +103,7 @@ class PresenceSlicer:
         if found is None:
             guards = _guards(sorted(pattern_text(p) for p in cut.absent))
             within = self.catalog.rules_within(cut.present, cut.absent | cut.unmatched)
-            found = self._programs[cut] = [s for s in within if id(s) not in self._ahead] + guards
+            found = self._programs[cut] = self.specializer.program([s for s in within if id(s) not in self._ahead] + guards)
         return found
 
     def ground(self, names: frozenset[str], text: str) -> clingo.Control:

@@ -2,6 +2,7 @@ import random
 import shutil
 
 import clingo
+import pytest
 
 from discern.rules.catalog import catalog_dirs, load_driving_rules
 from discern.rules.engine import Reasoner, jurisdiction_pack
@@ -39,8 +40,11 @@ def full_model(reasoner, sc, history=()):
     return set(atoms)
 
 
-def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program():
-    reasoner = Reasoner()  # fresh: it learns from these frames alone which rules can fire (presence.py)
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program(jurisdiction):
+    # fresh: it learns from these frames alone which rules can fire (presence.py); its rules specialised to the
+    # jurisdiction's settings and parameters (specialize.py)
+    reasoner = Reasoner(jurisdiction=jurisdiction)
     rng = random.Random(7)
     previous = random_scene(rng)
     for _ in range(150):
