@@ -71,11 +71,14 @@ class Specializer:
             if special is DEAD or special is rule:
                 return special
             # clingo enumerates every value between two constant bounds of a variable (`Y >= 0, Y < 1500`: 60 us,
-            # `Y < 100000`: 4 ms) instead of checking the few atoms that bind it; a bound taken from a static atom
-            # stays the atom's.
-            culprits = _bound_givers(rule.body, _bounded_twice(special.body), binding) - keep
-            if not culprits:
+            # `Y < 100000`: 4 ms) instead of checking the few atoms that bind it; where that would come of it, the
+            # values those comparisons read stay the static atoms'.
+            ranged = _bounded_twice(special.body) - _bounded_twice(rule.body)
+            if not ranged:
                 return special
+            culprits = _compared(rule.body, ranged, binding) - keep or _compared(rule.body, None, binding) - keep
+            if not culprits:
+                return rule
             keep = keep | culprits
 
     def _specialised(self, rule: ast.AST, keep: frozenset[str]) -> tuple[Optional[ast.AST], dict[str, Symbol]]:
@@ -169,26 +172,46 @@ def _unify(terms: Iterable[ast.AST], symbols: Iterable[Symbol], found: dict[str,
 
 
 def _bounded_twice(body: Iterable[ast.AST]) -> set[str]:
-    """The variables that two or more comparisons compare with constants alone."""
+    """The variables that two or more comparisons compare with constants alone, a variable assigned constants
+    (`H = (350/2)`) counting as one: clingo folds it in."""
+    comparisons = [(_variables(literal.atom), _is_equality(literal.atom)) for literal in body
+                   if literal.ast_type == ast.ASTType.Literal and literal.atom.ast_type == ast.ASTType.Comparison]
+    constant: set[str] = set()
+    changed = True
+    while changed:
+        changed = False
+        for names, equality in comparisons:
+            free = names - constant
+            if equality and len(free) == 1:
+                constant |= free
+                changed = True
     seen: dict[str, int] = {}
-    for literal in body:
-        if literal.ast_type == ast.ASTType.Literal and literal.atom.ast_type == ast.ASTType.Comparison:
-            names = _variables(literal.atom)
-            if len(names) == 1:
-                name = names.pop()
-                seen[name] = seen.get(name, 0) + 1
+    for names, equality in comparisons:
+        free = names - constant
+        if len(free) == 1 and not equality:
+            name = free.pop()
+            seen[name] = seen.get(name, 0) + 1
     return {name for name, count in seen.items() if count > 1}
 
 
-def _bound_givers(body: Iterable[ast.AST], bounded: set[str], binding: dict[str, Symbol]) -> frozenset[str]:
-    """The bound variables whose values made a comparison of a `bounded` variable one with constants alone."""
-    found: set[str] = set()
-    for literal in body:
-        if literal.ast_type == ast.ASTType.Literal and literal.atom.ast_type == ast.ASTType.Comparison:
-            names = _variables(literal.atom)
-            if names & bounded:
-                found |= names & binding.keys()
-    return frozenset(found)
+def _is_equality(comparison: ast.AST) -> bool:
+    return len(comparison.guards) == 1 and comparison.guards[0].comparison == ast.ComparisonOperator.Equal
+
+
+def _compared(body: Iterable[ast.AST], ranged: Optional[set[str]], binding: dict[str, Symbol]) -> frozenset[str]:
+    """The bound variables read by the comparisons that reach a `ranged` variable through shared variables (by all
+    comparisons where `ranged` is None)."""
+    comparisons = [_variables(literal.atom) for literal in body
+                   if literal.ast_type == ast.ASTType.Literal and literal.atom.ast_type == ast.ASTType.Comparison]
+    reached = set(ranged) if ranged is not None else set().union(*comparisons)
+    changed = True
+    while changed:
+        changed = False
+        for names in comparisons:
+            if names & reached and not names <= reached:
+                reached |= names
+                changed = True
+    return frozenset(reached & binding.keys())
 
 
 def _compare(comparison: ast.AST) -> Optional[bool]:
