@@ -4,9 +4,11 @@ That the answer sets stay those of the catalog as written is test_engine.py's lo
 jurisdictions; here, what the specialised rules look like."""
 
 import pytest
+from clingo import ast
 
 from discern.rules.engine import Reasoner
 from discern.rules.facts import Params
+from discern.rules.specialize import Specializer
 
 
 def grounded_form(reasoner, rule_text):
@@ -58,3 +60,19 @@ def test_a_variable_is_not_given_two_constant_bounds_which_clingo_would_enumerat
     # `Y >= 0; Y < 1500` makes clingo walk every value from 0 to 1499 (measured: 60 us, 4 ms for 100000)
     special = grounded_form(us, "near_turn_path(O) :- obj_pos(O,X,Y); Y >= 0; Y < W; |X| < W; param(crossing_dist,W).")
     assert special == "near_turn_path(O) :- obj_pos(O,X,Y); Y >= 0; Y < W; |X| < W; param(crossing_dist,W)."
+
+
+def specialised(rule_text, constant="param(w,1500).", static=frozenset({"param"})):
+    statements = []
+    ast.parse_string(rule_text, statements.append)
+    return str(Specializer([], constant, static).statement(statements[-1]))
+
+
+def test_a_bound_reached_through_an_assignment_stays_the_static_atoms():
+    # `H = 1500; Y < H` is folded by clingo into a second constant bound of Y
+    rule = "p(O) :- q(O,Y); Y >= 0; H = W; Y < H; param(w,W)."
+    assert specialised(rule) == "p(O) :- q(O,Y); Y >= 0; H = W; Y < H; param(w,W)."
+
+
+def test_a_single_constant_bound_is_put_in():
+    assert specialised("p(O) :- q(O,Y); Y < W; param(w,W).") == "p(O) :- q(O,Y); Y < 1500."
