@@ -29,8 +29,8 @@ from clingo import ast
 
 from .catalog import Catalog, static_predicates
 from .controls import PreparedControls
-from .specialize import Specializer
 from .fact_text import is_plain
+from .specialize import Specializer
 from .terms import ANY, Term, match, pattern_signature, pattern_text
 
 UNSEEN = clingo.Function("__unseen")  # derived by a frame's guard rules when an atom matches a pattern left out

@@ -19,7 +19,7 @@ from typing import Iterable, Optional
 import clingo
 from clingo import Symbol, SymbolType, ast
 
-_NUMBERS = {
+_TRUE_OF = {  # how clingo compares two values (its term order)
     ast.ComparisonOperator.Equal: lambda a, b: a == b,
     ast.ComparisonOperator.NotEqual: lambda a, b: a != b,
     ast.ComparisonOperator.LessThan: lambda a, b: a < b,
@@ -220,7 +220,7 @@ def _compare(comparison: ast.AST) -> Optional[bool]:
     if any(value is None for value in values):
         return None
     for left, guard, right in zip(values, comparison.guards, values[1:]):
-        if not _NUMBERS[guard.comparison](left, right):
+        if not _TRUE_OF[guard.comparison](left, right):
             return False
     return True
 
