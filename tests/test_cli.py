@@ -453,6 +453,13 @@ def test_check_says_a_json_file_nested_too_deeply_is_no_scene(tmp_path, capsys):
     assert line == f"discern: error: {deep}: JSON nested too deeply to be a scene"
 
 
+def test_check_names_a_number_of_thousands_of_digits_without_a_traceback(tmp_path, capsys):
+    path = write(tmp_path, json.dumps(good_dict())[:-1] + ', "frame_id": 1' + "0" * 5000 + "}")
+    assert main(["check", path, "--proposed", "cruise"]) == 2
+    [line] = capsys.readouterr().err.splitlines()
+    assert line == f"discern: error: {path}: a number in the JSON has too many digits to be a scene's"
+
+
 def test_scenarios_run_with_own_rules_loads_them_once_for_all_files(tmp_path, monkeypatch):
     import shutil
 
