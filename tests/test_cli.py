@@ -294,6 +294,16 @@ def test_scenarios_run_runs_every_readable_file_and_names_each_broken_one(tmp_pa
     assert f"discern: error: {tmp_path / 'a_broken.json'}:" in err and f"discern: error: {tmp_path / 'b_empty.json'}:" in err
 
 
+def test_a_scenario_file_of_an_unknown_jurisdiction_is_named_and_the_others_still_run(tmp_path, capsys):
+    (tmp_path / "acc.cut_in.json").write_text((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
+    data = json.loads((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
+    write(tmp_path, {**data, "jurisdiction": "mars"}, "a_mars.json")
+    assert main(["scenarios", "run", str(tmp_path)]) == 2
+    out, err = capsys.readouterr()
+    assert "pass  acc.cut_in #0" in out and "1 passed, 0 failed, 1 file not read" in out
+    assert f"discern: error: {tmp_path / 'a_mars.json'}:\njurisdiction: unknown jurisdiction 'mars': choose from us, uk" in err
+
+
 @pytest.mark.parametrize("name, message", [
     ("missing.json", "no such file or directory"),
     ("notes.txt", "not a scenario file (.json) or an AV-CSR frame file (.pl)"),
