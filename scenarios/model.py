@@ -51,4 +51,5 @@ class Scenario(BaseModel):
 
     @classmethod
     def load(cls, path: Path) -> "Scenario":
-        return cls.model_validate_json(Path(path).read_text(encoding="utf-8"), **JSON_AS_SCHEMA)
+        """Read as `discern check` reads a scene: a byte-order mark, as some Windows editors write, is no error."""
+        return cls.model_validate_json(Path(path).read_text(encoding="utf-8-sig"), **JSON_AS_SCHEMA)

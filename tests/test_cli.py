@@ -65,6 +65,13 @@ def test_check_reads_a_file_with_a_byte_order_mark_and_refuses_an_empty_out_name
     assert refused.value.code == 2 and "argument --out: empty path" in capsys.readouterr().err
 
 
+def test_scenarios_run_reads_a_scenario_file_with_a_byte_order_mark_as_check_reads_a_scene(tmp_path, capsys):
+    path = tmp_path / "acc.cut_in.json"
+    path.write_bytes(b"\xef\xbb\xbf" + (ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_bytes())
+    assert main(["scenarios", "run", str(path)]) == 0
+    assert "pass  acc.cut_in #0" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("argv", [
     ["scenarios", "run", ""], ["audit", ""], ["audit", "--replay", "x.mcap", "--rules", ""], ["serve", "--log-dir", ""],
     ["eval", "highway", "--out", ""], ["check", "", "--proposed", "brake"], ["schema", "--out", ""],
