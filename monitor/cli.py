@@ -49,6 +49,8 @@ def _read_json(path: str) -> tuple[str, dict]:
         raise UserError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
     except RecursionError:
         raise UserError(f"{path}: JSON nested too deeply to be a scene") from None
+    except ValueError:  # Python refuses to convert an integer of over 4300 digits, far past any field's bound
+        raise UserError(f"{path}: a number in the JSON has too many digits to be a scene's") from None
     if not isinstance(data, dict):
         raise UserError(f"{path}: expected a JSON object (a scene or a proposal)")
     return text, data

@@ -198,7 +198,7 @@ class Monitor:
         data = dict(version=SCHEMA_VERSION, vehicle=self.vehicle, action=action, scene=scene, explain=explain)
         try:
             text = json.dumps(data, default=_numpy_value)
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, RecursionError) as exc:  # a dict nested past the encoder's depth too
             try:  # name the field that holds it, where the schema can
                 Proposal(vehicle=self.vehicle, action=action, scene=scene, explain=explain)
                 problem = ""

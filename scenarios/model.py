@@ -5,8 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
+from discern.rules.engine import jurisdiction_pack
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Scene
 from discern.rules.verdict import Decision
 
@@ -40,6 +41,15 @@ class Scenario(BaseModel):
     jurisdiction: str = "us"
     frames: list[ScenarioFrame] = Field(min_length=1)
 
+    @field_validator("jurisdiction")
+    @classmethod
+    def _known_jurisdiction(cls, name: str) -> str:
+        """Checked as the file is read, so the file is named and the others still run: met only when its frames
+        were decided, an unknown pack stopped the whole run without saying which file named it."""
+        jurisdiction_pack(name)
+        return name
+
     @classmethod
     def load(cls, path: Path) -> "Scenario":
-        return cls.model_validate_json(Path(path).read_text(encoding="utf-8"), **JSON_AS_SCHEMA)
+        """Read as `discern check` reads a scene: a byte-order mark, as some Windows editors write, is no error."""
+        return cls.model_validate_json(Path(path).read_text(encoding="utf-8-sig"), **JSON_AS_SCHEMA)

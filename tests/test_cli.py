@@ -65,6 +65,13 @@ def test_check_reads_a_file_with_a_byte_order_mark_and_refuses_an_empty_out_name
     assert refused.value.code == 2 and "argument --out: empty path" in capsys.readouterr().err
 
 
+def test_scenarios_run_reads_a_scenario_file_with_a_byte_order_mark_as_check_reads_a_scene(tmp_path, capsys):
+    path = tmp_path / "acc.cut_in.json"
+    path.write_bytes(b"\xef\xbb\xbf" + (ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_bytes())
+    assert main(["scenarios", "run", str(path)]) == 0
+    assert "pass  acc.cut_in #0" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("argv", [
     ["scenarios", "run", ""], ["audit", ""], ["audit", "--replay", "x.mcap", "--rules", ""], ["serve", "--log-dir", ""],
     ["eval", "highway", "--out", ""], ["check", "", "--proposed", "brake"], ["schema", "--out", ""],
@@ -294,6 +301,16 @@ def test_scenarios_run_runs_every_readable_file_and_names_each_broken_one(tmp_pa
     assert f"discern: error: {tmp_path / 'a_broken.json'}:" in err and f"discern: error: {tmp_path / 'b_empty.json'}:" in err
 
 
+def test_a_scenario_file_of_an_unknown_jurisdiction_is_named_and_the_others_still_run(tmp_path, capsys):
+    (tmp_path / "acc.cut_in.json").write_text((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
+    data = json.loads((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
+    write(tmp_path, {**data, "jurisdiction": "mars"}, "a_mars.json")
+    assert main(["scenarios", "run", str(tmp_path)]) == 2
+    out, err = capsys.readouterr()
+    assert "pass  acc.cut_in #0" in out and "1 passed, 0 failed, 1 file not read" in out
+    assert f"discern: error: {tmp_path / 'a_mars.json'}:\njurisdiction: unknown jurisdiction 'mars': choose from us, uk" in err
+
+
 @pytest.mark.parametrize("name, message", [
     ("missing.json", "no such file or directory"),
     ("notes.txt", "not a scenario file (.json) or an AV-CSR frame file (.pl)"),
@@ -451,6 +468,13 @@ def test_check_says_a_json_file_nested_too_deeply_is_no_scene(tmp_path, capsys):
     assert main(["check", str(deep), "--proposed", "cruise"]) == 2
     [line] = capsys.readouterr().err.splitlines()
     assert line == f"discern: error: {deep}: JSON nested too deeply to be a scene"
+
+
+def test_check_names_a_number_of_thousands_of_digits_without_a_traceback(tmp_path, capsys):
+    path = write(tmp_path, json.dumps(good_dict())[:-1] + ', "frame_id": 1' + "0" * 5000 + "}")
+    assert main(["check", path, "--proposed", "cruise"]) == 2
+    [line] = capsys.readouterr().err.splitlines()
+    assert line == f"discern: error: {path}: a number in the JSON has too many digits to be a scene's"
 
 
 def test_scenarios_run_with_own_rules_loads_them_once_for_all_files(tmp_path, monkeypatch):

@@ -207,6 +207,21 @@ def test_a_scene_that_cannot_be_sent_at_all_gets_a_local_failsafe_naming_the_pro
     assert verdict.error.endswith("not sent: it cannot be written as JSON: Object of type object is not JSON serializable")
 
 
+def test_a_scene_nested_past_the_json_encoders_depth_gets_a_local_failsafe_not_a_recursion_error():
+    scene = json.loads(highway_scene(0, 2).model_dump_json(by_alias=True))
+    node = scene["ego"]
+    for _ in range(100_000):  # a planner's runaway structure
+        node["next"] = node = {}
+    with Monitor("tangled", connect=[endpoint(free_port())]) as monitor:
+        verdict = monitor.check(scene, "cruise")
+        with pytest.raises(ValueError, match="it cannot be written as JSON: maximum recursion depth exceeded"):
+            monitor.publish(scene, "cruise")
+    assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.bad_input"]
+    assert "scene.ego.next: Extra inputs are not permitted" in verdict.error
+    assert verdict.error.endswith("not sent: it cannot be written as JSON: maximum recursion depth exceeded while "
+                                  "encoding a JSON object")
+
+
 @pytest.mark.parametrize("reply, reason", [
     (b'{"version": 7}', "unreadable verdict from the monitor: version: Input should be 1"),
     ({"vehicle": "someone_else", "frame_id": 0},
