@@ -32,6 +32,9 @@ MODES = ("peer", "client", "router")
 # OverflowError in the thread that waits, which then stops for good.
 BUDGET_MAX_MS = 60_000.0
 STATUS_PERIOD_MIN_S, STATUS_PERIOD_MAX_S = 0.1, 3600.0
+# A vehicle's state lives a window past its last proposal: a window of hours would keep every vehicle ever seen.
+# A minute is 3,000 frames at 50 Hz, far past what any sanity rule reads (a flashing light: a few seconds).
+WINDOW_MAX_S = 60.0
 LOG_FLUSH_MIN_S, LOG_FLUSH_MAX_S = 0.05, 60.0
 LOG_ROTATE_MIN_S = 1.0
 LOG_ROTATE_MIN_BYTES = 64 * 1024
@@ -172,6 +175,7 @@ def check_number(flag: str, value, low: float, high: float = math.inf, *, unit: 
     """Refuse NaN, infinities and values out of range, naming the flag that sets the value."""
     if (
         isinstance(value, (int, float))
+        and not isinstance(value, bool)  # True is 1 to Python, not a number anyone meant
         and math.isfinite(value)
         and (value > low if above else value >= low)
         and value <= high
@@ -230,7 +234,7 @@ class MonitorConfig:
         if not valid_id(self.monitor_id):
             raise ValueError(f"monitor id {self.monitor_id!r} must match {ID_RULE}")
         check_number("--budget-ms", self.budget_ms, 0, BUDGET_MAX_MS, unit=" ms", above=True)
-        check_number("--window-s", self.window_s, 0, unit=" s", above=True)
+        check_number("--window-s", self.window_s, 0, WINDOW_MAX_S, unit=" s", above=True)
         check_number("--status-period-s", self.status_period_s, STATUS_PERIOD_MIN_S, STATUS_PERIOD_MAX_S, unit=" s")
         if self.log is not None:
             self.log.validate()

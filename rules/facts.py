@@ -84,6 +84,8 @@ class Params:
                 number = None
             if name not in known:
                 problems.append(f"unknown --param {name!r} (known: {', '.join(sorted(known))})")
+            elif name in values:  # one of the two would be dropped unsaid: which one the operator meant is theirs to say
+                problems.append(f"--param {name} given twice ({values[name]:g} and {value})")
             elif number is None or not (math.isfinite(number) and MIN_PARAM <= number <= _largest(name)):
                 bound = f"from {MIN_PARAM:g} to {_largest(name):g}"
                 problems.append(f"--param {name} needs a number {bound}, got {value!r}")

@@ -364,8 +364,8 @@ def test_a_report_that_cannot_be_written_is_refused_before_the_logs_are_read(cap
         (["{log}", "--workers", "100000"], "--workers must be 1 to 64, got 100000"),
         (["{log}", "--since", ""], "--since: time '' is neither ISO 8601"),  # an unset shell variable
         (["{log}", "--replay", "--until", ""], "--until: time '' is neither ISO 8601"),
-        (["{log}", "--replay", "--window", "inf"], "--window must be a finite number above 0 s, got inf"),
-        (["{log}", "--replay", "--window", "0"], "--window must be a finite number above 0 s, got 0.0"),
+        (["{log}", "--replay", "--window", "inf"], "--window must be a finite number above 0 s and at most 60 s, got inf"),
+        (["{log}", "--replay", "--window", "0"], "--window must be a finite number above 0 s and at most 60 s, got 0.0"),
         (["{log}", "--html", "/nonexistent/dir/report.html"], "cannot write /nonexistent/dir/report.html"),
     ],
 )

@@ -331,7 +331,7 @@ def test_a_restarted_monitors_files_are_not_read_as_the_previous_runs_continuati
     tasks = plan_tasks([str(directory)], parts=2)
     assert sorted(t.paths for t in tasks) == sorted([(str(before),), (str(after),)])
     assert all(t.lead_in == () for t in tasks)
-    code, doc, _ = replay(capsys, tmp_path, str(directory), "--window", "600", "--workers", "1")
+    code, doc, _ = replay(capsys, tmp_path, str(directory), "--window", "60", "--workers", "1")
     assert code == 0 and doc["changes"] == [] and doc["frames"] == 2
 
 

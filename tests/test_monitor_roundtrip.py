@@ -184,7 +184,7 @@ def test_without_a_monitor_the_client_returns_a_failsafe_in_time():
     assert elapsed < 2.0
 
 
-@pytest.mark.parametrize("timeout", [math.inf, math.nan, -1, 0, 1e12])
+@pytest.mark.parametrize("timeout", [math.inf, math.nan, -1, 0, 1e12, True])
 def test_a_timeout_no_wait_can_take_is_refused_when_the_client_is_made(timeout):
     with pytest.raises(ValueError, match=rf"^timeout must be a finite number above 0 s and at most 120 s, got {timeout}$"):
         Monitor("impatient", connect=[endpoint(free_port())], timeout=timeout)

@@ -25,6 +25,7 @@ def config(tmp_path, **settings) -> MonitorConfig:
         (dict(budget_ms=math.nan), "--budget-ms"),
         (dict(budget_ms=0), "--budget-ms"),
         (dict(window_s=math.inf), "--window-s"),
+        (dict(window_s=61), "--window-s"),  # a vehicle's state lives a window: one of hours keeps every vehicle seen
         (dict(status_period_s=0), "--status-period-s"),
         (dict(status_period_s=-1), "--status-period-s"),
         (dict(status_period_s=math.nan), "--status-period-s"),
@@ -66,6 +67,7 @@ def test_the_documented_bounds_are_accepted(tmp_path):
         (["--listen", "tcp/127.0.0.1:0"], "listen endpoint 'tcp/127.0.0.1:0': port 0 is not supported"),
         (["--param", "decel=0"], "--param decel needs a number from 0.01 to 100, got '0'"),
         (["--param", "brakes=4"], "unknown --param 'brakes' (known: "),
+        (["--param", "decel=4", "--param", "decel=5"], "--param decel given twice (4 and 5)"),
     ],
 )
 def test_serve_refuses_bad_settings_in_one_line_with_status_2(tmp_path, flags, message):

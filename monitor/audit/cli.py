@@ -12,7 +12,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from discern.monitor.config import check_number, path_text
+from discern.monitor.config import WINDOW_MAX_S, check_number, path_text
 from discern.monitor.log import log_files
 from discern.rules.catalog import CatalogError, load_catalog
 from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
@@ -137,7 +137,7 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         raise UsageError("--rule and --verdict filter the audit listing; a replay takes --vehicle, --since, --until")
     if args.window is not None:
         try:  # as the monitor's --window-s: an infinite window is no window the monitor could have run with
-            check_number("--window", args.window, 0, unit=" s", above=True)
+            check_number("--window", args.window, 0, WINDOW_MAX_S, unit=" s", above=True)
         except ValueError as exc:
             raise UsageError(str(exc)) from None
     from . import replay_report
