@@ -132,7 +132,7 @@ class PresenceSlicer:
 
     def _grounded(self, cut: Slice, text: str) -> clingo.Control:
         control = self.controls.take(cut)
-        control.add("base", [], text)
+        _add_facts(control, text)
         control.ground([("base", [])])
         return control
 
@@ -144,6 +144,28 @@ class PresenceSlicer:
     def _with_atoms(control: clingo.Control, signatures: list[tuple[str, int]]) -> frozenset[str]:
         atoms = control.symbolic_atoms
         return frozenset(name for name, arity in signatures if next(iter(atoms.by_signature(name, arity)), None) is not None)
+
+
+def _add_facts(control: clingo.Control, text: str) -> None:
+    """The frame's facts into the Control: plain fact text (fact_text.py) parsed as one term and given to clingo's
+    backend as facts, other text to its parser.
+
+    Given as statements, facts are grounded with the rules; as backend facts they are already there when the rules
+    are. Measured on readied Controls: adding them costs more (0.24 against 0.15 ms on a KITTI frame), grounding
+    less (0.90 against 1.03 ms), 2 to 6 % off both together from 0 to 200 objects. The atoms are the same.
+    """
+    if is_plain(text):
+        try:
+            facts = clingo.parse_term(f"({text[:-1].replace('.', ',')},)").arguments
+        except RuntimeError:  # a number past clingo's: its parser says so below
+            facts = None
+        if facts is not None:
+            with control.backend() as backend:
+                add_atom, add_rule = backend.add_atom, backend.add_rule
+                for fact in facts:
+                    add_rule([add_atom(fact)])
+            return
+    control.add("base", [], text)
 
 
 def _matched(control: clingo.Control, patterns: frozenset[Term]) -> frozenset[Term]:
