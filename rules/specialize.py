@@ -114,19 +114,16 @@ class Specializer:
         if atom.ast_type != ast.ASTType.SymbolicAtom or atom.symbol.ast_type != ast.ASTType.Function:
             return None
         term = atom.symbol
-        if term.name not in self.static or term.external:
+        if term.name not in self.static or not _plain(term):
             return None
         candidates = self._atoms.get((term.name, len(term.arguments)), [])
         matches = []
-        try:
-            for symbol in candidates:
-                found = _unify(term.arguments, symbol.arguments, {})
-                if found is not None:
-                    matches.append(found)
-                    if len(matches) > 1:
-                        break
-        except _Opaque:
-            return None
+        for symbol in candidates:
+            found = _unify(term.arguments, symbol.arguments, {})
+            if found is not None:
+                matches.append(found)
+                if len(matches) > 1:
+                    break
         if literal.sign == ast.Sign.Negation:
             if not matches:
                 return True  # no static atom is like it: `not` holds whatever the variables are
@@ -143,12 +140,17 @@ class Specializer:
         return None
 
 
-class _Opaque(Exception):
-    """A term that is more than variables, constants and functions (arithmetic, pools): left to clingo."""
+def _plain(term: ast.AST) -> bool:
+    """Whether a term is variables, constants and functions alone. Arithmetic is clingo's to judge: where it is
+    undefined (`V/0`), clingo drops the rule's instance, even where no static atom is like the literal's others."""
+    kind = term.ast_type
+    if kind == ast.ASTType.Function:
+        return not term.external and all(_plain(argument) for argument in term.arguments)
+    return kind in (ast.ASTType.Variable, ast.ASTType.SymbolicTerm)
 
 
 def _unify(terms: Iterable[ast.AST], symbols: Iterable[Symbol], found: dict[str, Symbol]) -> Optional[dict[str, Symbol]]:
-    """The variables' values that make the terms equal to the symbols; None where they cannot be equal."""
+    """The variables' values that make the (`_plain`) terms equal to the symbols; None where they cannot be equal."""
     for term, symbol in zip(terms, symbols):
         kind = term.ast_type
         if kind == ast.ASTType.Variable:
@@ -160,14 +162,12 @@ def _unify(terms: Iterable[ast.AST], symbols: Iterable[Symbol], found: dict[str,
         elif kind == ast.ASTType.SymbolicTerm:
             if term.symbol != symbol:
                 return None
-        elif kind == ast.ASTType.Function and not term.external:
+        else:
             if symbol.type != SymbolType.Function or symbol.name != term.name or len(symbol.arguments) != len(term.arguments):
                 return None
             found = _unify(term.arguments, symbol.arguments, found)
             if found is None:
                 return None
-        else:
-            raise _Opaque(term)
     return found
 
 
