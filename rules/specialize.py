@@ -28,6 +28,10 @@ _TRUE_OF = {  # how clingo compares two values (its term order)
     ast.ComparisonOperator.GreaterEqual: lambda a, b: a >= b,
 }
 
+# Where clingo.parse_term and the grounder part: `0**-1` is 0 to the one and undefined to the other, `N\0` ends the
+# process (SIGFPE) in the one and is undefined to the other.
+_UNLIKE_GROUNDER = ("**", "\\")
+
 DEAD = None  # what `Specializer.statement` returns for a rule that can never fire
 
 
@@ -228,8 +232,11 @@ def _compare(comparison: ast.AST) -> Optional[bool]:
 def _value(term: ast.AST) -> Optional[Symbol]:
     if _variables(term):
         return None
+    text = str(term)
+    if any(operator in text for operator in _UNLIKE_GROUNDER):
+        return None
     try:
-        return clingo.parse_term(str(term))
+        return clingo.parse_term(text)
     except (RuntimeError, ValueError):  # an undefined operation (a division by 0): clingo's to judge
         return None
 
