@@ -167,7 +167,8 @@ def _unify(terms: Iterable[ast.AST], symbols: Iterable[Symbol], found: dict[str,
             if term.symbol != symbol:
                 return None
         else:
-            if symbol.type != SymbolType.Function or symbol.name != term.name or len(symbol.arguments) != len(term.arguments):
+            if (symbol.type != SymbolType.Function or not symbol.positive or symbol.name != term.name
+                    or len(symbol.arguments) != len(term.arguments)):  # `f(X)` is not `-f(1)`: that is `-f(X)`'s
                 return None
             found = _unify(term.arguments, symbol.arguments, found)
             if found is None:

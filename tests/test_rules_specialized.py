@@ -124,3 +124,9 @@ def test_a_remainder_by_zero_is_left_to_clingo_which_holds_it_undefined():
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=Path(__file__).parent.parent)
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == str([["q(1)", "s(1)"]] * 2)
+
+
+def test_a_function_pattern_does_not_match_the_negated_function():
+    written, special = answer_sets("p(X) :- q(_); s(f(X)). r(X) :- q(_); s((X,2)).", "s(-f(1)). s(-(1,2)).", "q(1).")
+    assert not {"p(1)", "r(1)"} & written
+    assert special == written
