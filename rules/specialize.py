@@ -177,10 +177,14 @@ def _unify(terms: Iterable[ast.AST], symbols: Iterable[Symbol], found: dict[str,
 
 
 def _bounded_twice(body: Iterable[ast.AST]) -> set[str]:
-    """The variables that two or more comparisons compare with constants alone, a variable assigned constants
-    (`H = (350/2)`) counting as one: clingo folds it in."""
-    comparisons = [(_variables(literal.atom), _is_equality(literal.atom)) for literal in body
-                   if literal.ast_type == ast.ASTType.Literal and literal.atom.ast_type == ast.ASTType.Comparison]
+    """The variables that two or more comparisons compare with constants alone, each link of a chain (`0 <= Y < W`)
+    counting as one comparison. A variable assigned constants (`H = (350/2)`) counts as a constant, and variables an
+    equality relates (`D = Y+1`) share their bounds: clingo folds those in too."""
+    comparisons = [(_variables(left) | _variables(right), guard.comparison == ast.ComparisonOperator.Equal)
+                   for literal in body
+                   if literal.ast_type == ast.ASTType.Literal and literal.atom.ast_type == ast.ASTType.Comparison
+                   for terms in [[literal.atom.term] + [guard.term for guard in literal.atom.guards]]
+                   for left, guard, right in zip(terms, literal.atom.guards, terms[1:])]
     constant: set[str] = set()
     changed = True
     while changed:
@@ -190,17 +194,20 @@ def _bounded_twice(body: Iterable[ast.AST]) -> set[str]:
             if equality and len(free) == 1:
                 constant |= free
                 changed = True
-    seen: dict[str, int] = {}
+    related: dict[str, frozenset[str]] = {}
+    for names, equality in comparisons:
+        free = names - constant
+        if equality and len(free) == 2:
+            joined = frozenset().union(*(related.get(name, {name}) for name in free))
+            related.update(dict.fromkeys(joined, joined))
+    seen: dict[frozenset[str], int] = {}
     for names, equality in comparisons:
         free = names - constant
         if len(free) == 1 and not equality:
             name = free.pop()
-            seen[name] = seen.get(name, 0) + 1
-    return {name for name, count in seen.items() if count > 1}
-
-
-def _is_equality(comparison: ast.AST) -> bool:
-    return len(comparison.guards) == 1 and comparison.guards[0].comparison == ast.ComparisonOperator.Equal
+            group = related.get(name, frozenset([name]))
+            seen[group] = seen.get(group, 0) + 1
+    return {name for group, count in seen.items() if count > 1 for name in group}
 
 
 def _compared(body: Iterable[ast.AST], ranged: Optional[set[str]], binding: dict[str, Symbol]) -> frozenset[str]:

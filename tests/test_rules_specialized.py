@@ -130,3 +130,15 @@ def test_a_function_pattern_does_not_match_the_negated_function():
     written, special = answer_sets("p(X) :- q(_); s(f(X)). r(X) :- q(_); s((X,2)).", "s(-f(1)). s(-(1,2)).", "q(1).")
     assert not {"p(1)", "r(1)"} & written
     assert special == written
+
+
+def test_a_chain_of_comparisons_is_not_given_two_constant_bounds():
+    # `0 <= Y < 1500` is two bounds to clingo, which walks the range
+    rule = "p(O) :- q(O,Y); 0 <= Y < W; param(w,W)."
+    assert specialised(rule) == rule
+
+
+def test_bounds_that_an_equality_carries_over_to_a_variable_stay_the_static_atoms():
+    # clingo moves `D >= 0` onto Y through `D = Y+1`: with `Y < 1500` it walks the range
+    rule = "p(O) :- q(O,Y); D = (Y+1); D >= 0; Y < W; param(w,W)."
+    assert specialised(rule) == rule
