@@ -15,6 +15,7 @@ from discern.rules.engine import Reasoner
 from discern.rules.fact_text import FACT_NAME
 from discern.rules.facts import Params
 from discern.rules.specialize import Specializer
+from tests.scenes import scene
 
 
 def grounded_form(reasoner, rule_text):
@@ -142,3 +143,19 @@ def test_bounds_that_an_equality_carries_over_to_a_variable_stay_the_static_atom
     # clingo moves `D >= 0` onto Y through `D = Y+1`: with `Y < 1500` it walks the range
     rule = "p(O) :- q(O,Y); D = (Y+1); D >= 0; Y < W; param(w,W)."
     assert specialised(rule) == rule
+
+
+class _WetRoad:
+    """A fact provider that gives a parameter of its own: the rules already have the reasoner's put in."""
+
+    def facts(self, scene, history):
+        return "param(decel,300)."
+
+
+def test_a_frame_fact_giving_a_parameter_is_refused_alone_as_in_a_batch():
+    reasoner = Reasoner(providers=[_WetRoad()])
+    frame = (scene(speed=10), "cruise", ())
+    with pytest.raises(ValueError, match="frame fact param .* cannot be given per frame"):
+        reasoner.solve_many([frame, frame])
+    with pytest.raises(ValueError, match="frame fact param .* cannot be given per frame"):
+        reasoner.solve(*frame)
