@@ -153,8 +153,15 @@ class Reasoner:
         return SolvedFrame(AnswerSet(ctl, text, self.catalog.defined_in(names), given), proposed, owns=ctl)
 
     def predicates_of(self, text: str) -> frozenset[str]:
-        """The predicates a frame's program uses: its facts' (`frame_facts`) and the parameters'."""
-        return self._param_names.union(FACT_NAME.findall(text))
+        """The predicates a frame's program uses: its facts' (`frame_facts`) and the parameters'.
+
+        The facts may not give a parameter: the rules clingo grounds have the reasoner's put in (specialize.py).
+        """
+        own = frozenset(FACT_NAME.findall(text))
+        given = own & self._param_names
+        if given:
+            raise ValueError(f"frame fact {min(given)} is defined by the catalog and cannot be given per frame")
+        return own | self._param_names
 
     def frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:
         """The frame's own facts: the scene, the proposal, and what the providers read from the history.

@@ -28,6 +28,10 @@ _TRUE_OF = {  # how clingo compares two values (its term order)
     ast.ComparisonOperator.GreaterEqual: lambda a, b: a >= b,
 }
 
+# Where clingo.parse_term and the grounder part: `0**-1` is 0 to the one and undefined to the other, `N\0` ends the
+# process (SIGFPE) in the one and is undefined to the other.
+_UNLIKE_GROUNDER = ("**", "\\")
+
 DEAD = None  # what `Specializer.statement` returns for a rule that can never fire
 
 
@@ -114,19 +118,16 @@ class Specializer:
         if atom.ast_type != ast.ASTType.SymbolicAtom or atom.symbol.ast_type != ast.ASTType.Function:
             return None
         term = atom.symbol
-        if term.name not in self.static or term.external:
+        if term.name not in self.static or not _plain(term):
             return None
         candidates = self._atoms.get((term.name, len(term.arguments)), [])
         matches = []
-        try:
-            for symbol in candidates:
-                found = _unify(term.arguments, symbol.arguments, {})
-                if found is not None:
-                    matches.append(found)
-                    if len(matches) > 1:
-                        break
-        except _Opaque:
-            return None
+        for symbol in candidates:
+            found = _unify(term.arguments, symbol.arguments, {})
+            if found is not None:
+                matches.append(found)
+                if len(matches) > 1:
+                    break
         if literal.sign == ast.Sign.Negation:
             if not matches:
                 return True  # no static atom is like it: `not` holds whatever the variables are
@@ -143,12 +144,17 @@ class Specializer:
         return None
 
 
-class _Opaque(Exception):
-    """A term that is more than variables, constants and functions (arithmetic, pools): left to clingo."""
+def _plain(term: ast.AST) -> bool:
+    """Whether a term is variables, constants and functions alone. Arithmetic is clingo's to judge: where it is
+    undefined (`V/0`), clingo drops the rule's instance, even where no static atom is like the literal's others."""
+    kind = term.ast_type
+    if kind == ast.ASTType.Function:
+        return not term.external and all(_plain(argument) for argument in term.arguments)
+    return kind in (ast.ASTType.Variable, ast.ASTType.SymbolicTerm)
 
 
 def _unify(terms: Iterable[ast.AST], symbols: Iterable[Symbol], found: dict[str, Symbol]) -> Optional[dict[str, Symbol]]:
-    """The variables' values that make the terms equal to the symbols; None where they cannot be equal."""
+    """The variables' values that make the (`_plain`) terms equal to the symbols; None where they cannot be equal."""
     for term, symbol in zip(terms, symbols):
         kind = term.ast_type
         if kind == ast.ASTType.Variable:
@@ -160,22 +166,25 @@ def _unify(terms: Iterable[ast.AST], symbols: Iterable[Symbol], found: dict[str,
         elif kind == ast.ASTType.SymbolicTerm:
             if term.symbol != symbol:
                 return None
-        elif kind == ast.ASTType.Function and not term.external:
-            if symbol.type != SymbolType.Function or symbol.name != term.name or len(symbol.arguments) != len(term.arguments):
+        else:
+            if (symbol.type != SymbolType.Function or not symbol.positive or symbol.name != term.name
+                    or len(symbol.arguments) != len(term.arguments)):  # `f(X)` is not `-f(1)`: that is `-f(X)`'s
                 return None
             found = _unify(term.arguments, symbol.arguments, found)
             if found is None:
                 return None
-        else:
-            raise _Opaque(term)
     return found
 
 
 def _bounded_twice(body: Iterable[ast.AST]) -> set[str]:
-    """The variables that two or more comparisons compare with constants alone, a variable assigned constants
-    (`H = (350/2)`) counting as one: clingo folds it in."""
-    comparisons = [(_variables(literal.atom), _is_equality(literal.atom)) for literal in body
-                   if literal.ast_type == ast.ASTType.Literal and literal.atom.ast_type == ast.ASTType.Comparison]
+    """The variables that two or more comparisons compare with constants alone, each link of a chain (`0 <= Y < W`)
+    counting as one comparison. A variable assigned constants (`H = (350/2)`) counts as a constant, and variables an
+    equality relates (`D = Y+1`) share their bounds: clingo folds those in too."""
+    comparisons = [(_variables(left) | _variables(right), guard.comparison == ast.ComparisonOperator.Equal)
+                   for literal in body
+                   if literal.ast_type == ast.ASTType.Literal and literal.atom.ast_type == ast.ASTType.Comparison
+                   for terms in [[literal.atom.term] + [guard.term for guard in literal.atom.guards]]
+                   for left, guard, right in zip(terms, literal.atom.guards, terms[1:])]
     constant: set[str] = set()
     changed = True
     while changed:
@@ -185,17 +194,20 @@ def _bounded_twice(body: Iterable[ast.AST]) -> set[str]:
             if equality and len(free) == 1:
                 constant |= free
                 changed = True
-    seen: dict[str, int] = {}
+    related: dict[str, frozenset[str]] = {}
+    for names, equality in comparisons:
+        free = names - constant
+        if equality and len(free) == 2:
+            joined = frozenset().union(*(related.get(name, {name}) for name in free))
+            related.update(dict.fromkeys(joined, joined))
+    seen: dict[frozenset[str], int] = {}
     for names, equality in comparisons:
         free = names - constant
         if len(free) == 1 and not equality:
             name = free.pop()
-            seen[name] = seen.get(name, 0) + 1
-    return {name for name, count in seen.items() if count > 1}
-
-
-def _is_equality(comparison: ast.AST) -> bool:
-    return len(comparison.guards) == 1 and comparison.guards[0].comparison == ast.ComparisonOperator.Equal
+            group = related.get(name, frozenset([name]))
+            seen[group] = seen.get(group, 0) + 1
+    return {name for group, count in seen.items() if count > 1 for name in group}
 
 
 def _compared(body: Iterable[ast.AST], ranged: Optional[set[str]], binding: dict[str, Symbol]) -> frozenset[str]:
@@ -228,8 +240,11 @@ def _compare(comparison: ast.AST) -> Optional[bool]:
 def _value(term: ast.AST) -> Optional[Symbol]:
     if _variables(term):
         return None
+    text = str(term)
+    if any(operator in text for operator in _UNLIKE_GROUNDER):
+        return None
     try:
-        return clingo.parse_term(str(term))
+        return clingo.parse_term(text)
     except (RuntimeError, ValueError):  # an undefined operation (a division by 0): clingo's to judge
         return None
 

@@ -3,12 +3,19 @@
 That the answer sets stay those of the catalog as written is test_engine.py's long random run, in both
 jurisdictions; here, what the specialised rules look like."""
 
+import subprocess
+import sys
+from pathlib import Path
+
+import clingo
 import pytest
 from clingo import ast
 
 from discern.rules.engine import Reasoner
+from discern.rules.fact_text import FACT_NAME
 from discern.rules.facts import Params
 from discern.rules.specialize import Specializer
+from tests.scenes import scene
 
 
 def grounded_form(reasoner, rule_text):
@@ -76,3 +83,79 @@ def test_a_bound_reached_through_an_assignment_stays_the_static_atoms():
 
 def test_a_single_constant_bound_is_put_in():
     assert specialised("p(O) :- q(O,Y); Y < W; param(w,W).") == "p(O) :- q(O,Y); Y < 1500."
+
+
+def answer_sets(rules, static_facts, frame_facts):
+    """The answer set of the rules as written and of the rules specialised to `static_facts`, with `frame_facts`."""
+    statements = []
+    ast.parse_string(rules, statements.append)
+    written = [s for s in statements if s.ast_type == ast.ASTType.Rule]
+    special = Specializer([], static_facts, frozenset(FACT_NAME.findall(static_facts))).program(written)
+    found = []
+    for program in (written, special):
+        control = clingo.Control(["--warn=none"])
+        with ast.ProgramBuilder(control) as builder:
+            for statement in program:
+                builder.add(statement)
+        control.add("base", [], static_facts + frame_facts)
+        control.ground([("base", [])])
+        found.append({str(atom.symbol) for atom in control.symbolic_atoms if atom.is_fact})
+    return found
+
+
+def test_a_negated_static_literal_with_undefined_arithmetic_drops_the_rule_instance_as_clingo_does():
+    # no s atom is like s(b,_), yet clingo drops the instance whose V/0 is undefined rather than hold `not`
+    written, special = answer_sets("p(V) :- q(V); not s(b,V/0).", "s(a,1).", "q(1).")
+    assert "p(1)" not in written
+    assert special == written
+
+
+def test_a_comparison_clingo_holds_undefined_does_not_hold():
+    # clingo.parse_term makes 0**-1 0; to the grounder it is undefined, and the comparison does not hold
+    written, special = answer_sets("p(V) :- q(V); s(N); (N-1)**-1 = 0.", "s(1).", "q(1).")
+    assert "p(1)" not in written
+    assert special == written
+
+
+def test_a_remainder_by_zero_is_left_to_clingo_which_holds_it_undefined():
+    # clingo.parse_term("1\0") ends the process (SIGFPE): specialising is run apart, so that the test can fail
+    code = ("from tests.test_rules_specialized import answer_sets\n"
+            "found = answer_sets('p(V) :- q(V); s(N); N\\\\(N-1) = 0.', 's(1).', 'q(1).')\n"
+            "print([sorted(atoms) for atoms in found])")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=Path(__file__).parent.parent)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == str([["q(1)", "s(1)"]] * 2)
+
+
+def test_a_function_pattern_does_not_match_the_negated_function():
+    written, special = answer_sets("p(X) :- q(_); s(f(X)). r(X) :- q(_); s((X,2)).", "s(-f(1)). s(-(1,2)).", "q(1).")
+    assert not {"p(1)", "r(1)"} & written
+    assert special == written
+
+
+def test_a_chain_of_comparisons_is_not_given_two_constant_bounds():
+    # `0 <= Y < 1500` is two bounds to clingo, which walks the range
+    rule = "p(O) :- q(O,Y); 0 <= Y < W; param(w,W)."
+    assert specialised(rule) == rule
+
+
+def test_bounds_that_an_equality_carries_over_to_a_variable_stay_the_static_atoms():
+    # clingo moves `D >= 0` onto Y through `D = Y+1`: with `Y < 1500` it walks the range
+    rule = "p(O) :- q(O,Y); D = (Y+1); D >= 0; Y < W; param(w,W)."
+    assert specialised(rule) == rule
+
+
+class _WetRoad:
+    """A fact provider that gives a parameter of its own: the rules already have the reasoner's put in."""
+
+    def facts(self, scene, history):
+        return "param(decel,300)."
+
+
+def test_a_frame_fact_giving_a_parameter_is_refused_alone_as_in_a_batch():
+    reasoner = Reasoner(providers=[_WetRoad()])
+    frame = (scene(speed=10), "cruise", ())
+    with pytest.raises(ValueError, match="frame fact param .* cannot be given per frame"):
+        reasoner.solve_many([frame, frame])
+    with pytest.raises(ValueError, match="frame fact param .* cannot be given per frame"):
+        reasoner.solve(*frame)
