@@ -309,6 +309,13 @@ class Catalog:
         return [r for r in self.rules if not r.id.startswith(DEFINITION_PREFIXES)]
 
 
+def _classically_negated(stm: ast.AST) -> bool:
+    """Whether the head or a body literal of a statement is a classically negated atom (`-p(X)`)."""
+    literals = [stm.head, *stm.body]
+    return any(lit.ast_type == ast.ASTType.Literal and lit.atom.ast_type == ast.ASTType.SymbolicAtom
+               and lit.atom.symbol.ast_type == ast.ASTType.UnaryOperation for lit in literals)
+
+
 def signature_of(head: ast.AST) -> tuple[str, int]:
     atom = head.atom if head.ast_type == ast.ASTType.Literal else head
     term = atom.symbol
@@ -427,6 +434,9 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         if stm.ast_type != ast.ASTType.Rule:
             raise CatalogError(f"{path}:{stm.location.begin.line}: only rules and facts belong in a catalog")
         info = owner(stm.location.begin.line)
+        if _classically_negated(stm):  # the prover and the slicers read an atom's predicate from its name
+            raise CatalogError(f"{path}:{stm.location.begin.line}: classical negation ('-p') is not supported: "
+                               "name the opposite as a predicate of its own, or use 'not p'")
         normal = stm.head.ast_type == ast.ASTType.Literal and stm.head.atom.ast_type == ast.ASTType.SymbolicAtom
         if not stm.body:
             if not normal:  # a choice, a disjunction or a constraint: no fact the prover could cite

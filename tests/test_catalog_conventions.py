@@ -143,3 +143,10 @@ def test_a_rules_directory_without_the_decision_rules_is_refused(tmp_path):
     (edited / "90_decision.lp").unlink()
     with pytest.raises(CatalogError, match=r"define no action/1, permitted/1, recommended/1: the decision rules"):
         load_driving_rules([edited])
+
+
+@pytest.mark.parametrize("statement", ["-fast(1).", "-slow(X) :- speed(X).", "slowish(X) :- speed(X), not -fast(X)."])
+def test_classical_negation_is_rejected_with_its_line(tmp_path, statement):
+    # the prover and the slicers read each atom's predicate from its name: `-fast(1)` crashed them
+    with pytest.raises(CatalogError, match=r"r\.lp:4: classical negation \('-p'\) is not supported"):
+        load_catalog(write_rules(tmp_path, "%! rule x.c\n%! says C.\n%! source s\n" + statement + "\n"))
