@@ -20,7 +20,7 @@ from typing import Iterable, Optional
 from clingo import Control, Function, Number, Symbol, ast, parse_term
 
 from .answer_set import AnswerSet, shown_atoms
-from .catalog import Catalog, static_predicates
+from .catalog import Catalog, static_fact_refused, static_predicates
 from .fact_text import FACT_NAME, is_plain
 from .specialize import Specializer
 from .terms import Shape
@@ -94,7 +94,7 @@ class FrameTagger:
 
     def _check(self, name: str) -> None:
         if name in self.static:
-            raise ValueError(f"frame fact {name} is defined by the catalog and cannot be given per frame")
+            raise static_fact_refused(name)
 
     def _rule(self, stm: ast.AST) -> ast.AST:
         if _predicate(stm.head.atom) in self.static:

@@ -689,6 +689,11 @@ def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] 
     return catalog
 
 
+def static_fact_refused(name: str) -> ValueError:
+    """A frame giving a fact of a predicate every frame has alike: its rules were grounded, or specialised, without it."""
+    return ValueError(f"frame fact {name} is defined by the catalog and cannot be given per frame")
+
+
 def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset[str]:
     """Predicates whose atoms are the same in every frame: defined by the catalog from such predicates alone.
 

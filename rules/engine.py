@@ -21,7 +21,7 @@ from clingo import ast
 
 from .answer_set import AnswerSet, show_statements
 from .batch import BatchAnswers, FrameAnswers, FrameTagger
-from .catalog import Catalog, load_catalog
+from .catalog import Catalog, load_catalog, static_fact_refused
 from .fact_text import FACT_NAME
 from .facts import Params, scene_facts
 from .justify import Prover, rule_ids
@@ -160,7 +160,7 @@ class Reasoner:
         own = frozenset(FACT_NAME.findall(text))
         given = own & self._param_names
         if given:
-            raise ValueError(f"frame fact {min(given)} is defined by the catalog and cannot be given per frame")
+            raise static_fact_refused(min(given))
         return own | self._param_names
 
     def frame_facts(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> str:

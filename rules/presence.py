@@ -27,7 +27,7 @@ from typing import Optional
 import clingo
 from clingo import ast
 
-from .catalog import Catalog, static_predicates
+from .catalog import Catalog, static_fact_refused, static_predicates
 from .controls import PreparedControls
 from .fact_text import is_plain
 from .specialize import Specializer
@@ -77,7 +77,7 @@ class PresenceSlicer:
         if checks is None:  # the first frame whose facts use these predicates
             given = (names - self._shared) & self.static
             if given:
-                raise ValueError(f"frame fact {min(given)} is defined by the catalog and cannot be given per frame")
+                raise static_fact_refused(min(given))
             patterns = self.catalog.patterns_within(self.catalog.derivable(names))
             derived = self.catalog.defined_in(names)
             checks = self._fact_patterns[names] = tuple(
