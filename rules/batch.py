@@ -19,11 +19,10 @@ from typing import Iterable, Optional
 
 from clingo import Control, Function, Number, Symbol, ast, parse_term
 
-from .answer_set import AnswerSet, shown_atoms
+from .answer_set import AnswerSet, first_argument, shown_atoms
 from .catalog import Catalog, static_fact_refused, static_predicates
 from .fact_text import FACT_NAME, is_plain
 from .specialize import Specializer
-from .terms import Shape
 
 FRAME_PREDICATE = "discern_frame"  # discern_frame(K): frame K is in the batch
 _FRAME_VAR = "DiscernFrame"
@@ -178,21 +177,28 @@ class BatchAnswers:
         self.control = control
         self.static = static
         self.shown = frozenset(shown)
-        self._split: dict[tuple[str, int], dict[int, list[Symbol]]] = {}
+        self._split: dict[tuple[str, int], dict[int, list[str]]] = {}
         self._constants: dict[str, dict[int, set[str]]] = {}
 
-    def of_frame(self, name: str, arity: int, frame: int) -> list[tuple[str, Symbol, Shape]]:
-        """The frame's atoms of name/arity with the frame argument stripped: text, atom and shape, by text."""
+    def of_frame(self, name: str, arity: int, frame: int) -> list[str]:
+        """The texts of the frame's atoms of name/arity with the frame argument stripped, sorted (as AnswerSet.of
+        reads a solo frame's).
+
+        Split by frame once, from each atom's text alone: making every frame's symbols here cost about 11 us an
+        atom, most of a highway batch's proofs, and a frame's proof needs a few of its own.
+        """
         split = self._split.get((name, arity))
         if split is None:
             split = self._split[(name, arity)] = {}
+            start = len(name) + 1
             # every ground atom of a stratified program is a fact (load_catalog checks it): no is_fact calls
             for atom in self.control.symbolic_atoms.by_signature(name, arity + 1):
-                args = atom.symbol.arguments
-                sym = Function(name, args[1:])
-                split.setdefault(args[0].number, []).append((str(sym), sym, (True, name, tuple(args[1:]))))
+                text = str(atom.symbol)
+                comma = text.find(",", start)  # the frame number is a plain integer
+                untagged = f"{name}({text[comma + 1:]}" if comma != -1 else name
+                split.setdefault(int(text[start:comma if comma != -1 else -1]), []).append(untagged)
             for found in split.values():
-                found.sort(key=lambda entry: entry[0])  # the order AnswerSet.of reads a solo frame in
+                found.sort()
         return split.get(frame, [])
 
     def constants_of_frame(self, name: str, frame: int) -> set[str]:
@@ -232,20 +238,46 @@ class FrameAnswers(AnswerSet):
         self._number = frame
 
     def holds(self, sym: Symbol) -> bool:
-        _, name, args = self.shape(sym)
-        if name not in self._batch.static:
-            sym = Function(name, [self._frame, *args])
-        return super().holds(sym)
+        found = self._holds.get(sym)  # by the frame's own atom: tagging it is a symbol made, several C calls
+        if found is None:
+            _, name, args = self.shape(sym)
+            tagged = sym if name in self._batch.static else Function(name, [self._frame, *args])
+            atom = self._atoms[tagged]
+            found = self._holds[sym] = atom is not None and atom.is_fact
+        return found
+
+    def texts(self, name: str, arity: int) -> list[str]:
+        if name in self._batch.static:
+            return super().texts(name, arity)
+        found = self._texts.get((name, arity))
+        if found is None:
+            found = self._texts[(name, arity)] = self._batch.of_frame(name, arity, self._number)
+        return found
 
     def of(self, name: str, arity: int) -> list[Symbol]:
         if name in self._batch.static:
             return super().of(name, arity)
         found = self._by_sig.get((name, arity))
         if found is None:
-            entries = self._batch.of_frame(name, arity, self._number)
-            self._shapes.update((sym, shape) for _, sym, shape in entries)
-            self._texts[(name, arity)] = [text for text, _, _ in entries]
-            found = self._by_sig[(name, arity)] = [sym for _, sym, _ in entries]
+            found = self._by_sig[(name, arity)] = [parse_term(text) for text in self.texts(name, arity)]
+        return found
+
+    def with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
+        """As for a solo frame, but only the atoms looked up become symbols: of a batch predicate's atoms, a frame's
+        proof reads those of a few objects."""
+        if name in self._batch.static or self._is_given(name):
+            return super().with_first(name, arity, first)
+        index = self._by_first.get((name, arity))
+        if index is None:
+            index = self._by_first[(name, arity)] = {}
+            for text in self.texts(name, arity):
+                index.setdefault(first_argument(text), []).append(text)
+        key = str(first)
+        found = index.get(key)
+        if found is None:
+            return []
+        if found and isinstance(found[0], str):
+            found = index[key] = [parse_term(text) for text in found]
         return found
 
     def constants(self, name: str) -> set[str]:

@@ -4,6 +4,7 @@ import pytest
 
 from bench.scenes import random_scene as dense_scene
 from discern.adapters.avcsr import read_dir
+from discern.monitor.example_planner import highway_scene, planner_action
 from discern.rules.batch import FrameTagger, static_predicates
 from discern.rules.engine import Request
 from discern.rules.scene import Action
@@ -52,6 +53,18 @@ def test_dense_frames_read_from_their_fact_text_in_a_batch_decide_as_alone(reaso
                         explain=i % 3 == 0) for i in range(10)]
     batched = reasoner.decide_many(requests)
     assert sum(v.decision.value != "approve" for v in batched) >= 3  # vetoes: proofs that read objects' facts
+    for request, verdict in zip(requests, batched):
+        alone = reasoner.decide(request.scene, request.proposed, explain=request.explain)
+        assert _comparable(verdict) == _comparable(alone)
+
+
+def test_the_sidecars_highway_frames_decide_in_a_batch_as_alone(reasoner):
+    """The example planner's dense highway frames, as a busy worker batches them: vetoes whose proofs look up
+    objects' lanes, which frames give and rules derive too."""
+    requests = [Request(highway_scene(f, 50), planner_action(f), explain=f % 4 == 0) for f in range(12)]
+    batched = reasoner.decide_many(requests)
+    assert sum(v.decision.value == "override" for v in batched) >= 3
+    assert any("lane" in v.justification.text for v in batched if v.decision.value == "override")
     for request, verdict in zip(requests, batched):
         alone = reasoner.decide(request.scene, request.proposed, explain=request.explain)
         assert _comparable(verdict) == _comparable(alone)
