@@ -18,6 +18,7 @@ from bench.scenes import WARM_UP_SCENES, random_scene  # noqa: E402
 from bench.report import machine, pct, timed, write_section  # noqa: E402
 from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
+from discern.monitor.example_planner import highway_scene, planner_action  # noqa: E402
 from discern.monitor.decision_worker import defer_full_collections  # noqa: E402
 from discern.rules.engine import Reasoner, Request  # noqa: E402
 
@@ -77,6 +78,10 @@ def main() -> None:
     kitti_batched = [t / len(batch) for t in timed(lambda: reasoner.decide_many(batch), args.repeats)]
     dense = [Request(sc, "cruise") for sc in [random_scene(rng, 50, i) for i in range(24)]]
     dense_batched = [t / len(dense) for t in timed(lambda: reasoner.decide_many(dense), max(1, args.repeats // 5))]
+    # the sidecar's own load (bench_worker.py, bench_zenoh.py): the example planner's proposals, most of them overridden
+    highway = [Request(highway_scene(f, 50), planner_action(f)) for f in range(24)]
+    highway_overrides = sum(v.decision.value == "override" for v in reasoner.decide_many(highway))
+    highway_batched = [t / len(highway) for t in timed(lambda: reasoner.decide_many(highway), max(1, args.repeats // 5))]
 
     gc.collect()
     samples = []
@@ -128,6 +133,8 @@ def main() -> None:
         "|---|---|---|---|---|---|",
         row("24 KITTI frames in one batch (approve, summary + rule ids)", kitti_batched, "-"),
         row("24 random 50-object scenes in one batch", dense_batched, "-"),
+        row(f"24 of the example planner's 50-object highway frames in one batch ({highway_overrides} overrides)",
+            highway_batched, "-"),
         "",
         f"Memory over {args.frames} consecutive decisions (20-object scenes, Control readied): RSS before {start_rss:.1f} MiB, "
         "then every 1,000 frames: " + ", ".join(f"{s:.1f}" for s in samples) + " MiB.",

@@ -26,7 +26,7 @@ from discern.monitor.decision_worker import Job, Outcome, WorkerSettings  # noqa
 
 BUDGET_S = 0.05  # the monitor's default decision budget
 VEHICLES = 10
-RATES = (200, 300, 400, 500, 600)  # proposals per second, all vehicles together
+RATES = (50, 100, 150, 200, 300, 500)  # proposals per second, all vehicles together: from below one worker's capacity to past two's
 WARM_UP_S = 2.0  # at a light load first, so that each worker has timed its batches, as a running monitor has
 
 
