@@ -446,6 +446,9 @@ class MonitorServer:
                 self.session.put(keys.verdict_key(req.vehicle), answer.verdict, encoding=JSON)
         except Exception as exc:  # the session is closing, or the querier gave up
             log.warning("could not send the verdict for %s: %s", req.key, exc)
+        finally:
+            if self.answers is not None:
+                self.answers.release()  # after the verdict is on its way (_AnswerLog.claim)
         self.counters.verdict_sent(answer.decision, answer.failsafe, answer.latency_ms, answer.error_kind)
         if answer.error_kind is not None:
             log.warning("refused a proposal on %s: %s", req.key, answer.error or "see the log")
@@ -474,30 +477,40 @@ class _AnswerLog:
     the decision worker read its payload (a fail-safe at the deadline, or at shutdown) waits for
     the worker's word on it: the monitor's own process never parses a proposal, which would stall
     the threads that answer. The worker's word may also come first; then it waits for the answer.
-    Claiming a request and logging its answer are one step, so a vehicle's records keep its order.
+    Claiming a request and placing its answer's records in the log's order are one step, so a vehicle's
+    records keep its order; they reach the writer once the verdict is sent (`release`): handed over before,
+    they woke the writer thread, which then held the interpreter while the reply waited for it (about 1 ms
+    more on a round trip, measured at 1 vehicle × 20 Hz).
     """
 
     def __init__(self, writer: McapLogWriter):
         self.writer = writer
         self._lock = threading.Lock()
+        self._placed: list[tuple] = []  # records in the log's order, not handed to the writer yet
         self._unread: dict[int, tuple[Request, Answer, int]] = {}  # answered, payload not read yet (oldest first)
         self._read: dict[int, Optional[str]] = {}  # read, answer not sent yet: why it is no proposal (None: it is)
         # held past HOLD_S and logged, oldest first: their worker's later word is ignored (a set, as a stall makes many)
         self._logged_unread: dict[int, None] = {}
 
     def claim(self, req: Request, answer: Answer) -> bool:
-        """Claim the request for this answer (Request.claim) and log the answer, or hold it for the worker's word."""
+        """Claim the request for this answer (Request.claim) and place the answer in the log, or hold it for the
+        worker's word. The caller sends the verdict, then calls `release`."""
         with self._lock:
             if not req.claim():
                 return False
             sent_ns = time.time_ns()
             if answer.read:
-                self._write(req, answer, answer.not_proposal, sent_ns)
+                self._place(req, answer, answer.not_proposal, sent_ns)
             elif req.rid in self._read:
-                self._write(req, answer, self._read.pop(req.rid), sent_ns)
+                self._place(req, answer, self._read.pop(req.rid), sent_ns)
             else:
                 self._unread[req.rid] = (req, answer, sent_ns)
             return True
+
+    def release(self) -> None:
+        """Hand the records placed so far to the writer, in their order."""
+        with self._lock:
+            self._hand_over()
 
     def read(self, rid: int, not_proposal: Optional[str]) -> None:
         """The worker read the payload of an answer that did not wait for it."""
@@ -510,7 +523,8 @@ class _AnswerLog:
                     self._read[rid] = not_proposal
             else:
                 req, answer, sent_ns = waiting
-                self._write(req, answer, not_proposal, sent_ns)
+                self._place(req, answer, not_proposal, sent_ns)
+            self._hand_over()
 
     def expire(self, older_than_ns: int) -> None:
         """Log the answers sent before `older_than_ns` whose payloads are still unread: a worker stalled for seconds
@@ -522,30 +536,43 @@ class _AnswerLog:
                 if sent_ns >= older_than_ns:
                     break
                 del self._unread[rid]
-                self._write(req, answer, _not_proposal(req), sent_ns)
+                self._place(req, answer, _not_proposal(req), sent_ns)
                 self._logged_unread[rid] = None
                 if len(self._logged_unread) > EXPIRED_KEPT:  # a worker that died with them never answers
                     del self._logged_unread[next(iter(self._logged_unread))]
+            self._hand_over()
 
     def flush(self, why: str) -> None:
         """Log the answers whose payloads no worker will read, as refused for `why`."""
         with self._lock:
             for req, answer, sent_ns in self._unread.values():
-                self._write(req, answer, why, sent_ns)
+                self._place(req, answer, why, sent_ns)
             self._unread.clear()
+            self._hand_over()
 
     def rejected(self, req: Request, reason: str) -> None:
+        """Log a payload that gets no verdict at all (its key names no vehicle)."""
+        with self._lock:
+            self._place_rejected(req, reason)
+            self._hand_over()
+
+    def _place_rejected(self, req: Request, reason: str) -> None:
         excerpt = (req.payload or req.head)[:EXCERPT_BYTES].decode("utf-8", "replace")
         rejected = RejectedInput(vehicle=req.vehicle, key=req.key, size=req.size, error=reason, excerpt=excerpt)
-        self.writer.write(vehicle_topic(_topic_safe(req.vehicle), "rejected"), "rejected", rejected, req.arrived_ns)
+        self._placed.append((vehicle_topic(_topic_safe(req.vehicle), "rejected"), "rejected", rejected, req.arrived_ns))
 
-    def _write(self, req: Request, answer: Answer, not_proposal: Optional[str], sent_ns: int) -> None:
+    def _place(self, req: Request, answer: Answer, not_proposal: Optional[str], sent_ns: int) -> None:
         topic_vehicle = _topic_safe(req.vehicle)
         if not_proposal is None and req.payload is not None:
-            self.writer.write(vehicle_topic(topic_vehicle, "proposal"), "proposal", req.payload, req.arrived_ns)
+            self._placed.append((vehicle_topic(topic_vehicle, "proposal"), "proposal", req.payload, req.arrived_ns))
         else:
-            self.rejected(req, not_proposal or answer.error or "no payload")
-        self.writer.write(vehicle_topic(topic_vehicle, "verdict"), "verdict", answer.verdict, sent_ns)
+            self._place_rejected(req, not_proposal or answer.error or "no payload")
+        self._placed.append((vehicle_topic(topic_vehicle, "verdict"), "verdict", answer.verdict, sent_ns))
+
+    def _hand_over(self) -> None:
+        for record in self._placed:
+            self.writer.write(*record)
+        self._placed.clear()
 
 
 def _not_proposal(req: Request) -> Optional[str]:
