@@ -276,7 +276,7 @@ class FrameAnswers(AnswerSet):
         found = index.get(key)
         if found is None:
             return []
-        if found and isinstance(found[0], str):
+        if isinstance(found[0], str):  # looked up for the first time: made symbols now
             found = index[key] = [parse_term(text) for text in found]
         return found
 
