@@ -381,7 +381,15 @@ class Prover:
         return found
 
     def _replay(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
+        """The atoms with this first argument, and each one's `derivations` on the way.
+
+        A replayed atom is mostly one the proof then explains (an object's gap needed, its closing speed), and
+        `_derive` would solve its rules' bodies once more. Its first solution per rule is the one found here:
+        both take the body's positive atoms in the order written and their candidates in the same order, the
+        head's bindings only pruning.
+        """
         derived: dict[str, Symbol] = {}
+        found: dict[str, list[tuple[CompiledRule, Env]]] = {}
         try:
             for rule in self.catalog.rules_deriving(name, arity, first):
                 env = {} if rule.head[0] == "s" else match(rule.head[2][0], first, {}, self.answer.shape)
@@ -389,11 +397,18 @@ class Prover:
                     continue
                 for solution in self._solve(list(rule.body), env, 0, None):
                     atom = evaluate(rule.head, solution)
-                    derived.setdefault(str(atom), atom)
+                    text = str(atom)
+                    derived.setdefault(text, atom)
+                    by_rule = found.setdefault(text, [])
+                    if not by_rule or by_rule[-1][0] is not rule:
+                        by_rule.append((rule, solution))
         except Unbound:  # a head the body does not bind: read clingo's atoms instead
             return self.answer.with_first(name, arity, first)
-        atoms = [derived[text] for text in sorted(derived)]  # the order AnswerSet reads atoms in
+        texts = sorted(derived)  # the order AnswerSet reads atoms in
+        atoms = [derived[text] for text in texts]
         if all(self.answer.holds(atom) for atom in atoms):
+            for text, atom in zip(texts, atoms):
+                self._derivations.setdefault(atom, found[text])
             return atoms
         return self.answer.with_first(name, arity, first)  # not as clingo derived them: read clingo's
 

@@ -244,6 +244,36 @@ def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_cli
     assert proofs > 500 and static_atoms["us"] and static_atoms["uk"]
 
 
+def test_derivations_a_replay_finds_on_the_way_are_those_solved_for_the_atom_alone(reasoner, monkeypatch):
+    """A replay keeps each atom's first solution per rule for the proof that follows, which then solves none of
+    those rules again; solving them with the whole atom given must find the same rule instances, or a proof
+    would depend on what was looked up first."""
+    monkeypatch.setattr(justify, "REPLAY_ABOVE_ATOMS", 0)
+
+    class CountingProver(Prover):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.solved = set()  # the atoms whose rules it solved with the atom given
+
+        def _derive(self, sym):
+            self.solved.add(sym)
+            return super()._derive(sym)
+
+    kept = 0
+    for jurisdiction, sc, proposed, history in _frames():
+        if jurisdiction != "us":
+            continue
+        answer = reasoner.solve(sc, proposed, history).answer
+        replaying = CountingProver(reasoner.catalog, answer)
+        for atom in answer.of("forbidden", 1) + answer.of("recommended", 1):
+            replaying.why(atom)
+        for atom, found in replaying._derivations.items():
+            alone = list(Prover(reasoner.catalog, answer)._derive(atom))
+            assert [(rule.index, env) for rule, env in found] == [(rule.index, env) for rule, env in alone], str(atom)
+            kept += atom not in replaying.solved
+    assert kept > 100
+
+
 def test_rules_named_without_replaying_a_body_are_the_rules_whose_body_holds(reasoner, avcsr_dir):
     """Naming the one rule capable of an atom skips its body; an atom a frame fact gives, or several rules can
     derive, is still solved: either way the names are those of the rules that derived it."""
