@@ -163,10 +163,12 @@ class Prover:
             return JustificationNode(literal=lit.source, holds=True, text=self.phrases.comparison(rule, lit, env),
                                      kind="builtin")
         if not lit.negated:
-            ground = next(self._matches(lit.atom, env), None)
-            if ground is None:  # the model changed under us; say so rather than crash
+            atom = env.get(id(lit))
+            if atom is None:
+                atom = next((ground for ground, _ in self._matches(lit.atom, env)), None)
+            if atom is None:  # the model changed under us; say so rather than crash
                 return JustificationNode(literal=lit.source, holds=True, text=lit.source, kind="builtin")
-            return self.why(ground[0], depth, path)
+            return self.why(atom, depth, path)
         return self.why_not(lit.atom, env, depth)
 
     # -- does not hold --
@@ -270,10 +272,11 @@ class Prover:
         for lit in rule.body:
             if not lit.is_atom or lit.negated or self._hidden(lit) or not lit.variables & wanted:
                 continue
-            ground = next(self._matches(lit.atom, env), None)
-            if ground is None or ground[0] in sources:
+            sym = env.get(id(lit))
+            if sym is None:
+                sym = next((ground for ground, _ in self._matches(lit.atom, env)), None)
+            if sym is None or sym in sources:
                 continue
-            sym = ground[0]
             fact_rule = self.catalog.fact_rule.get(sym)
             derived = [] if fact_rule else self.deriving_rules(sym)  # none: the frame gives it
             rule_id = derived[0] if derived else fact_rule
@@ -302,8 +305,13 @@ class Prover:
             return
         if not lit.negated:
             found = False
-            for _, bound in self._matches(lit.atom, env):
+            for ground, bound in self._matches(lit.atom, env):
                 found = True
+                # The atom it matched goes with the solution, keyed by the literal: the literal's proof node shows
+                # it without building the atom and looking it up again. Among the atoms that agree with the
+                # solution's named variables it is the first, as a lookup would find.
+                bound = dict(bound)
+                bound[id(lit)] = ground
                 yield from self._solve(rest, bound, done + 1, failures)
             if not found and failures is not None:
                 failures.append(_Failure(done, lit, env))

@@ -14,7 +14,7 @@ from typing import Callable, Optional
 from clingo import Function, Number, Symbol, SymbolType, Tuple_
 from clingo import ast
 
-Env = dict[str, Symbol]
+Env = dict[str | int, Symbol]  # variables by name; the prover adds the atoms a rule body matched, by id of the literal
 Term = tuple
 
 _BIN = ast.BinaryOperator
