@@ -272,11 +272,10 @@ class Prover:
         for lit in rule.body:
             if not lit.is_atom or lit.negated or self._hidden(lit) or not lit.variables & wanted:
                 continue
-            sym = env.get(id(lit))
-            if sym is None:
-                sym = next((ground for ground, _ in self._matches(lit.atom, env)), None)
-            if sym is None or sym in sources:
+            ground = next(self._matches(lit.atom, env), None)
+            if ground is None or ground[0] in sources:
                 continue
+            sym = ground[0]
             fact_rule = self.catalog.fact_rule.get(sym)
             derived = [] if fact_rule else self.deriving_rules(sym)  # none: the frame gives it
             rule_id = derived[0] if derived else fact_rule
