@@ -395,8 +395,7 @@ class Prover:
         both take the body's positive atoms in the order written and their candidates in the same order, the
         head's bindings only pruning.
         """
-        derived: dict[str, Symbol] = {}
-        found: dict[str, list[tuple[CompiledRule, Env]]] = {}
+        derived: dict[str, tuple[Symbol, list[tuple[CompiledRule, Env]]]] = {}  # text -> atom, its derivations
         try:
             for rule in self.catalog.rules_deriving(name, arity, first):
                 env = {} if rule.head[0] == "s" else match(rule.head[2][0], first, {}, self.answer.shape)
@@ -404,19 +403,16 @@ class Prover:
                     continue
                 for solution in self._solve(list(rule.body), env, 0, None):
                     atom = evaluate(rule.head, solution)
-                    text = str(atom)
-                    derived.setdefault(text, atom)
-                    by_rule = found.setdefault(text, [])
+                    by_rule = derived.setdefault(str(atom), (atom, []))[1]
                     if not by_rule or by_rule[-1][0] is not rule:
                         by_rule.append((rule, solution))
         except Unbound:  # a head the body does not bind: read clingo's atoms instead
             return self.answer.with_first(name, arity, first)
-        texts = sorted(derived)  # the order AnswerSet reads atoms in
-        atoms = [derived[text] for text in texts]
-        if all(self.answer.holds(atom) for atom in atoms):
-            for text, atom in zip(texts, atoms):
-                self._derivations.setdefault(atom, found[text])
-            return atoms
+        found = [derived[text] for text in sorted(derived)]  # the order AnswerSet reads atoms in
+        if all(self.answer.holds(atom) for atom, _ in found):
+            for atom, derivations in found:
+                self._derivations.setdefault(atom, derivations)
+            return [atom for atom, _ in found]
         return self.answer.with_first(name, arity, first)  # not as clingo derived them: read clingo's
 
 
