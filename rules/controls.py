@@ -48,6 +48,19 @@ class PreparedControls:
         ready = self._ready.pop(cut, None)
         return ready if ready is not None else self._build(cut)
 
+    def succeed(self, used: Iterable[Hashable], cut: Hashable) -> None:
+        """The frames that used these slices will use `cut` from now on: ready it instead of them.
+
+        A kind's first frame takes the whole slice and learns the cut its next frames take (presence.py): kept
+        recent, the whole slice would be readied for nobody and the learned cut made fresh for the next frame.
+        """
+        for spent in used:
+            if spent != cut:
+                self._recent.pop(spent, None)
+                self._ready.pop(spent, None)
+        self._recent[cut] = None
+        self._recent.move_to_end(cut)
+
     def retire(self, control: clingo.Control) -> None:
         """Hand back a used Control: freed by the next `prepare`, or now when too many wait or none will come."""
         if self._idle_aware and len(self._spent) < SPENT_HELD:

@@ -117,10 +117,11 @@ class PresenceSlicer:
                 return control
             self.controls.retire(control)
             self.regrounds += 1
-        # The first frame of its kind, or one with a predicate or pattern its kind never had: the whole slice
-        # (whose Control is kept ready like any other), then remember what had atoms.
+        # The first frame of its kind, or one with a predicate or pattern its kind never had: the whole slice,
+        # then remember what had atoms; idle time readies the learned slice for the kind's next frame instead.
         derivable = self.catalog.derivable(names)
-        control = self._grounded(Slice(derivable, unmatched=unmatched), text)
+        whole = Slice(derivable, unmatched=unmatched)
+        control = self._grounded(whole, text)
         if learned is None:
             seen, matched_before = names, frozenset()
         else:
@@ -128,6 +129,7 @@ class PresenceSlicer:
         present = seen | self._with_atoms(control, self.catalog.derived_outside(seen, derivable))
         candidates = self.catalog.patterns_within(present) - matched_before - unmatched
         self._learned[kind] = Slice(present, candidates - _matched(control, candidates), unmatched)
+        self.controls.succeed([whole] if learned is None else [whole, learned], self._learned[kind])
         return control
 
     def _grounded(self, cut: Slice, text: str) -> clingo.Control:

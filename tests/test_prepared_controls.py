@@ -52,6 +52,27 @@ def test_idle_time_readies_the_most_recent_slice_first():
     assert made[-1] == older
 
 
+def test_a_slice_learned_from_another_is_readied_in_its_place():
+    made = []
+    prepared = PreparedControls(lambda cut: made.append(cut) or [])
+    whole, learned = frozenset({"p", "q"}), frozenset({"p"})
+    prepared.take(whole)
+    prepared.succeed([whole], learned)
+    assert prepared.prepare() == 1
+    assert made[-1] == learned
+
+
+def test_after_a_kinds_first_frame_idle_time_readies_the_slice_its_next_frames_take(avcsr_dir):
+    frame = read_dir(avcsr_dir)[0]
+    reasoner = Reasoner()
+    reasoner.decide(frame.scene, frame.expected)  # grounds the whole slice and learns the kind's
+    assert reasoner.prepare() == 1
+    text = reasoner.frame_facts(frame.scene, frame.expected, ())
+    slicer = reasoner.slicer
+    control = slicer.controls.take(slicer.learned(slicer.kind(reasoner.predicates_of(text), text)))
+    assert list(control.symbolic_atoms.by_signature("param", 2))  # made in idle time: its static part is grounded
+
+
 def test_only_the_most_recent_slices_are_kept_ready():
     prepared = PreparedControls(lambda names: [])
     for i in range(controls.RECENT_SLICES + 5):
@@ -85,8 +106,7 @@ def test_a_retired_control_is_freed_by_the_next_prepare_or_at_once_past_the_limi
 def test_a_readied_control_has_what_no_frame_changes_grounded_before_the_frame_comes(avcsr_dir):
     frame = read_dir(avcsr_dir)[0]
     reasoner = Reasoner()
-    for _ in range(2):  # the first frame of its kind learns the slice (presence.py), the second uses it
-        reasoner.decide(frame.scene, frame.expected)
+    reasoner.decide(frame.scene, frame.expected)
     reasoner.prepare()
     text = reasoner.frame_facts(frame.scene, frame.expected, ())
     control = reasoner.slicer.controls.take(reasoner.slicer.learned(reasoner.slicer.kind(reasoner.predicates_of(text), text)))
