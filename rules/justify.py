@@ -308,8 +308,10 @@ class Prover:
                 found = True
                 # The atom it matched goes with the solution, keyed by the literal: the literal's proof node shows
                 # it without building the atom and looking it up again. Among the atoms that agree with the
-                # solution's named variables it is the first, as a lookup would find.
-                bound = dict(bound)
+                # solution's named variables it is the first, as a lookup would find. A match that bound a variable
+                # made its own env already; one that bound none is the caller's, which must not change.
+                if bound is env:
+                    bound = dict(env)
                 bound[id(lit)] = ground
                 yield from self._solve(rest, bound, done + 1, failures)
             if not found and failures is not None:
