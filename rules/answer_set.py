@@ -141,12 +141,22 @@ class AnswerSet:
                 index.setdefault(first_argument(text), []).append(sym)
         return index.get(key, [])
 
-    def only_derived(self, name: str, arity: int) -> bool:
-        """Whether none of the predicate's atoms is a frame fact, and they are not read from clingo yet.
+    def unread(self, name: str, arity: int) -> bool:
+        """Whether the predicate's atoms are neither served from the fact text alone nor read from clingo yet.
 
         Then the prover may find those with a given first argument by replaying the catalog's rules.
         """
-        return self.not_given(name) and (name, arity) not in self._by_first
+        return self._fact_names() is not None and not self._is_given(name) and (name, arity) not in self._by_first
+
+    def given_with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
+        """The frame's own facts of a predicate with this first argument, whether or not rules add to them."""
+        if not self._is_named(name):
+            return []
+        return [parse_term(text) for text in facts_with_first(self._facts, name, arity, str(first))]
+
+    def _is_named(self, name: str) -> bool:
+        names = self._fact_names()
+        return names is not None and name in names
 
     def not_given(self, name: str) -> bool:
         """Whether the frame's fact text gives no atom of the predicate (False when there is no text to tell)."""
@@ -159,8 +169,7 @@ class AnswerSet:
 
     def _is_given(self, name: str) -> bool:
         """Whether the predicate's atoms are exactly the frame's facts of it, so the fact text can serve them."""
-        names = self._fact_names()
-        return names is not None and name in names and name not in self._defined
+        return self._is_named(name) and name not in self._defined
 
     def _fact_names(self) -> Optional[frozenset[str]]:
         """The predicates the fact text gives, once it is known to be plain; None when there is no such text."""

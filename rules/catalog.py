@@ -168,19 +168,24 @@ class Catalog:
     def replayable(self) -> frozenset[tuple[str, int]]:
         """Predicates whose atoms with a given first argument the prover can find by replaying their rules.
 
-        That is those defined by rules alone (no catalog facts), not recursively: the rules' solutions are then
-        exactly the predicate's atoms in the unique answer set; and each rule starting from a lookup by first
-        argument (`_replays_from_first`), so that finding one object's atoms costs a few lookups.
+        That is those defined by rules (no catalog facts), each rule starting from a lookup by first argument
+        (`_replays_from_first`), so that finding one object's atoms costs a few lookups. The bodies are solved
+        against the answer set itself, in which every derived atom is supported by a rule whose body holds: so
+        the rules' solutions, with the frame's own facts of the predicate, are exactly its atoms, recursion or not.
         """
-        edges = _dependencies(self.compiled)
-        component = _components(edges)
-        recursive = {head for head, body in edges.items() for predicate, _ in body
-                     if component.get(predicate) == component[head]}
         return frozenset(
             (name, arity) for (name, arity), rules in self.by_head.items()
-            if name not in self.fact_predicates and name not in recursive
-            and all(_replays_from_first(r) for r in rules)
+            if name not in self.fact_predicates and all(_replays_from_first(r) for r in rules)
         )
+
+    @cached_property
+    def recursion(self) -> dict[str, int]:
+        """Predicate -> its strongly connected component, for those defined through themselves (obj_lane and
+        lane_label_contradicted): a replay must not wait on a replay of its own component."""
+        edges = _dependencies(self.compiled)
+        component = _components(edges)
+        return {head: component[head] for head, body in edges.items()
+                if any(component.get(predicate) == component[head] for predicate, _ in body)}
 
     @cached_property
     def alternatives(self) -> dict[int, tuple[frozenset[Term], ...]]:

@@ -50,6 +50,7 @@ class Prover:
         self.phrases = Phrasebook(catalog, answer)
         self._replayed: dict[tuple[str, int, Symbol], list[Symbol]] = {}
         self._replays: Optional[bool] = None  # whether this frame is big enough to replay rules (REPLAY_ABOVE_ATOMS)
+        self._replaying: set[int] = set()  # the recursive components (Catalog.recursion) being replayed
         # An atom's proof, built once: a veto's reasons, and the recommended action's, lean on the same facts (an
         # object's lane, the gap it needs, the hazard) again and again. A proof built nearer the root goes deeper,
         # so it serves a deeper request as well. Proof nodes are not changed once built: sharing them is safe.
@@ -380,13 +381,20 @@ class Prover:
         """
         if self._replays is None:
             self._replays = self.answer.size() > REPLAY_ABOVE_ATOMS
-        replay = self._replays and (name, arity) in self.catalog.replayable and self.answer.only_derived(name, arity)
+        group = self.catalog.recursion.get(name)
+        replay = (self._replays and (name, arity) in self.catalog.replayable and self.answer.unread(name, arity)
+                  and group not in self._replaying)
         if not replay:
             return self.answer.with_first(name, arity, first)
         key = (name, arity, first)
         found = self._replayed.get(key)
         if found is None:
-            found = self._replayed[key] = self._replay(name, arity, first)
+            if group is not None:
+                self._replaying.add(group)
+            try:
+                found = self._replayed[key] = self._replay(name, arity, first)
+            finally:
+                self._replaying.discard(group)
         return found
 
     def _replay(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
@@ -410,10 +418,13 @@ class Prover:
                         by_rule.append((rule, solution))
         except Unbound:  # a head the body does not bind: read clingo's atoms instead
             return self.answer.with_first(name, arity, first)
+        for fact in self.answer.given_with_first(name, arity, first):  # obj_lane: given, and derived where not
+            derived.setdefault(str(fact), (fact, []))
         found = [derived[text] for text in sorted(derived)]  # the order AnswerSet reads atoms in
         if all(self.answer.holds(atom) for atom, _ in found):
             for atom, derivations in found:
-                self._derivations.setdefault(atom, derivations)
+                if derivations:
+                    self._derivations.setdefault(atom, derivations)
             return [atom for atom, _ in found]
         return self.answer.with_first(name, arity, first)  # not as clingo derived them: read clingo's
 

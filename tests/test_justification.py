@@ -199,9 +199,11 @@ def test_fact_text_lookups_match_whole_facts_of_the_asked_arity():
     assert facts_of(text, "obj_pos", 0) == ["obj_pos"] and facts_of(text, "stop_line", 0) == ["stop_line"]
 
 
-def test_only_non_recursive_rule_defined_predicates_are_replayed(reasoner):
+def test_rule_defined_predicates_are_replayed_unless_catalog_facts_or_a_computed_first_argument(reasoner):
     replayable = reasoner.catalog.replayable
     assert ("closing_speed", 2) in replayable and ("gap_needed", 2) in replayable
+    assert ("obj_lane", 3) in replayable  # given by frames too, and defined through lane_label_contradicted
+    assert reasoner.catalog.recursion["obj_lane"] == reasoner.catalog.recursion["lane_label_contradicted"]
     assert ("is_a", 2) not in replayable  # catalog facts, and defined through itself
     assert ("left_lane", 1) not in replayable  # left_lane(L-1): its first argument is computed
 
