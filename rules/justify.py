@@ -21,10 +21,12 @@ from .phrases import Phrasebook
 from .terms import Env, Literal, Term, Unbound, check_comparison, evaluate, is_assignment, match
 from .verdict import JustificationNode
 
-# Replaying a rule for one object costs about 0.1-0.2 ms; reading a per-object predicate whole, about 4 us an
-# object. Measured on proofs: replaying was about 10 % slower on frames of 0-6 objects (150-240 atoms), about
-# even at 10 objects (~290 atoms), 8 % faster at 50 and 30 % at 200 (docs/reasoning.md).
-REPLAY_ABOVE_ATOMS = 250
+# Replaying a predicate's rules for one object costs about 0.1-0.3 ms; reading the predicate whole, about 4 us an
+# object. Measured on verdicts (each frame's fastest of 7, 2026-11-27): reading was the faster up to 20 objects
+# (5 objects 0.47-0.50 against 0.52-0.54 ms, 10 objects 1.31-1.32 against 1.40-1.44, the heaviest KITTI approvals
+# 0.42-0.48 against 0.72-0.82), even at 30 objects (850-920 atoms) and replaying the faster at 50 (2.76-2.93
+# against 3.02-3.12 ms). A frame has about 240 atoms without objects and 19 more per object.
+REPLAY_ABOVE_ATOMS = 900
 
 
 @dataclass
