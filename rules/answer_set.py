@@ -124,13 +124,8 @@ class AnswerSet:
 
     def with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
         """Atoms of a predicate whose first argument is given: the prover's common lookup."""
-        key = str(first)
         if self._is_given(name):
-            found = self._given_first.get((name, arity, key))
-            if found is None:
-                texts = sorted(facts_with_first(self._facts, name, arity, key))
-                found = self._given_first[(name, arity, key)] = [parse_term(text) for text in texts]
-            return found
+            return self.given_with_first(name, arity, first)
         index = self._by_first.get((name, arity))
         if index is None:
             # keyed by the first argument's text, cut from the atom's text: an atom's structure is a few C
@@ -139,7 +134,7 @@ class AnswerSet:
             index = self._by_first[(name, arity)] = {}
             for text, sym in zip(self.texts(name, arity), self.of(name, arity)):
                 index.setdefault(first_argument(text), []).append(sym)
-        return index.get(key, [])
+        return index.get(str(first), [])
 
     def unread(self, name: str, arity: int) -> bool:
         """Whether the predicate's atoms are neither served from the fact text alone nor read from clingo yet.
@@ -149,10 +144,16 @@ class AnswerSet:
         return self._fact_names() is not None and not self._is_given(name) and (name, arity) not in self._by_first
 
     def given_with_first(self, name: str, arity: int, first: Symbol) -> list[Symbol]:
-        """The frame's own facts of a predicate with this first argument, whether or not rules add to them."""
+        """The frame's own facts of a predicate with this first argument, in text order, whether or not rules add
+        to them."""
         if not self._is_named(name):
             return []
-        return [parse_term(text) for text in facts_with_first(self._facts, name, arity, str(first))]
+        key = (name, arity, str(first))
+        found = self._given_first.get(key)
+        if found is None:
+            texts = sorted(facts_with_first(self._facts, name, arity, key[2]))
+            found = self._given_first[key] = [parse_term(text) for text in texts]
+        return found
 
     def _is_named(self, name: str) -> bool:
         names = self._fact_names()
