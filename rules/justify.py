@@ -383,10 +383,9 @@ class Prover:
         """
         if self._replays is None:
             self._replays = self.answer.size() > REPLAY_ABOVE_ATOMS
-        group = self.catalog.recursion.get(name)
-        replay = (self._replays and (name, arity) in self.catalog.replayable and self.answer.unread(name, arity)
-                  and group not in self._replaying)
-        if not replay:
+        replay = self._replays and (name, arity) in self.catalog.replayable and self.answer.unread(name, arity)
+        group = self.catalog.recursion.get(name) if replay else None
+        if not replay or group in self._replaying:
             return self.answer.with_first(name, arity, first)
         key = (name, arity, first)
         found = self._replayed.get(key)
