@@ -143,6 +143,7 @@ class Catalog:
     _patterns: dict[frozenset[str], frozenset[Term]] = field(default_factory=dict, repr=False)
     _outside: dict[tuple[frozenset[str], Optional[frozenset[str]]], list[tuple[str, int]]] = field(
         default_factory=dict, repr=False)
+    _enabling: dict[frozenset[str], list[tuple[str, int]]] = field(default_factory=dict, repr=False)
     _deriving: dict[tuple[str, int, Optional[Symbol]], list[CompiledRule]] = field(default_factory=dict, repr=False)
     # Units of each rule's variables by rule index, read off the templates (phrases.Phrasebook.formats_of): the same
     # in every frame, so kept here rather than worked out again for each proof.
@@ -275,6 +276,16 @@ class Catalog:
             have = (present if within is None else within) | self.fact_predicates
             found = self._outside[key] = sorted({r.signature for r in self.compiled
                                                  if r.needs <= have and r.signature[0] not in present})
+        return found
+
+    def enabling_outside(self, present: frozenset[str]) -> list[tuple[str, int]]:
+        """Of `derived_outside(present)`, the signatures that a rule left out of `rules_within(present)` needs: the
+        catalog being stratified, a left-out rule can only fire once an atom of one of these is derived."""
+        found = self._enabling.get(present)
+        if found is None:
+            have = present | self.fact_predicates
+            needed = set().union(*(r.needs for r in self.compiled if not r.needs <= have))
+            found = self._enabling[present] = [s for s in self.derived_outside(present) if s[0] in needed]
         return found
 
     def defined_in(self, given: frozenset[str]) -> frozenset[str]:

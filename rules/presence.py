@@ -11,9 +11,9 @@ too (`obj_lane`: a sanity rule moves a mislabelled object into the ego's lane) c
 frames whose facts match different patterns of it still learn apart: one with no object in the ego's
 lane is not grounded with the rules of the frames that have one. A frame is grounded with the rules that
 need only predicates and patterns seen with atoms in earlier frames of its kind (`Catalog.rules_within`),
-and its answer set is then checked: if none of the predicates those rules derive outside that set got
-atoms, and no atom matches a pattern left out (the frame's guard rules derive `__unseen` when one does),
-every rule left out has a false body, and the answer set is the one the whole slice gives (the catalog is
+and its answer set is then checked: if none of the predicates those rules derive outside that set and a rule
+left out needs got atoms, and no atom matches a pattern left out (the frame's guard rules derive `__unseen` when
+one does), every rule left out has a false body, and the answer set is the one the whole slice gives (the catalog is
 stratified: rules whose bodies are false in its answer set change nothing). If not, the frame is
 grounded again with the whole slice, and what got atoms there is remembered for the next frames.
 """
@@ -139,8 +139,8 @@ class PresenceSlicer:
         return control
 
     def _unexpected(self, control: clingo.Control, cut: Slice) -> bool:
-        return bool(self._with_atoms(control, self.catalog.derived_outside(cut.present))) or (
-            control.symbolic_atoms[UNSEEN] is not None)
+        return control.symbolic_atoms[UNSEEN] is not None or bool(
+            self._with_atoms(control, self.catalog.enabling_outside(cut.present)))
 
     @staticmethod
     def _with_atoms(control: clingo.Control, signatures: list[tuple[str, int]]) -> frozenset[str]:

@@ -5,6 +5,7 @@ test_engine.py compares a long varied run's answer sets with the full program's.
 from discern.adapters.avcsr import read_dir
 from discern.rules.catalog import load_catalog
 from discern.rules.engine import Reasoner
+from discern.rules.presence import PresenceSlicer
 from discern.rules.scene import Action
 from discern.rules.terms import pattern_text
 from tests.scenes import obj, scene
@@ -128,3 +129,20 @@ def test_a_rule_requires_the_constants_and_functors_of_its_positive_atoms_not_th
         "a(X) :- p(X, left, f(Y), Z+1), q(X), r(c), not s(d), X > 0.\n")
     rule = load_catalog([tmp_path]).compiled[0]
     assert {pattern_text(p) for p in rule.requires} == {"p(_,left,f(_),_)", "r(c)"}
+
+
+def test_a_derived_predicate_that_no_left_out_rule_needs_gets_atoms_without_grounding_the_frame_again(tmp_path):
+    (tmp_path / "r.lp").write_text(
+        "%! rule x.p\n%! says P.\n%! source s\np(X) :- f(X), X > 9.\n"
+        "%! rule x.q\n%! says Q.\n%! source s\nq(X) :- f(X), X > 5.\n"
+        "%! rule x.r\n%! says R.\n%! source s\nr(X) :- p(X), g(X).\n")
+    slicer = PresenceSlicer(load_catalog([tmp_path]))
+    names = frozenset({"f", "g"})
+
+    def atoms(text):
+        control = slicer.ground(names, text)
+        return {str(a.symbol) for a in control.symbolic_atoms if a.symbol.name in ("p", "q", "r")}
+
+    assert atoms("f(1).g(1).") == set()
+    assert atoms("f(7).g(7).") == {"q(7)"} and slicer.regrounds == 0  # r, left out, needs p, which has none; no rule needs q
+    assert atoms("f(10).g(10).") == {"p(10)", "q(10)", "r(10)"} and slicer.regrounds == 1
