@@ -56,7 +56,7 @@ class PresenceSlicer:
     def __init__(self, catalog: Catalog, constant: str = "", shared: frozenset[str] = frozenset()):
         """`constant`: text every frame's program has (the parameters), whose predicates are `shared`."""
         self.catalog = catalog
-        # What no frame changes is grounded once per Control, before the frame's facts come (controls.AHEAD).
+        # What no frame changes is grounded once, and its atoms given to every Control as facts (controls.py).
         self._shared = shared
         self.static = static_predicates(catalog, shared)
         ahead = catalog.facts + [rule.statement for rule in catalog.compiled if rule.signature[0] in self.static]
