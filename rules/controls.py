@@ -94,7 +94,7 @@ class PreparedControls:
 
 def _static_model(ahead: Sequence[ast.AST], constant: str) -> list[clingo.Symbol]:
     """The atoms of what no frame changes: the same in every Control, so grounded once and handed over as facts
-    (measured: about 0.1 ms against 0.9 to add and ground its statements in every Control)."""
+    (measured: readying a 50-object frame's Control took 1.50-1.75 ms against 2.03-2.18 with its 112 statements)."""
     control = clingo.Control(["--warn=none"])
     with ast.ProgramBuilder(control) as builder:
         for statement in ahead:
