@@ -725,3 +725,18 @@ def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset
                 static.discard(head)
                 changed = True
     return frozenset(static)
+
+
+def static_model(statements: Iterable[ast.AST], constant: str = "") -> list[Symbol]:
+    """The atoms of what no frame changes, grounded once: the catalog's facts, the rules of `static_predicates`, and
+    `constant`, fact text every frame shares. A stratified part grounds to facts alone."""
+    control = Control(["--warn=none"])
+    with ast.ProgramBuilder(control) as builder:
+        for statement in statements:
+            builder.add(statement)
+    control.add("base", [], constant)
+    control.ground([("base", [])])
+    atoms = list(control.symbolic_atoms)
+    if not all(atom.is_fact for atom in atoms):
+        raise CatalogError("the part of the catalog that no frame changes does not ground to facts alone")
+    return sorted(atom.symbol for atom in atoms)

@@ -28,7 +28,7 @@ import clingo
 from clingo import ast
 
 from .backend_facts import add_facts
-from .catalog import Catalog, static_fact_refused, static_predicates
+from .catalog import Catalog, static_fact_refused, static_model, static_predicates
 from .controls import PreparedControls
 from .fact_text import is_plain
 from .specialize import Specializer
@@ -61,8 +61,9 @@ class PresenceSlicer:
         self.static = static_predicates(catalog, shared)
         ahead = catalog.facts + [rule.statement for rule in catalog.compiled if rule.signature[0] in self.static]
         self._ahead = {id(statement) for statement in ahead}
-        self.specializer = Specializer(ahead, constant, self.static)
-        self.controls = PreparedControls(self.program, ahead, constant)
+        static_atoms = static_model(ahead, constant)
+        self.specializer = Specializer(static_atoms, self.static)
+        self.controls = PreparedControls(self.program, static_atoms)
         self._learned: dict[Kind, Slice] = {}  # a kind of frame -> its learned slice
         self._programs: dict[Slice, list[ast.AST]] = {}
         self._fact_patterns: dict[frozenset[str], tuple[list[tuple[Term, re.Pattern]], ...]] = {}

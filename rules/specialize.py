@@ -36,20 +36,12 @@ DEAD = None  # what `Specializer.statement` returns for a rule that can never fi
 
 
 class Specializer:
-    def __init__(self, static_program: Iterable[ast.AST], constant: str, static: frozenset[str]):
-        """`static_program`: the statements defining the `static` predicates; `constant`: fact text all frames share."""
-        control = clingo.Control(["--warn=none"])
-        with ast.ProgramBuilder(control) as builder:
-            for statement in static_program:
-                builder.add(statement)
-        control.add("base", [], constant)
-        control.ground([("base", [])])
+    def __init__(self, static_atoms: Iterable[Symbol], static: frozenset[str]):
+        """`static_atoms`: the model of the `static` predicates (`catalog.static_model`)."""
         self.static = static
         self._atoms: dict[tuple[str, int], list[Symbol]] = {}
-        for atom in control.symbolic_atoms:
-            if atom.is_fact:  # a stratified static part: every atom of its model is a fact once grounded
-                symbol = atom.symbol
-                self._atoms.setdefault((symbol.name, len(symbol.arguments)), []).append(symbol)
+        for symbol in static_atoms:
+            self._atoms.setdefault((symbol.name, len(symbol.arguments)), []).append(symbol)
         self._done: dict[int, tuple[ast.AST, Optional[ast.AST]]] = {}
 
     def program(self, statements: Iterable[ast.AST]) -> list[ast.AST]:

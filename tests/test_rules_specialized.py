@@ -11,6 +11,7 @@ import clingo
 import pytest
 from clingo import ast
 
+from discern.rules.catalog import static_model
 from discern.rules.engine import Reasoner
 from discern.rules.fact_text import FACT_NAME
 from discern.rules.facts import Params
@@ -72,7 +73,7 @@ def test_a_variable_is_not_given_two_constant_bounds_which_clingo_would_enumerat
 def specialised(rule_text, constant="param(w,1500).", static=frozenset({"param"})):
     statements = []
     ast.parse_string(rule_text, statements.append)
-    return str(Specializer([], constant, static).statement(statements[-1]))
+    return str(Specializer(static_model([], constant), static).statement(statements[-1]))
 
 
 def test_a_bound_reached_through_an_assignment_stays_the_static_atoms():
@@ -90,7 +91,7 @@ def answer_sets(rules, static_facts, frame_facts):
     statements = []
     ast.parse_string(rules, statements.append)
     written = [s for s in statements if s.ast_type == ast.ASTType.Rule]
-    special = Specializer([], static_facts, frozenset(FACT_NAME.findall(static_facts))).program(written)
+    special = Specializer(static_model([], static_facts), frozenset(FACT_NAME.findall(static_facts))).program(written)
     found = []
     for program in (written, special):
         control = clingo.Control(["--warn=none"])
