@@ -6,8 +6,10 @@ from typing import Iterable, Iterator, Optional
 
 from clingo import Control, Symbol, parse_term
 
+from .catalog import TRACE_PREFIX
+from .clingo_calls import AtomReader
 from .fact_text import FACT_NAME, facts_of, facts_with_first, is_plain
-from .terms import Shape, shape_of
+from .terms import Shape
 
 
 def show_statements(names: Iterable[str], arity: int) -> str:
@@ -76,6 +78,7 @@ class AnswerSet:
         """`fact_names`: the predicate names in `facts`, when the caller has them already."""
         self._control = control  # owns the atoms: they must not outlive it
         self._atoms = control.symbolic_atoms
+        self._reader = AtomReader(control)
         self._by_sig: dict[tuple[str, int], list[Symbol]] = {}
         self._texts: dict[tuple[str, int], list[str]] = {}  # of each atom of _by_sig, in the same order
         self._by_first: dict[tuple[str, int], dict[str, list]] = {}  # symbols, or texts not yet made symbols
@@ -94,8 +97,7 @@ class AnswerSet:
         # is one C call (the symbol's hash), clingo's three.
         found = self._holds.get(sym)
         if found is None:
-            atom = self._atoms[sym]
-            found = self._holds[sym] = atom is not None and atom.is_fact
+            found = self._holds[sym] = self._reader.holds(sym)
         return found
 
     def of(self, name: str, arity: int) -> list[Symbol]:
@@ -103,14 +105,18 @@ class AnswerSet:
         if found is None:
             # sorted (by text: one C call an atom) so that a proof does not depend on the order the grounder
             # happened to derive atoms in; every ground atom is a fact, the catalog being stratified
-            pairs = sorted((str(sym), sym) for sym in (a.symbol for a in self._atoms.by_signature(name, arity)))
+            text = self._reader.text
+            pairs = sorted((text(sym), sym) for sym in self._reader.of(name, arity))
             self._texts[(name, arity)] = [text for text, _ in pairs]
             found = self._by_sig[(name, arity)] = [sym for _, sym in pairs]
         return found
 
     def constants(self, name: str) -> set[str]:
-        """The constants c with name(c) true: the verdict's permitted, recommended and replacing actions."""
-        return {sym.arguments[0].name for sym in self.of(name, 1)}
+        """The constants c with name(c) true: the verdict's permitted, recommended and replacing actions.
+
+        Cut from the atoms' text, which reading them makes anyway: the symbols' structure is more C calls."""
+        start = len(name) + 1
+        return {text[start:-1] for text in self.texts(name, 1)}
 
     def texts(self, name: str, arity: int) -> list[str]:
         """The text of each atom of a predicate, in the order of `of`."""
@@ -193,12 +199,13 @@ class AnswerSet:
     def shape(self, sym: Symbol) -> Shape:
         found = self._shapes.get(sym)
         if found is None:
-            found = self._shapes[sym] = shape_of(sym)
+            found = self._shapes[sym] = self._reader.shape(sym)
         return found
 
     def arguments(self, sym: Symbol) -> tuple[Symbol, ...]:
         return self.shape(sym)[2]
 
     def all(self) -> list[Symbol]:
-        return [a.symbol for a in self._atoms if a.is_fact]
+        """The answer set of the catalog as written: without the records of which rule derived what (TRACED)."""
+        return [a.symbol for a in self._atoms if a.is_fact and not a.symbol.name.startswith(TRACE_PREFIX)]
 

@@ -20,7 +20,7 @@ from typing import Iterable, Optional
 from clingo import Control, Function, Number, Symbol, ast, parse_term
 
 from .answer_set import AnswerSet, first_argument, shown_atoms
-from .catalog import Catalog, static_fact_refused, static_predicates
+from .catalog import TRACE_PREFIX, Catalog, static_fact_refused, static_predicates
 from .fact_text import FACT_NAME, is_plain
 from .specialize import Specializer
 
@@ -42,7 +42,7 @@ class FrameTagger:
         self._var = ast.Variable(_LOC, _FRAME_VAR)
         # tagged once, up front: tagging on first use made a process's first batches several times slower
         self._tagged: dict[int, Optional[ast.AST]] = {}
-        for stm in catalog.facts + [rule.statement for rule in catalog.compiled]:
+        for stm in catalog.facts + [rule.statement for rule in catalog.compiled] + list(catalog.traces.values()):
             special = stm if specializer is None else specializer.statement(stm)
             self._tagged[id(stm)] = None if special is None else self._rule(special)
 
@@ -242,8 +242,7 @@ class FrameAnswers(AnswerSet):
         if found is None:
             _, name, args = self.shape(sym)
             tagged = sym if name in self._batch.static else Function(name, [self._frame, *args])
-            atom = self._atoms[tagged]
-            found = self._holds[sym] = atom is not None and atom.is_fact
+            found = self._holds[sym] = self._reader.holds(tagged)
         return found
 
     def texts(self, name: str, arity: int) -> list[str]:
@@ -293,6 +292,6 @@ class FrameAnswers(AnswerSet):
             sym = atom.symbol
             if sym.name in self._batch.static:
                 out.append(sym)
-            elif sym.name != FRAME_PREDICATE and sym.arguments[0] == self._frame:
+            elif sym.name != FRAME_PREDICATE and sym.arguments[0] == self._frame and not sym.name.startswith(TRACE_PREFIX):
                 out.append(Function(sym.name, sym.arguments[1:], sym.positive))
         return out

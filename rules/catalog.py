@@ -25,7 +25,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Iterable, Optional, Sequence
 
-from clingo import Control, Symbol, ast
+from clingo import Control, Function, Number, Symbol, ast
 
 from .terms import Literal, Term, compile_literal, compile_term, is_fixed, pattern_of, term_vars
 
@@ -49,6 +49,14 @@ TEMPLATE_FORMATS = frozenset({
 
 DEFINITION_PREFIXES = ("def.", "ent.")  # ids of definitions and entities: they decide nothing themselves
 SETTING_PREFIX = "jur."  # a jurisdiction pack's settings (the traffic side, zone limits): no rule forbids by them alone
+
+# Predicates whose atoms' deriving rules every verdict of a kind names: an approval names what called for the action.
+# Up to 16 rules can derive one such atom, and finding which did by replaying their bodies cost most of a KITTI
+# approval's verdict. So clingo records it: a rule deriving `applicable(brake)` is grounded as
+# `__by_applicable(brake,K)`, K its index, and `applicable(A) :- __by_applicable(A,K).` gives the atom (`Catalog.traces`).
+# Not `forbidden`: a veto's proof replays its reasons' bodies anyway, and the lookups cost more than they saved.
+TRACED = frozenset({"applicable"})
+TRACE_PREFIX = "__by_"
 
 
 class CatalogError(ValueError):
@@ -83,7 +91,7 @@ class CompiledRule:
 
     index: int
     info: RuleInfo
-    statement: ast.AST  # as clingo grounds it (`_grounding_form`); `body` is the rule as written
+    statement: ast.AST  # as clingo grounds it (`_grounding_form`, traced); `body` is the rule as written
     head: Term
     body: tuple[Literal, ...]
     signature: tuple[str, int]
@@ -145,6 +153,7 @@ class Catalog:
         default_factory=dict, repr=False)
     _enabling: dict[frozenset[str], list[tuple[str, int]]] = field(default_factory=dict, repr=False)
     _deriving: dict[tuple[str, int, Optional[Symbol]], list[CompiledRule]] = field(default_factory=dict, repr=False)
+    _records: dict[Symbol, list[tuple[CompiledRule, Symbol]]] = field(default_factory=dict, repr=False)
     # Units of each rule's variables by rule index, read off the templates (phrases.Phrasebook.formats_of): the same
     # in every frame, so kept here rather than worked out again for each proof.
     variable_formats: dict[int, dict[str, str]] = field(default_factory=dict, repr=False)
@@ -164,6 +173,16 @@ class Catalog:
     def static(self) -> frozenset[str]:
         """Predicates no frame changes: why one of their atoms is absent needs no proof, like a class hierarchy."""
         return static_predicates(self)
+
+    @cached_property
+    def traces(self) -> dict[tuple[str, int], ast.AST]:
+        """For each TRACED predicate the rules define: the rule that gives its atoms from the rules' records."""
+        found = {}
+        for name, arity in sorted(s for s in self.by_head if s[0] in TRACED):
+            variables = [f"V{i}" for i in range(arity)]
+            atom = f"{name}({','.join(variables)})" if variables else name
+            found[(name, arity)] = _parsed_rule(f"{atom} :- {TRACE_PREFIX}{name}({','.join([*variables, 'K'])}).")
+        return found
 
     @cached_property
     def replayable(self) -> frozenset[tuple[str, int]]:
@@ -234,6 +253,16 @@ class Catalog:
                                            if first is None or _may_have_first(rule.head, first)]
         return found
 
+    def records(self, atom: Symbol) -> list[tuple[CompiledRule, Symbol]]:
+        """For an atom of a TRACED predicate: each rule that may derive it, with the record clingo has if it did."""
+        found = self._records.get(atom)
+        if found is None:
+            arguments = atom.arguments
+            found = self._records[atom] = [
+                (rule, Function(TRACE_PREFIX + atom.name, [*arguments, Number(rule.index)]))
+                for rule in self.rules_deriving(atom.name, len(arguments), arguments[0] if arguments else None)]
+        return found
+
     def program_for(self, given: frozenset[str]) -> list[ast.AST]:
         """The statements that can matter when the frame's facts use these predicates.
 
@@ -255,9 +284,10 @@ class Catalog:
         found = self._within.get(key)
         if found is None:
             have = present | self.fact_predicates
-            found = self._within[key] = self.facts + [
-                r.statement for r in self.compiled if r.needs <= have and not r.requires & absent
-                and not any(group <= absent for group in self.alternatives.get(r.index, ()))]
+            rules = [r for r in self.compiled if r.needs <= have and not r.requires & absent
+                     and not any(group <= absent for group in self.alternatives.get(r.index, ()))]
+            traced = sorted({r.signature for r in rules} & self.traces.keys())
+            found = self._within[key] = self.facts + [r.statement for r in rules] + [self.traces[s] for s in traced]
         return found
 
     def patterns_within(self, present: frozenset[str]) -> frozenset[Term]:
@@ -477,7 +507,8 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
             CompiledRule(
                 index=len(catalog.compiled),
                 info=info,
-                statement=_grounding_form(stm, set(term_vars(head)).union(*(lit.variables for lit in body))),
+                statement=_traced(_grounding_form(stm, set(term_vars(head)).union(*(lit.variables for lit in body))),
+                                  len(catalog.compiled)),
                 head=head,
                 body=body,
                 signature=signature_of(stm.head),
@@ -547,6 +578,22 @@ def _grounding_form(stm: ast.AST, taken: set[str]) -> ast.AST:
     body = [naming.visit(lit) if lit.ast_type == ast.ASTType.Literal and lit.sign == ast.Sign.NoSign
             and lit.atom.ast_type == ast.ASTType.SymbolicAtom else lit for lit in stm.body]
     return stm.update(body=body)
+
+
+def _traced(stm: ast.AST, index: int) -> ast.AST:
+    """A rule of a TRACED predicate, `p(X) :- B`, as `__by_p(X,index) :- B`; any other rule as it is."""
+    symbol = stm.head.atom.symbol
+    if symbol.ast_type != ast.ASTType.Function or symbol.name not in TRACED:
+        return stm
+    record = symbol.update(name=TRACE_PREFIX + symbol.name,
+                           arguments=[*symbol.arguments, ast.SymbolicTerm(symbol.location, Number(index))])
+    return stm.update(head=stm.head.update(atom=stm.head.atom.update(symbol=record)))
+
+
+def _parsed_rule(text: str) -> ast.AST:
+    parsed: list[ast.AST] = []
+    ast.parse_string(text, parsed.append)
+    return parsed[-1]
 
 
 def _assignments(body: tuple[Literal, ...]) -> frozenset[int]:
@@ -715,7 +762,8 @@ def static_predicates(catalog: Catalog, shared: Iterable[str] = ()) -> frozenset
 
     `shared` names predicates given alike to every frame (the reasoner's parameters).
     """
-    static = set(catalog.fact_predicates) | {rule.signature[0] for rule in catalog.compiled} | set(shared)
+    # A TRACED predicate's rules give records, not its atoms: grounded with every frame, they are never static.
+    static = (set(catalog.fact_predicates) | {rule.signature[0] for rule in catalog.compiled} | set(shared)) - TRACED
     changed = True
     while changed:
         changed = False

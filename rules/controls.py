@@ -20,7 +20,7 @@ from typing import Callable, Hashable, Iterable, Optional, Sequence
 import clingo
 from clingo import ast
 
-from .backend_facts import add_facts
+from .clingo_calls import add_facts
 
 AHEAD = "ahead"  # an empty program part, grounded when a Control is readied: clingo then rewrites the slice's rules
 RECENT_SLICES = 24  # slices kept ready: a vehicle's frames mostly reuse one; KITTI's 24 frames use 16

@@ -27,7 +27,7 @@ from typing import Optional
 import clingo
 from clingo import ast
 
-from .backend_facts import add_facts
+from .clingo_calls import AtomReader, add_facts
 from .catalog import Catalog, static_fact_refused, static_model, static_predicates
 from .controls import PreparedControls
 from .fact_text import is_plain
@@ -141,13 +141,14 @@ class PresenceSlicer:
         return control
 
     def _unexpected(self, control: clingo.Control, cut: Slice) -> bool:
-        return control.symbolic_atoms[UNSEEN] is not None or bool(
-            self._with_atoms(control, self.catalog.enabling_outside(cut.present)))
+        reader = AtomReader(control)
+        return reader.holds(UNSEEN) or any(reader.any_of(name, arity)
+                                           for name, arity in self.catalog.enabling_outside(cut.present))
 
     @staticmethod
     def _with_atoms(control: clingo.Control, signatures: list[tuple[str, int]]) -> frozenset[str]:
-        atoms = control.symbolic_atoms
-        return frozenset(name for name, arity in signatures if next(iter(atoms.by_signature(name, arity)), None) is not None)
+        reader = AtomReader(control)
+        return frozenset(name for name, arity in signatures if reader.any_of(name, arity))
 
 
 def _add_facts(control: clingo.Control, text: str) -> None:
@@ -175,9 +176,10 @@ def _matched(control: clingo.Control, patterns: frozenset[Term]) -> frozenset[Te
     for pattern in patterns:
         by_signature.setdefault(pattern_signature(pattern), []).append(pattern)
     found = set()
+    reader = AtomReader(control)
     for (name, arity), waiting in by_signature.items():
-        for atom in control.symbolic_atoms.by_signature(name, arity):
-            hits = [p for p in waiting if match(p, atom.symbol, {}) is not None]
+        for atom in reader.of(name, arity):
+            hits = [p for p in waiting if match(p, atom, {}) is not None]
             found.update(hits)
             waiting = [p for p in waiting if p not in hits]
             if not waiting:

@@ -277,8 +277,9 @@ def test_derivations_a_replay_finds_on_the_way_are_those_solved_for_the_atom_alo
 
 
 def test_rules_named_without_replaying_a_body_are_the_rules_whose_body_holds(reasoner, avcsr_dir):
-    """Naming the one rule capable of an atom skips its body; an atom a frame fact gives, or several rules can
-    derive, is still solved: either way the names are those of the rules that derived it."""
+    """Naming the one rule capable of an atom skips its body, and so does reading clingo's records of which rules
+    derived an `applicable` atom (catalog.TRACED); an atom a frame fact gives, or several rules can derive, is still
+    solved: either way the names are those of the rules whose bodies the prover finds to hold."""
     reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
     frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
     named = 0
