@@ -36,6 +36,9 @@ except ImportError:  # pragma: no cover - a clingo built otherwise
     _C_CALLS = False
 
 
+_SIGNATURES: dict[tuple[str, int], int] = {}  # (name, arity) -> clingo's signature of positive atoms
+
+
 def add_facts(control: clingo.Control, facts: Sequence[clingo.Symbol]) -> None:
     with control.backend() as backend:
         rep = getattr(backend, "_rep", None)
@@ -103,8 +106,7 @@ class AtomReader:
         iterator, flag, symbol, found = self._iterator, self._flag, self._symbol, []
         is_valid, atom_symbol, advance = (_lib.clingo_symbolic_atoms_is_valid, _lib.clingo_symbolic_atoms_symbol,
                                           _lib.clingo_symbolic_atoms_next)
-        if not _lib.clingo_signature_create(name.encode(), arity, True, self._signature) or not (
-                _lib.clingo_symbolic_atoms_begin(rep, self._signature, iterator)):
+        if not _lib.clingo_symbolic_atoms_begin(rep, self._signature_of(name, arity), iterator):
             _raise()
         while True:
             current = iterator[0]
@@ -120,11 +122,20 @@ class AtomReader:
         """Whether the predicate has an atom."""
         if self._rep is None:
             return next(iter(self._atoms.by_signature(name, arity)), None) is not None
-        if not _lib.clingo_signature_create(name.encode(), arity, True, self._signature) or not (
-                _lib.clingo_symbolic_atoms_begin(self._rep, self._signature, self._iterator)) or not (
+        if not _lib.clingo_symbolic_atoms_begin(self._rep, self._signature_of(name, arity), self._iterator) or not (
                 _lib.clingo_symbolic_atoms_is_valid(self._rep, self._iterator[0], self._flag)):
             _raise()
         return bool(self._flag[0])
+
+    def _signature_of(self, name: str, arity: int):
+        """A box holding the signature: made once per process, as clingo keeps signatures for good."""
+        signature = _SIGNATURES.get((name, arity))
+        if signature is None:
+            if not _lib.clingo_signature_create(name.encode(), arity, True, self._signature):
+                _raise()
+            signature = _SIGNATURES[(name, arity)] = self._signature[0]
+        self._signature[0] = signature
+        return self._signature
 
     def shape(self, symbol: clingo.Symbol) -> tuple[bool, Optional[str], tuple[clingo.Symbol, ...]]:
         """(whether it is a function, its name, its arguments), as `terms.shape_of` gives them."""
