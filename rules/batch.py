@@ -292,6 +292,8 @@ class FrameAnswers(AnswerSet):
             sym = atom.symbol
             if sym.name in self._batch.static:
                 out.append(sym)
-            elif sym.name != FRAME_PREDICATE and sym.arguments[0] == self._frame and not sym.name.startswith(TRACE_PREFIX):
+            elif sym.name.startswith(TRACE_PREFIX):
+                continue  # as AnswerSet.all: the answer set of the catalog as written
+            elif sym.name != FRAME_PREDICATE and sym.arguments[0] == self._frame:
                 out.append(Function(sym.name, sym.arguments[1:], sym.positive))
         return out

@@ -53,8 +53,9 @@ SETTING_PREFIX = "jur."  # a jurisdiction pack's settings (the traffic side, zon
 # Predicates whose atoms' deriving rules every verdict of a kind names: an approval names what called for the action.
 # Up to 16 rules can derive one such atom, and finding which did by replaying their bodies cost most of a KITTI
 # approval's verdict. So clingo records it: a rule deriving `applicable(brake)` is grounded as
-# `__by_applicable(brake,K)`, K its index, and `applicable(A) :- __by_applicable(A,K).` gives the atom (`Catalog.traces`).
-# Not `forbidden`: a veto's proof replays its reasons' bodies anyway, and the lookups cost more than they saved.
+# `__by_applicable(brake,K)`, K its index, and `applicable(A) :- __by_applicable(A,K).` gives the atom
+# (`Catalog.traces`). Not `forbidden`: a veto's proof replays its reasons' bodies anyway, and with its rules
+# recorded, random overrides took 0.98-1.06 of the time.
 TRACED = frozenset({"applicable"})
 TRACE_PREFIX = "__by_"
 
