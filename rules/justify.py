@@ -16,7 +16,7 @@ from typing import Iterator, Optional
 from clingo import Symbol
 
 from .answer_set import AnswerSet
-from .catalog import DEFINITION_PREFIXES, SETTING_PREFIX, TRACE_PREFIX, TRACED, Catalog, CompiledRule
+from .catalog import DEFINITION_PREFIXES, SETTING_PREFIX, TRACED, Catalog, CompiledRule
 from .phrases import Phrasebook
 from .terms import Env, Literal, Term, Unbound, check_comparison, evaluate, is_assignment, match
 from .verdict import JustificationNode
@@ -98,8 +98,7 @@ class Prover:
         if fact_rule:
             return [fact_rule]
         if sym.name in TRACED:  # clingo recorded which rules did: no body to replay
-            made = set(self.answer.of(TRACE_PREFIX + sym.name, len(sym.arguments) + 1))
-            return [rule.info.id for rule, record in self.catalog.records(sym) if record in made]
+            return [rule.info.id for rule, record in self.catalog.records(sym) if self.answer.holds(record)]
         sole = self._sole_rule(sym)
         if sole is not None:
             return [sole]
