@@ -128,7 +128,7 @@ class AtomReader:
         return bool(self._flag[0])
 
     def _signature_of(self, name: str, arity: int):
-        """A box holding the signature: made once per process, as clingo keeps signatures for good."""
+        """A box holding the signature: a value clingo gives the same for the same name and arity, so made once."""
         signature = _SIGNATURES.get((name, arity))
         if signature is None:
             if not _lib.clingo_signature_create(name.encode(), arity, True, self._signature):
