@@ -26,8 +26,9 @@ from .verdict import JustificationNode
 # (5 objects 0.47-0.50 against 0.52-0.54 ms, 10 objects 1.31-1.32 against 1.40-1.44, the heaviest KITTI approvals
 # 0.42-0.48 against 0.72-0.82), even at 30 objects (850-920 atoms) and replaying the faster at 50 (2.76-2.93
 # against 3.02-3.12 ms). A frame has about 240 atoms without objects and 19 more per object. With atoms read through
-# clingo's C calls (clingo_calls.py, about 1.6 us an atom), 900 stayed the best of 900, 2000, 5000 and never replaying
-# (random overrides' verdicts, 2026-11-27: 50 objects 2.38 against 2.44-2.48 ms, 200 objects 2.93 against 2.89-3.96).
+# clingo's C calls (clingo_calls.py, about 1.6 us an atom), 900 was as good as any of 2000, 5000 and never replaying
+# (random overrides' verdicts, 2026-11-27: 50 objects 2.38 against 2.44-2.48 ms; 200 objects 2.93 against 2.89 with
+# 2000 and 3.96 with 5000 or never).
 REPLAY_ABOVE_ATOMS = 900
 
 
