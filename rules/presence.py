@@ -27,8 +27,8 @@ from typing import Optional
 import clingo
 from clingo import ast
 
-from .clingo_calls import AtomReader, add_facts
 from .catalog import Catalog, static_fact_refused, static_model, static_predicates
+from .clingo_calls import AtomReader, add_facts
 from .controls import PreparedControls
 from .fact_text import is_plain
 from .specialize import Specializer
