@@ -108,7 +108,8 @@ def audit(log_dir: Path, out: Path) -> None:
     parser = argparse.ArgumentParser(prog="discern")
     audit_cli.register(parser.add_subparsers())
     report = out / "audit.html"
-    args = parser.parse_args(["audit", str(log_dir), "--html", str(report), "--csv", str(out / "audit.csv")])
+    # Step 3 showed the first disagreements; the totals and tables here, every disagreement in the CSV and HTML.
+    args = parser.parse_args(["audit", str(log_dir), "--html", str(report), "--csv", str(out / "audit.csv"), "--quiet"])
     audit_cli.run(args)
 
 

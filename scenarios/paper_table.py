@@ -14,6 +14,9 @@ from discern.rules.verdict import Verdict
 # Table of the paper: s(CASP) on an Intel i7-6500U, ms per frame (avg, max).
 PAPER_MS = {"City": (413, 873), "Road": (285, 635), "Residential": (127, 657), "Campus": (106, 469)}
 ENVIRONMENTS = ["City", "Road", "Residential", "Campus"]
+# What the two times are: a reader otherwise takes Discern's for the monitor's per-frame latency (docs/benchmarks.md).
+TIME_NOTE = ("ms: Discern's median per frame on this machine, each decision with its full justification tree; "
+             "the paper's, s(CASP) on an Intel i7-6500U")
 
 
 @dataclass
@@ -87,4 +90,5 @@ def format_table(rows: list[FrameRow]) -> str:
         f"agreement with expected_action: {total}/{scored} frames"
         + (f" ({unscored} without expected_action, not scored)" if unscored else "")
     )
+    out.append(TIME_NOTE)
     return "\n".join(out)

@@ -175,6 +175,16 @@ def test_the_terminal_shows_disagreements_per_scenario_and_per_vehicle_out_of_th
     assert f"  {0:>6}  car_c (of {CLEAR_FRAMES} frames, 0.01 km)\n" in per_vehicle
 
 
+def test_quiet_leaves_out_the_line_per_disagreement_and_keeps_the_tables(capsys, all_logs):
+    _, full, _ = audit(capsys, *all_logs, "--workers", "1")
+    code, quiet, err = audit(capsys, *all_logs, "--workers", "1", "-q")
+    assert code == 0, err
+    head, listing = full.split("\n\nDisagreements (", 1)
+    tables = listing.split("\n\nDisagreements per rule:\n", 1)[1]
+    assert quiet == f"{head}\n\nDisagreements per rule:\n{tables}"
+    assert "acc.at_limit" in tables.split("\n\n")[0]
+
+
 def test_odometry_integrates_scene_speed_over_scene_time(capsys, tmp_path, all_logs):
     doc = export(capsys, tmp_path, *all_logs)
     km = {v["vehicle"]: v["km"] for v in doc["per_vehicle"]}

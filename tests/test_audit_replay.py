@@ -95,6 +95,17 @@ def test_replay_with_an_edited_rule_reports_each_changed_decision_side_by_side(c
     assert "    replayed: approve accelerate [dec.permitted]  approve accelerate: permitted" in text
 
 
+def test_a_quiet_replay_leaves_out_each_change_and_keeps_the_changes_by_transition(capsys, tmp_path, logs, tolerant):
+    args = (str(logs["fleet"]), "--rules", str(tolerant), "--workers", "1")
+    _, _, full = replay(capsys, tmp_path, *args)
+    code, _, quiet = replay(capsys, tmp_path, *args, "-q")
+    assert code == 1
+    assert "    recorded: " in full and "    recorded: " not in quiet
+    by_transition = "Changes by transition:\n" + full.split("Changes by transition:\n")[1]
+    assert quiet.endswith(by_transition) and "override cruise -> approve accelerate" in by_transition
+    assert f"{FLEET_A_FRAMES // 2} decisions would change" in quiet
+
+
 def test_replay_rebuilds_the_history_the_monitor_decided_with(capsys, tmp_path, logs):
     """car_m keeps braking for a pedestrian it lost: only the history window explains those overrides."""
     listing = tmp_path / "memory.json"

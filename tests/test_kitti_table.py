@@ -19,6 +19,7 @@ def test_table_groups_frames_by_the_papers_four_environments(avcsr_dir, reasoner
         line = next(l for l in table.splitlines() if l.startswith(env))
         assert " 6/6 " in line and str(avg) in line and str(worst) in line
     assert "24/24" in table
+    assert table.splitlines()[-1] == paper_table.TIME_NOTE  # which times the columns hold, under them
 
 
 def test_misstamped_fact_is_read_by_its_timestamp_and_reported(avcsr_dir):

@@ -94,7 +94,8 @@ def register(subparsers) -> None:
         help="with --replay: decide with this history window (default: the one the log recorded, else the monitor's "
         "default)",
     )
-    p.add_argument("-q", "--quiet", action="store_true", help="print the totals only, not the listing")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="leave out the line per disagreement (per change with --replay); the totals and tables stay")
     p.set_defaults(func=run)
 
 

@@ -64,13 +64,12 @@ def _side(verdict: dict) -> str:
 
 
 def render_text(result: ReplayResult, listing: bool = True) -> str:
-    """The file lines and the headline, then (with `listing`) every change; -q keeps the file lines too,
-    as the audit's does: a file cut short or unreadable must not go unsaid."""
+    """The file lines and the headline, then (with `listing`) every change, then the changes counted by
+    transition; -q leaves out only the changes one by one, as the audit's leaves out its listing: a file cut
+    short or unreadable must not go unsaid."""
     t = result.tally
     lines = ["Logs:"] + ["  " + line for line in recovery_lines(t.recovery)] + headline(result)
-    if not listing:
-        return "\n".join(lines) + "\n"
-    for c in t.changes:
+    for c in t.changes if listing else ():
         lines.append("")
         lines.append(
             f"  {iso(c.time_ns)}  {c.vehicle}  frame {c.frame_id}  ({c.scenario})  proposed {c.recorded.get('proposed')}"

@@ -106,23 +106,14 @@ def totals_lines(tally: Tally, agg: Aggregates) -> list[str]:
 
 
 def render_text(tally: Tally, agg: Aggregates, filters: Filters, listing: bool = True) -> str:
+    """Without `listing` (-q), the tables per rule, pair, kind and vehicle still follow the totals: a log of
+    thousands of disagreements is read from them, its one line per disagreement from the CSV or HTML."""
     lines = ["Logs:"] + ["  " + line for line in recovery_lines(tally.recovery)]
     if filters.describe():
         lines.append("filters: " + "; ".join(filters.describe()))
     lines += totals_lines(tally, agg)
-    if not listing:
-        return "\n".join(lines) + "\n"
-    rows = tally.disagreements
-    lines.append("")
-    lines.append(f"Disagreements ({len(rows)}):" if rows else "No disagreements.")
-    frames = ["-" if d.frame_id is None else str(d.frame_id) for d in rows]
-    vehicle_width = max((len(d.vehicle) for d in rows), default=0)  # columns line up whatever the names and ids
-    frame_width = max((len(f) for f in frames), default=0)
-    for d, frame in zip(rows, frames):
-        lines.append(
-            f"  {iso(d.time_ns)}  {d.vehicle:<{vehicle_width}}  frame {frame:<{frame_width}}  {d.kind.value:<8}  "
-            f"{d.pair:<36}  [{', '.join(d.rules)}]  {d.summary}"
-        )
+    if listing:
+        lines += _listing(tally.disagreements)
     for title, items in (
         ("per rule", agg.per_rule),
         ("per action pair (proposed -> executed)", agg.per_pair),
@@ -135,6 +126,19 @@ def render_text(tally: Tally, agg: Aggregates, filters: Filters, listing: bool =
             lines.append(f"Disagreements {title}:")
             lines += [f"  {n:>6}  {key}" for key, n in items]
     return "\n".join(lines) + "\n"
+
+
+def _listing(rows: list[Disagreement]) -> list[str]:
+    lines = ["", f"Disagreements ({len(rows)}):" if rows else "No disagreements."]
+    frames = ["-" if d.frame_id is None else str(d.frame_id) for d in rows]
+    vehicle_width = max((len(d.vehicle) for d in rows), default=0)  # columns line up whatever the names and ids
+    frame_width = max((len(f) for f in frames), default=0)
+    for d, frame in zip(rows, frames):
+        lines.append(
+            f"  {iso(d.time_ns)}  {d.vehicle:<{vehicle_width}}  frame {frame:<{frame_width}}  {d.kind.value:<8}  "
+            f"{d.pair:<36}  [{', '.join(d.rules)}]  {d.summary}"
+        )
+    return lines
 
 
 def _row(d: Disagreement) -> dict:
