@@ -54,8 +54,7 @@ class Monitors:
                     "--workers", str(workers)]
             if shards > 1:
                 args += ["--vehicles", f"s{i}_*"]
-            if log_dir is not None:
-                args += ["--log-dir", str(log_dir / f"shard{i}")]
+            args += ["--no-log"] if log_dir is None else ["--log-dir", str(log_dir / f"shard{i}")]
             proc = subprocess.Popen(args, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
             self.procs.append(proc)
             self.endpoints.append(ep)

@@ -19,6 +19,7 @@ from . import keys
 from .config import (
     BUDGET_MAX_MS,
     DEFAULT_ENDPOINT,
+    DEFAULT_LOG_DIR,
     LOG_FLUSH_MAX_S,
     LOG_FLUSH_MIN_S,
     LOG_ROTATE_MIN_BYTES,
@@ -61,7 +62,10 @@ def register(subparsers) -> None:
     serve.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                        help="set a reasoning parameter for every vehicle it serves (discern.rules.facts.Params), "
                        "e.g. --param decel=4 for a fleet that brakes at 4 m/s²; repeatable; kept in the log's metadata")
-    serve.add_argument("--log-dir", type=path_arg, default=None, help="write the MCAP log here (default: no log)")
+    logging_to = serve.add_mutually_exclusive_group()
+    logging_to.add_argument("--log-dir", type=path_arg, default=DEFAULT_LOG_DIR,
+                            help=f"write the MCAP log here (default: {DEFAULT_LOG_DIR}, under the working directory)")
+    logging_to.add_argument("--no-log", action="store_true", help="do not log (a monitor logs by default)")
     serve.add_argument(
         "--log-rotate-mb",
         type=float,
@@ -79,6 +83,13 @@ def register(subparsers) -> None:
         type=float,
         default=0.5,
         help=f"close a chunk this often, bounding crash loss; {LOG_FLUSH_MIN_S:g} to {LOG_FLUSH_MAX_S:g} (default: 0.5)",
+    )
+    serve.add_argument(
+        "--log-keep-mb",
+        type=float,
+        default=None,
+        help="delete this monitor's oldest log files (those named with its --id) when they take more than this; "
+        "at least --log-rotate-mb (default: keep every file)",
     )
     serve.add_argument("--log-compression", choices=("zstd", "none"), default="zstd")
     serve.add_argument(
@@ -168,16 +179,19 @@ def _stop_on_signal() -> threading.Event:
 
 
 def _log_settings(args) -> Optional[LogSettings]:
-    if args.log_dir is None:
+    if args.no_log:
         return None
     # int() of NaN or infinity would raise first, without naming the flag.
     check_number("--log-rotate-mb", args.log_rotate_mb, LOG_ROTATE_MIN_BYTES / MIB, unit=" MiB")
+    if args.log_keep_mb is not None:
+        check_number("--log-keep-mb", args.log_keep_mb, LOG_ROTATE_MIN_BYTES / MIB, unit=" MiB")
     return LogSettings(
         directory=args.log_dir,
         rotate_bytes=int(args.log_rotate_mb * MIB),
         rotate_seconds=args.log_rotate_s,
         flush_seconds=args.log_flush_s,
         compression=args.log_compression,
+        keep_bytes=None if args.log_keep_mb is None else int(args.log_keep_mb * MIB),
     )
 
 
@@ -220,7 +234,7 @@ def cmd_serve(args) -> int:
             f"discern serve: monitor {config.monitor_id} ready; "
             f"listening on {', '.join(server.listen_endpoints) or 'nothing'}; "
             f"serving {keys.proposal_key(chunk)} and {keys.check_key(chunk)}; budget {config.budget_ms:g} ms"
-            + (f"; logging to {config.log.directory}" if config.log else ""),
+            + (f"; logging to {config.log.directory}" if config.log else "; not logging (--no-log)"),
             flush=True,
         )
         while not stop.wait(0.5):

@@ -26,6 +26,7 @@ from discern.rules.scene import ID_RULE, valid_id
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 MODES = ("peer", "client", "router")
+DEFAULT_LOG_DIR = Path("discern-log")  # `discern serve` records everything unless told not to
 
 # Bounds of the settings that pace the monitor's threads: zero or tiny periods busy-loop (a status
 # record or a log file per loop), and a wait past threading.TIMEOUT_MAX (about 9.2e9 s) raises
@@ -194,6 +195,7 @@ class LogSettings:
     rotate_seconds: float = 3600.0
     flush_seconds: float = 0.5  # a kill -9 loses at most about this much
     compression: str = "zstd"  # or "none"
+    keep_bytes: Optional[int] = None  # the monitor's files beyond this, oldest first, are deleted; None: all kept
 
     def validate(self) -> "LogSettings":
         """Refuse settings that would make the writer spin: a file or a chunk per loop."""
@@ -202,6 +204,9 @@ class LogSettings:
         check_number("--log-flush-s", self.flush_seconds, LOG_FLUSH_MIN_S, LOG_FLUSH_MAX_S, unit=" s")
         if self.compression not in ("zstd", "none"):
             raise ValueError(f"--log-compression must be zstd or none, got {self.compression!r}")
+        if self.keep_bytes is not None and not self.keep_bytes >= self.rotate_bytes:
+            raise ValueError(f"--log-keep-mb must be at least --log-rotate-mb ({self.rotate_bytes / MIB:g} MiB), "
+                             f"room for the file being written, got {self.keep_bytes / MIB:g}")
         return self
 
 

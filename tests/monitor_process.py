@@ -33,14 +33,20 @@ def endpoint(port: int) -> str:
 
 
 class DiscernProcess:
-    """One `discern <command>` child; its output is collected for assertions and failure messages."""
+    """One `discern <command>` child; its output is collected for assertions and failure messages.
 
-    def __init__(self, *args: str, own_group: bool = False):
+    A monitor logs by default, into its working directory: one started here without `--log-dir` gets `--no-log`,
+    so that tests leave nothing in the repository.
+    """
+
+    def __init__(self, *args: str, own_group: bool = False, cwd: Path = REPO):
         """`own_group`: in a process group of its own, as a service manager starts it (see `stop_group`)."""
+        if args[:1] == ("serve",) and "--log-dir" not in args and "--no-log" not in args and cwd == REPO:
+            args = (*args, "--no-log")
         self.args = [sys.executable, "-m", "discern.monitor.commands", *args]
         env = dict(os.environ, PYTHONUNBUFFERED="1", RUST_LOG="error")
         self.proc = subprocess.Popen(
-            self.args, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            self.args, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
             start_new_session=own_group,
         )
         self.lines: list[str] = []

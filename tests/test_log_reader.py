@@ -16,7 +16,7 @@ from mcap.writer import Writer
 
 from discern.monitor.config import LogSettings
 from discern.monitor.example_planner import highway_scene
-from discern.monitor.log import (McapLogWriter, RecoveryReport, RejectedInput, first_log_time_ns, read_log,
+from discern.monitor.log import (LOG_NAME, McapLogWriter, RecoveryReport, RejectedInput, first_log_time_ns, read_log,
                                  vehicle_topic)
 from discern.monitor.log.channels import STATUS_TOPIC
 from discern.monitor.log.reader import log_files
@@ -149,6 +149,31 @@ def test_files_rotate_by_size_and_read_back_in_order(tmp_path):
     report = RecoveryReport()
     frames = [r.proposal.scene.frame_id for r in read_log(tmp_path, report)]
     assert frames == list(range(12)) and all(f.complete for f in report.files)
+
+
+def test_a_size_to_keep_deletes_the_monitors_oldest_files_first_and_no_one_elses(tmp_path):
+    """A sidecar runs for months: with keep_bytes its files stay within it, an earlier run's going before its own."""
+    earlier_run = tmp_path / "discern-rot-20260101T000000-0badcafe-0000.mcap"
+    earlier_run.write_bytes(b"x" * 4096)
+    others = [tmp_path / "discern-rot-2-20260101T000000-0badcafe-0000.mcap",  # a monitor whose id starts alike
+              tmp_path / "discern-other-20260101T000000-0badcafe-0000.mcap", tmp_path / "notes.mcap"]
+    for path in others:
+        path.write_bytes(b"y" * 8192)
+    settings = LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_bytes=4096, keep_bytes=40_000)
+    writer = McapLogWriter(settings, "rot")
+    for f in range(30):
+        writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 8)))
+        time.sleep(0.03)
+    writer.close()
+    assert not earlier_run.exists() and all(path.read_bytes()[:1] == b"y" for path in others)
+    kept = sorted((int(m.group(3)), tmp_path / m.group(0)) for m in map(LOG_NAME.match, (p.name for p in tmp_path.iterdir()))
+                  if m is not None and m.group(1) == "rot")
+    assert [index for index, _ in kept] == list(range(writer.opened - len(kept), writer.opened))  # the newest
+    assert [path for _, path in kept] == writer.files and writer.deleted == writer.opened - len(kept) + 1 > 1
+    assert sum(path.stat().st_size for path in writer.files[:-1]) <= 40_000  # and the last, as it was started
+    report = RecoveryReport()
+    frames = [r.proposal.scene.frame_id for r in read_log(writer.files, report)]
+    assert frames == list(range(frames[0], 30)) and frames[0] > 0 and all(f.complete for f in report.files)
 
 
 def test_reading_since_a_time_skips_earlier_messages_undecoded(tmp_path):

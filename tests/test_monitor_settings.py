@@ -58,6 +58,9 @@ def test_the_documented_bounds_are_accepted(tmp_path):
         (["--status-period-s", "0"], "--status-period-s must be a finite number at least 0.1 s"),
         (["--log-flush-s", "0", "--log-rotate-s", "0"], "--log-rotate-s must be a finite number at least 1 s"),
         (["--log-rotate-mb", "nan"], "--log-rotate-mb must be a finite number at least 0.0625 MiB, got nan"),
+        (["--log-keep-mb", "nan"], "--log-keep-mb must be a finite number at least 0.0625 MiB, got nan"),
+        (["--log-keep-mb", "10"],
+         "--log-keep-mb must be at least --log-rotate-mb (256 MiB), room for the file being written, got 10"),
         (["--connect", "nonsense"], "bad zenoh endpoint 'nonsense': Endpoints must be of the form"),
         (["--vehicles", "car_[12]"], "vehicle filter 'car_[12]' may hold only letters, digits, '_', '-' and the wildcard '*'"),
         (["--vehicles", "**"], "vehicle filter '**' must be one key chunk: '**' matches several, use '*'"),
@@ -174,3 +177,34 @@ def test_a_monitor_decides_with_the_reasoning_parameters_it_is_given_and_logs_th
     assert (verdict.decision, verdict.action, verdict.rules) == (expected.decision, expected.action, expected.rules)
     [log] = sorted(tmp_path.glob("*.mcap"))
     assert log_metadata(log)["params"] == '{"decel": 4.0}'
+
+
+def test_a_monitor_logs_into_its_working_directory_unless_told_not_to(tmp_path):
+    """A safety monitor's record is not opt-in: `discern serve` with no log flag logs to ./discern-log."""
+    from discern.monitor.client import Monitor
+    from discern.monitor.log import read_log
+    from tests.scenes import scene
+
+    logged, unlogged = tmp_path / "logged", tmp_path / "unlogged"
+    for cwd, flags in ((logged, ()), (unlogged, ("--no-log",))):
+        cwd.mkdir()
+        ep = endpoint(free_port())
+        proc = DiscernProcess("serve", "--listen", ep, "--budget-ms", "5000", *flags, cwd=cwd).wait_ready()
+        try:
+            with Monitor("car_1", connect=[ep], timeout=5.0) as client:
+                assert not client.check(scene(), "cruise").failsafe
+        finally:
+            assert proc.stop() == 0, proc.output
+        said = proc.lines[0]
+        assert said.endswith("; logging to discern-log" if not flags else "; not logging (--no-log)"), said
+    assert [r.kind for r in read_log(logged / "discern-log") if r.kind != "status"] == ["proposal", "verdict"]
+    assert list(unlogged.iterdir()) == []
+
+
+def test_a_log_directory_and_no_log_together_are_refused(tmp_path):
+    proc = DiscernProcess("serve", "--listen", endpoint(free_port()), "--no-log", "--log-dir", str(tmp_path))
+    try:
+        code = proc.proc.wait(START_TIMEOUT_S)
+    finally:
+        proc.stop()
+    assert code == 2 and proc.lines[-1] == "discern serve: error: argument --log-dir: not allowed with argument --no-log"

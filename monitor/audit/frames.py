@@ -21,20 +21,19 @@ had, however short the files. Only that span of the lead-in is decoded.
 
 from __future__ import annotations
 
-import re
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
-from discern.monitor.log import LogRecord, RecoveryReport, first_log_time_ns, log_files, log_metadata, read_log
+from discern.monitor.log import (
+    LOG_NAME, LogRecord, RecoveryReport, first_log_time_ns, log_files, log_metadata, read_log
+)
 from discern.monitor.protocol import InputError
 from discern.monitor.vehicle_state import VehicleState
 from discern.rules.scene import Proposal, Scene
 from discern.rules.verdict import Verdict
 
-# discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap, as monitor/log/writer.py names its files (older: no run)
-_ROTATED = re.compile(r"^(discern-.+)-\d{8}T\d{6}-(?:([0-9a-f]{8})-)?(\d{4,})\.mcap$")
 LEAD_IN_SLACK_S = 10.0  # of the earlier files read beyond the window: a verdict is never this late
 PENDING_PER_VEHICLE = 256  # proposals waiting for their verdict; more means the log lost verdicts
 
@@ -187,7 +186,7 @@ def plan_tasks(paths: list[str], parts: int = 1, lead_in_s: float = LEAD_IN_SLAC
 def _earlier_in_run(first: str) -> list[str]:
     """The files the same monitor run wrote right before `first`, in its directory, oldest first (none for a file
     named without a run)."""
-    named = _ROTATED.match(Path(first).name)
+    named = LOG_NAME.match(Path(first).name)
     if named is None or named.group(2) is None:
         return []
     index = int(named.group(3))
@@ -197,7 +196,7 @@ def _earlier_in_run(first: str) -> list[str]:
     except OSError:
         return []
     for entry in entries:
-        other = _ROTATED.match(entry.name)
+        other = LOG_NAME.match(entry.name)
         if other is not None and other.group(1, 2) == named.group(1, 2) and int(other.group(3)) < index:
             siblings[int(other.group(3))] = str(entry)
     earlier: list[str] = []
@@ -218,7 +217,7 @@ def _sequences(files: list[str]) -> list[list[str]]:
     """
     runs: dict[tuple, list[tuple]] = {}  # (resolved directory, monitor, run) -> (order, path); others alone
     for path in files:
-        named = _ROTATED.match(Path(path).name)
+        named = LOG_NAME.match(Path(path).name)
         if named is None:
             runs[(path,)] = [((), path)]
             continue
@@ -282,7 +281,7 @@ def _size(path: str) -> int:
 def _same_sequence(before: str, after: str) -> bool:
     """Whether `after` is the file the same monitor run wrote next after `before`."""
     a, b = Path(before), Path(after)
-    ma, mb = _ROTATED.match(a.name), _ROTATED.match(b.name)
+    ma, mb = LOG_NAME.match(a.name), LOG_NAME.match(b.name)
     if a.parent.resolve() != b.parent.resolve() or ma is None or mb is None or ma.group(1, 2) != mb.group(1, 2):
         return False
     if int(mb.group(3)) != int(ma.group(3)) + 1:  # a restarted monitor numbers its files from 0 again

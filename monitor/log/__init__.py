@@ -11,10 +11,11 @@ Reader API for audits::
 
 from .channels import STATUS_TOPIC, RejectedInput, parse_topic, vehicle_topic
 from .reader import FileRecovery, LogRecord, RecoveryReport, first_log_time_ns, log_files, log_metadata, read_log
-from .writer import McapLogWriter
+from .writer import LOG_NAME, McapLogWriter
 
 __all__ = [
     "FileRecovery",
+    "LOG_NAME",
     "LogRecord",
     "McapLogWriter",
     "RecoveryReport",

@@ -19,6 +19,11 @@ Files are named discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap: the run
 restarted monitor from overwriting a file of the same second, and an audit from
 reading its files as the continuation of the previous run's; the index counts
 the run's files from 0000.
+
+With `keep_bytes` set, each new file makes room: the oldest files named with the
+monitor's id (earlier runs' first, then this run's by index; never the file being
+written) are deleted until its files take at most that, so that they pass it by
+at most the one file filling up.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import json
 import logging
 import os
 import queue
+import re
 import threading
 import time
 import uuid
@@ -48,6 +54,8 @@ log = logging.getLogger(__name__)
 MAX_QUEUED = 100_000
 CHUNK_BYTES = 512 * 1024
 RUN_CHARS = 8  # of the run id in file names: 32 random bits, unique among one monitor id's runs
+# discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap (files of older versions: no run); groups monitor, run, index
+LOG_NAME = re.compile(r"^discern-(.+)-\d{8}T\d{6}-(?:([0-9a-f]{8})-)?(\d{4,})\.mcap$")
 _STOP = object()
 
 Payload = Union[bytes, BaseModel]
@@ -73,7 +81,9 @@ class McapLogWriter:
             self.directory.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise OSError(f"cannot create the log directory {self.directory}: {exc.strerror}") from None
-        self.files: list[Path] = []
+        self.files: list[Path] = []  # this run's files still on disk, the one being written last
+        self.opened = 0  # files this run opened: the next one's index
+        self.deleted = 0  # files deleted to keep within keep_bytes
         self.records = 0
         self.dropped = 0
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
@@ -218,7 +228,7 @@ class McapLogWriter:
     def _open_file(self) -> None:
         self.directory.mkdir(parents=True, exist_ok=True)  # it may have been deleted since the last file
         stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S")
-        path = self.directory / f"discern-{self.monitor_id}-{stamp}-{self.run[:RUN_CHARS]}-{len(self.files):04d}.mcap"
+        path = self.directory / f"discern-{self.monitor_id}-{stamp}-{self.run[:RUN_CHARS]}-{self.opened:04d}.mcap"
         stream = open(path, "wb")
         try:
             compression = CompressionType.ZSTD if self.settings.compression == "zstd" else CompressionType.NONE
@@ -250,7 +260,50 @@ class McapLogWriter:
         self._opened_at = time.monotonic()
         self._in_file = 0
         self.files.append(path)
+        self.opened += 1
         log.info("logging to %s", path)
+        if self.settings.keep_bytes is not None:
+            self._make_room(self.settings.keep_bytes)
+
+    def _make_room(self, budget: int) -> None:
+        """Delete this monitor's oldest files, never the one being written, until its files take at most `budget`
+        bytes. A file that cannot be deleted is left, and said so; logging goes on."""
+        current = self.files[-1]
+        mine = []
+        try:
+            entries = list(self.directory.iterdir())
+        except OSError as exc:  # the new file is open: not reading the directory must not cost it
+            log.warning("could not list %s to keep within --log-keep-mb: %s", self.directory, exc.strerror or exc)
+            return
+        for entry in entries:
+            named = LOG_NAME.match(entry.name)
+            if named is None or named.group(1) != self.monitor_id or entry == current:
+                continue
+            try:
+                stat = entry.stat()
+            except OSError:
+                continue  # gone meanwhile
+            this_run = named.group(2) == self.run[:RUN_CHARS]
+            mine.append(((this_run, int(named.group(3)) if this_run else stat.st_mtime), stat.st_size, entry))
+        mine.sort(key=lambda found: found[0])
+        total = sum(size for _, size, _ in mine) + self._stream.tell()
+        for _, size, entry in mine:
+            if total <= budget:
+                break
+            try:
+                entry.unlink()
+            except FileNotFoundError:
+                pass  # gone meanwhile: its room is free all the same
+            except OSError as exc:
+                log.warning("could not delete the old log file %s to keep within --log-keep-mb: %s", entry,
+                            exc.strerror or exc)
+                continue
+            else:
+                self.deleted += 1
+                log.info("deleted the old log file %s to keep within --log-keep-mb", entry)
+            total -= size
+            if entry in self.files:
+                self.files.remove(entry)
 
     def _finish_file(self) -> None:
         if self._writer is None:
