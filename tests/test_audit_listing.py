@@ -408,3 +408,14 @@ def test_the_example_planners_scene_time_follows_its_frame_rate(tmp_path):
     assert len(stamps) == 4
     # one frame period of scene time per frame, as the frames really came: the audit's rates per hour go by it
     assert [round(b - a, 6) for a, b in zip(stamps, stamps[1:])] == [1 / rate_hz] * 3
+
+
+def test_with_no_log_named_it_reads_where_discern_serve_logs_by_default(capsys, tmp_path, monkeypatch, logs):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = audit(capsys)
+    assert code == 2 and err.strip() == ("discern audit: discern-log: no such file or directory "
+                                         "(the log `discern serve` writes by default; name the logs to read)")
+    (tmp_path / "discern-log").mkdir()
+    shutil.copy(logs["slow"], tmp_path / "discern-log")
+    code, out, _ = audit(capsys, "-q")
+    assert code == 0 and out == audit(capsys, "discern-log", "-q")[1] and "frames: 3 (" in out

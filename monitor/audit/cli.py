@@ -12,7 +12,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from discern.monitor.config import WINDOW_MAX_S, check_number, path_text
+from discern.monitor.config import DEFAULT_LOG_DIR, WINDOW_MAX_S, check_number, path_text
 from discern.monitor.log import log_files
 from discern.rules.catalog import CatalogError, load_catalog
 from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
@@ -41,7 +41,8 @@ def register(subparsers) -> None:
             "report the decisions that would change."
         ),
     )
-    p.add_argument("logs", nargs="+", type=path_text, metavar="LOG", help="MCAP log files, or directories of them")
+    p.add_argument("logs", nargs="*", type=path_text, metavar="LOG",
+                   help=f"MCAP log files, or directories of them (default: {DEFAULT_LOG_DIR}, where `discern serve` logs)")
     p.add_argument("--replay", action="store_true", help="re-decide every frame and report what would change")
     p.add_argument(
         "--rules",
@@ -181,9 +182,10 @@ def _warn_unreadable(files) -> bool:
 def _log_paths(logs: Sequence[str]) -> list[str]:
     """The files to read, each checked before a long audit starts: nothing given is passed over unsaid."""
     try:
-        return [str(path) for path in log_files(logs, strict=True)]
+        return [str(path) for path in log_files(logs or [DEFAULT_LOG_DIR], strict=True)]
     except ValueError as exc:
-        raise UsageError(str(exc)) from None
+        unsaid = "" if logs else " (the log `discern serve` writes by default; name the logs to read)"
+        raise UsageError(f"{exc}{unsaid}") from None
 
 
 def _filters(args: argparse.Namespace) -> Filters:
