@@ -69,29 +69,27 @@ def register(subparsers) -> None:
     serve.add_argument(
         "--log-rotate-mb",
         type=float,
-        default=256.0,
-        help=f"start a new log file past this size, at least {LOG_ROTATE_MIN_BYTES / MIB:g} (default: 256)",
+        help=f"start a new log file past this size, at least {LOG_ROTATE_MIN_BYTES / MIB:g} "
+        f"(default: {LogSettings.rotate_bytes / MIB:g})",
     )
     serve.add_argument(
         "--log-rotate-s",
         type=float,
-        default=3600.0,
-        help=f"start a new log file past this age, at least {LOG_ROTATE_MIN_S:g} (default: 3600)",
+        help=f"start a new log file past this age, at least {LOG_ROTATE_MIN_S:g} (default: {LogSettings.rotate_seconds:g})",
     )
     serve.add_argument(
         "--log-flush-s",
         type=float,
-        default=0.5,
-        help=f"close a chunk this often, bounding crash loss; {LOG_FLUSH_MIN_S:g} to {LOG_FLUSH_MAX_S:g} (default: 0.5)",
+        help=f"close a chunk this often, bounding crash loss; {LOG_FLUSH_MIN_S:g} to {LOG_FLUSH_MAX_S:g} "
+        f"(default: {LogSettings.flush_seconds:g})",
     )
     serve.add_argument(
         "--log-keep-mb",
         type=float,
-        default=None,
         help="delete this monitor's oldest log files (those named with its --id) when they take more than this; "
         "at least --log-rotate-mb (default: keep every file)",
     )
-    serve.add_argument("--log-compression", choices=("zstd", "none"), default="zstd")
+    serve.add_argument("--log-compression", choices=("zstd", "none"), help=f"(default: {LogSettings.compression})")
     serve.add_argument(
         "--status-period-s",
         type=float,
@@ -178,21 +176,29 @@ def _stop_on_signal() -> threading.Event:
     return stop
 
 
+LOG_FLAGS = {"log_rotate_mb": "--log-rotate-mb", "log_rotate_s": "--log-rotate-s", "log_flush_s": "--log-flush-s",
+             "log_keep_mb": "--log-keep-mb", "log_compression": "--log-compression"}
+
+
 def _log_settings(args) -> Optional[LogSettings]:
+    """The log's settings: LogSettings' defaults, with those given; None with --no-log, which takes none."""
+    given = [flag for dest, flag in LOG_FLAGS.items() if getattr(args, dest) is not None]
     if args.no_log:
+        if given:
+            raise ValueError(f"--no-log leaves nothing for {', '.join(given)} to set: give a log or leave them out")
         return None
+    settings = LogSettings(directory=args.log_dir)
     # int() of NaN or infinity would raise first, without naming the flag.
-    check_number("--log-rotate-mb", args.log_rotate_mb, LOG_ROTATE_MIN_BYTES / MIB, unit=" MiB")
-    if args.log_keep_mb is not None:
-        check_number("--log-keep-mb", args.log_keep_mb, LOG_ROTATE_MIN_BYTES / MIB, unit=" MiB")
-    return LogSettings(
-        directory=args.log_dir,
-        rotate_bytes=int(args.log_rotate_mb * MIB),
-        rotate_seconds=args.log_rotate_s,
-        flush_seconds=args.log_flush_s,
-        compression=args.log_compression,
-        keep_bytes=None if args.log_keep_mb is None else int(args.log_keep_mb * MIB),
-    )
+    for dest, field in (("log_rotate_mb", "rotate_bytes"), ("log_keep_mb", "keep_bytes")):
+        megabytes = getattr(args, dest)
+        if megabytes is not None:
+            check_number(LOG_FLAGS[dest], megabytes, LOG_ROTATE_MIN_BYTES / MIB, unit=" MiB")
+            setattr(settings, field, int(megabytes * MIB))
+    for dest, field in (("log_rotate_s", "rotate_seconds"), ("log_flush_s", "flush_seconds"),
+                        ("log_compression", "compression")):
+        if getattr(args, dest) is not None:
+            setattr(settings, field, getattr(args, dest))
+    return settings
 
 
 def cmd_serve(args) -> int:

@@ -201,10 +201,15 @@ def test_a_monitor_logs_into_its_working_directory_unless_told_not_to(tmp_path):
     assert list(unlogged.iterdir()) == []
 
 
-def test_a_log_directory_and_no_log_together_are_refused(tmp_path):
-    proc = DiscernProcess("serve", "--listen", endpoint(free_port()), "--no-log", "--log-dir", str(tmp_path))
+@pytest.mark.parametrize("flags, message", [
+    (["--log-dir", "somewhere"], "argument --log-dir: not allowed with argument --no-log"),
+    (["--log-keep-mb", "300", "--log-compression", "none"],
+     "--no-log leaves nothing for --log-keep-mb, --log-compression to set: give a log or leave them out"),
+])
+def test_log_settings_with_no_log_are_refused(flags, message):
+    proc = DiscernProcess("serve", "--listen", endpoint(free_port()), "--no-log", *flags)
     try:
         code = proc.proc.wait(START_TIMEOUT_S)
     finally:
         proc.stop()
-    assert code == 2 and proc.lines[-1] == "discern serve: error: argument --log-dir: not allowed with argument --no-log"
+    assert code == 2 and proc.lines[-1] == f"discern serve: error: {message}", proc.output
