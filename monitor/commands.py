@@ -89,7 +89,8 @@ def register(subparsers) -> None:
         help="delete this monitor's oldest log files (those named with its --id) when they take more than this; "
         "at least --log-rotate-mb (default: keep every file)",
     )
-    serve.add_argument("--log-compression", choices=("zstd", "none"), help=f"(default: {LogSettings.compression})")
+    serve.add_argument("--log-compression", choices=("zstd", "none"),
+                       help=f"compression of the log's chunks (default: {LogSettings.compression})")
     serve.add_argument(
         "--status-period-s",
         type=float,
