@@ -450,7 +450,8 @@ def _read_fact(f: Compound, data: dict, ego: dict, crossings: list) -> Action | 
         for lane_id in dict.fromkeys(ids):
             data["lanes"].append({"kind": kind, "id": lane_id})
     elif f.name == "traffic_light":
-        data["traffic_lights"].append({"colour": a[0], "source": "annotation"})
+        if a[0] != "none":  # AV-CSR's traffic_light(none, T): no light in view, not a dark one (template.pl)
+            data["traffic_lights"].append({"colour": a[0], "source": "annotation"})
     elif f.name == "traffic_sign":
         data["signs"].append({"kind": a[0], "source": "annotation"})
     elif f.name == "intersection":

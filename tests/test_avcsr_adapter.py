@@ -36,6 +36,13 @@ def test_reads_facts_into_a_scene_with_units_and_paths(tmp_path):
     assert scene.sensors[0].side.value == "left" and scene.sensors[0].distance == 0.4
 
 
+def test_traffic_light_none_is_no_light_in_view_not_a_dark_one(tmp_path):
+    path = tmp_path / "f.pl"
+    path.write_text(FRAME.replace("traffic_light(red, 1).", "traffic_light(none, 1)."))
+    (frame,) = read_file(path)
+    assert frame.scene.traffic_lights == []
+
+
 def test_fact_without_timestamp_holds_in_every_frame(tmp_path):
     two = FRAME + FRAME.replace(", 1).", ", 2).").replace("(1, 7,", "(2, 7,").replace("FRAME 1", "FRAME 2")
     path = tmp_path / "f.pl"

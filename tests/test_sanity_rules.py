@@ -758,6 +758,13 @@ def test_a_dark_signal_is_an_all_way_stop_in_the_us():
     assert "the traffic lights in view are all dark" in verdict.justification.text
 
 
+def test_a_dark_lamp_at_an_unsignalled_intersection_is_no_signal_out():
+    unsignalled = {**DARK, "type": "unsignaled", "road": "major", "stop_line": False}
+    verdict = _run((scene(speed=8.0, limit=15.6, lights=[{"colour": "none"}], intersection=unsignalled),), Action.cruise)
+    assert verdict.decision is Decision.approve
+    assert "san.lights.dark_signal" not in verdict.rules
+
+
 def test_a_dark_signal_is_passed_with_great_care_in_the_uk_giving_way_to_cross_traffic():
     dark = [{"colour": "none"}]
     verdict = _run((scene(speed=12.0, limit=15.6, lights=dark, intersection=DARK),), Action.accelerate, "uk")
