@@ -219,6 +219,7 @@ class Reasoner:
 
         tree: list[JustificationNode] = []
         rules: list[str] = []
+        vetoing: list[str] = []  # the rules that forbid the proposal itself; the rest of `rules` feed them
         if allowed:
             rules = self._approval_rules(solved, prover)
             if explain:  # every rule the approval cites, proved: permitted, and each reason calling for it
@@ -232,13 +233,16 @@ class Reasoner:
             for rule, env in prover.derivations(forbidden):
                 node = prover.node_for(rule, env, forbidden)
                 tree.append(node)
+                if node.rule not in vetoing:
+                    vetoing.append(node.rule)
                 rules.extend(r for r in rule_ids(node) if r not in rules)
+            rules = vetoing + [r for r in rules if r not in vetoing]
         if decision is Decision.override and solved.replacement is not None:
             tree.append(prover.why(_atom("replacement", solved.replacement)))
         elif recommended is not None and (explain or not allowed):
             tree.append(prover.why(_atom("recommended", recommended)))
 
-        summary = _summary(decision, proposed, action, recommended, rules)
+        summary = _summary(decision, proposed, action, recommended, rules, len(vetoing))
         notes = solved.answer.of("noted", 1)
         brief = (Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=self._static_atoms)
                  if notes and explain else prover)
@@ -292,8 +296,12 @@ def _atom(name: str, action: Action) -> clingo.Symbol:
     return Function(name, [Function(action.value)])
 
 
-def _summary(decision: Decision, proposed: Action, action: Action, recommended: Optional[Action], rules: list[str]) -> str:
-    cited = ", ".join(rules) if rules else "no rule"
+def _summary(decision: Decision, proposed: Action, action: Action, recommended: Optional[Action], rules: list[str],
+             vetoing: int) -> str:
+    """A veto names the rules that forbid the proposal, then those its proof uses (a hazard, a limit's reading)."""
+    cited = ", ".join(rules[:vetoing] if vetoing else rules) if rules else "no rule"
+    if vetoing and len(rules) > vetoing:
+        cited += f", using {', '.join(rules[vetoing:])}"
     if decision is Decision.approve:
         line = f"approve {proposed.value}: permitted ({cited})"
     elif decision is Decision.veto:
