@@ -176,6 +176,23 @@ def test_a_size_to_keep_deletes_the_monitors_oldest_files_first_and_no_one_elses
     assert frames == list(range(frames[0], 30)) and frames[0] > 0 and all(f.complete for f in report.files)
 
 
+def test_two_writers_sharing_an_id_are_warned_and_never_delete_each_others_file_being_written(tmp_path, caplog):
+    settings = LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_bytes=4096, keep_bytes=12_000)
+    with caplog.at_level(logging.INFO, logger="discern.monitor.log.writer"):
+        first = McapLogWriter(settings, "dup")
+        second = McapLogWriter(settings, "dup")
+        for f in range(30):
+            for writer in (first, second):
+                writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 8)))
+            time.sleep(0.03)
+        assert all(w.files[-1].exists() for w in (first, second))  # each one's file being written, now
+        first.close()
+        second.close()
+    assert first.dropped == second.dropped == 0 and first.deleted + second.deleted > 0
+    assert "another monitor with the id 'dup' is logging in" in caplog.text
+    assert "deleted or moved away" not in caplog.text
+
+
 def test_reading_since_a_time_skips_earlier_messages_undecoded(tmp_path):
     writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02), "since")
     for f in range(8):
@@ -361,14 +378,16 @@ def test_a_deleted_log_directory_is_noticed_recreated_and_its_lost_records_count
         assert wait_until(lambda: len(list(read_log(writer.files))) == 5, step=0.01)
         shutil.rmtree(directory)
         write(range(5, 10))  # into the unlinked file
-        assert wait_until(lambda: len(writer.files) == 2 and writer.files[1].exists())
+        first = writer.files[0]
+        assert wait_until(lambda: writer.files and writer.files[0] != first and writer.files[0].exists())
         write(range(10, 15))
         writer.close()
     assert writer.dropped == 5 and writer.records == 10  # the first file's 5, then the new one's
+    assert writer.files == [next(directory.glob("*.mcap"))]  # the files still on disk, as the status lists them
     assert [r.proposal.scene.frame_id for r in read_log(directory)] == list(range(10, 15))
     errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR]
-    assert len(errors) == 1 and f"{writer.files[0].name} was deleted or moved away" in errors[0]
-    assert f"logging again, to {writer.files[1]}" in caplog.text
+    assert len(errors) == 1 and f"{first.name} was deleted or moved away" in errors[0]
+    assert f"logging again, to {writer.files[0]}" in caplog.text
 
 
 def write_chunked(directory, frames: int) -> tuple[bytes, list[tuple[int, int]]]:

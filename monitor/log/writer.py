@@ -23,12 +23,15 @@ the run's files from 0000.
 With `keep_bytes` set, each new file makes room: the oldest files named with the
 monitor's id (earlier runs' first, then this run's by index; never the file being
 written) are deleted until its files take at most that, so that they pass it by
-at most the one file filling up.
+at most the one file filling up. A writer holds a lock on the file it writes, so
+that no other writer's keep_bytes deletes it: two monitors started with the same
+id in one directory (a mistake, said so at start) lose no file being written.
 """
 
 from __future__ import annotations
 
 import errno
+import fcntl
 import json
 import logging
 import os
@@ -97,6 +100,7 @@ class McapLogWriter:
         self._failing = False  # since a disk error, until a new file opens
         self.run = uuid.uuid4().hex
         self._open_file()  # fail now, in the caller, if the directory is not writable
+        self._warn_if_shared()
         self._thread = threading.Thread(target=self._run, name="discern-mcap-writer", daemon=True)
         self._thread.start()
 
@@ -210,6 +214,7 @@ class McapLogWriter:
         except FileNotFoundError:
             there = False
         if not there:
+            self.files.remove(path)
             raise FileNotFoundError(errno.ENOENT, f"{path.name} was deleted or moved away")
 
     def _flush_and_maybe_rotate(self, now: float) -> None:
@@ -231,6 +236,7 @@ class McapLogWriter:
         path = self.directory / f"discern-{self.monitor_id}-{stamp}-{self.run[:RUN_CHARS]}-{self.opened:04d}.mcap"
         stream = open(path, "wb")
         try:
+            fcntl.flock(stream.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)  # being written: see _being_written
             compression = CompressionType.ZSTD if self.settings.compression == "zstd" else CompressionType.NONE
             writer = Writer(stream, chunk_size=CHUNK_BYTES, compression=compression)
             writer.start(profile="", library="discern")
@@ -279,11 +285,13 @@ class McapLogWriter:
             named = LOG_NAME.match(entry.name)
             if named is None or named.group(1) != self.monitor_id or entry == current:
                 continue
+            this_run = named.group(2) == self.run[:RUN_CHARS]
+            if not this_run and _being_written(entry):
+                continue  # another live monitor's current file: its own cap is its own
             try:
                 stat = entry.stat()
             except OSError:
                 continue  # gone meanwhile
-            this_run = named.group(2) == self.run[:RUN_CHARS]
             mine.append(((this_run, int(named.group(3)) if this_run else stat.st_mtime), stat.st_size, entry))
         mine.sort(key=lambda found: found[0])
         total = sum(size for _, size, _ in mine) + self._stream.tell()
@@ -305,6 +313,20 @@ class McapLogWriter:
             if entry in self.files:
                 self.files.remove(entry)
 
+    def _warn_if_shared(self) -> None:
+        """Two monitors with one id in one directory cannot be told apart in the log or the status: say so."""
+        try:
+            entries = list(self.directory.iterdir())
+        except OSError:
+            return
+        for entry in entries:
+            named = LOG_NAME.match(entry.name)
+            if (named is not None and named.group(1) == self.monitor_id and named.group(2) != self.run[:RUN_CHARS]
+                    and _being_written(entry)):
+                log.warning("another monitor with the id %r is logging in %s (%s): give each monitor its own --id",
+                            self.monitor_id, self.directory, entry.name)
+                return
+
     def _finish_file(self) -> None:
         if self._writer is None:
             return
@@ -312,3 +334,15 @@ class McapLogWriter:
         self._stream.close()
         self._stream = self._writer = None
         self._pending = 0
+
+
+def _being_written(path: Path) -> bool:
+    """Whether a live writer holds the file (the lock _open_file takes; the OS drops it when its process dies)."""
+    try:
+        with open(path, "rb") as stream:
+            fcntl.flock(stream.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False  # gone meanwhile, or unreadable: as before the lock
+    return False
