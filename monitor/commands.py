@@ -203,6 +203,7 @@ def _log_settings(args) -> Optional[LogSettings]:
 
 
 def cmd_serve(args) -> int:
+    from .decision_pool import WorkerStartError
     from .server import MonitorServer
 
     # The worker holds the GIL while it reasons; the default 5 ms switch interval would let it
@@ -231,7 +232,7 @@ def cmd_serve(args) -> int:
         )
         server = MonitorServer(config)
         server.start()
-    except (ValueError, OSError, ImportError) as exc:
+    except (ValueError, OSError, ImportError, WorkerStartError) as exc:
         return _fail("serve", str(exc))
     except Exception as exc:  # zenoh refuses an endpoint or config: say so, no traceback
         return _fail("serve", _zenoh_refused(args, exc))
@@ -275,11 +276,14 @@ def cmd_status(args) -> int:
     except Exception as exc:
         return _fail("status", _zenoh_refused(args, exc))
     answered = found = 0
+    ids: set[str] = set()
     try:
         deadline = time.monotonic() + args.timeout
-        # A freshly opened peer needs a moment to learn the routes: retry until something answers.
+        # A freshly opened peer needs a moment to learn the routes: retry until something answers. Every reply is
+        # wanted (no consolidation): zenoh would otherwise keep one of two monitors started with the same id.
         while not answered and time.monotonic() < deadline:
-            for reply in session.get(selector, timeout=max(0.1, deadline - time.monotonic())):
+            for reply in session.get(selector, consolidation=zenoh.ConsolidationMode.NONE,
+                                     timeout=max(0.1, deadline - time.monotonic())):
                 if reply.ok is None:
                     continue
                 answered += 1
@@ -295,6 +299,10 @@ def cmd_status(args) -> int:
                     )
                     continue
                 found += 1
+                if status.monitor_id in ids:
+                    print(f"discern status: warning: more than one monitor answers as {status.monitor_id}: give each "
+                          "its own --id", file=sys.stderr, flush=True)
+                ids.add(status.monitor_id)
                 print(status.model_dump_json(indent=2) if args.json else _status_text(status), flush=True)
             if not answered:
                 time.sleep(0.1)

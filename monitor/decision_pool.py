@@ -30,6 +30,10 @@ START_TIMEOUT_S = 120.0
 STOP_TIMEOUT_S = 10.0
 
 
+class WorkerStartError(RuntimeError):
+    """A decision worker that could not start: the monitor cannot decide, and says so as itself, not as zenoh."""
+
+
 class DecisionPool:
     """Worker processes fed through per-worker queues; outcomes come back on `on_outcome`."""
 
@@ -199,13 +203,14 @@ class _Slot:
     def wait_ready(self) -> None:
         if not self.conn.poll(START_TIMEOUT_S):
             self.process.kill()
-            raise RuntimeError(f"decision worker did not start within {START_TIMEOUT_S:g} s")
+            raise WorkerStartError(f"decision worker did not start within {START_TIMEOUT_S:g} s")
         try:
             status, detail = self.conn.recv()
         except EOFError:
-            raise RuntimeError(f"decision worker exited at start (exit code {self.process.exitcode})") from None
+            self.process.join(timeout=STOP_TIMEOUT_S)  # its pipe closes before it is reaped: wait for its exit code
+            raise WorkerStartError(f"decision worker exited at start (exit code {self.process.exitcode})") from None
         if status != "ready":
-            raise RuntimeError(f"decision worker could not start: {detail}")
+            raise WorkerStartError(f"decision worker could not start: {detail}")
 
     def stop(self) -> None:
         """Wait for the worker to finish what it was sent, and for its last outcomes to be delivered."""

@@ -380,6 +380,44 @@ def test_status_skips_an_unreadable_reply_naming_the_replier_and_prints_the_othe
     assert "version: Input should be 1" in warning
 
 
+def test_status_prints_every_monitor_that_answers_and_warns_of_two_with_one_id(capsys):
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+    from discern.monitor.status import MonitorStatus
+
+    ep, other = endpoint(free_port()), endpoint(free_port())
+    first = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
+    second = zenoh.open(ZenohSettings(listen=[other]).to_zenoh())
+    key = "discern/monitor/dup/status"
+    try:
+        for peer, uptime in ((first, 1.0), (second, 2.0)):
+            payload = MonitorStatus(monitor_id="dup", vehicles_filter="*", uptime_s=uptime, budget_ms=50.0).model_dump_json()
+            peer.declare_queryable(key, lambda q, payload=payload: q.reply(key, payload))
+        code = main(["status", "--connect", ep, "--connect", other, "--id", "dup", "--timeout", "10"])
+    finally:
+        second.close()
+        first.close()
+    out, err = capsys.readouterr()
+    assert code == 0 and sorted(line.split(", up ")[1][:3] for line in out.splitlines() if line.startswith("monitor dup")) == ["1 s", "2 s"]
+    assert err.strip() == "discern status: warning: more than one monitor answers as dup: give each its own --id"
+
+
+def test_serve_names_a_decision_worker_that_cannot_start_not_zenoh(capsys):
+    import multiprocessing.resource_tracker
+    import multiprocessing.spawn
+
+    multiprocessing.resource_tracker.ensure_running()  # with the real interpreter: it is no decision worker
+    python = multiprocessing.spawn.get_executable()
+    multiprocessing.spawn.set_executable("/bin/false")  # a worker whose interpreter exits at once
+    try:
+        code = main(["serve", "--listen", endpoint(free_port()), "--no-log"])
+    finally:
+        multiprocessing.spawn.set_executable(python)
+    [line] = capsys.readouterr().err.splitlines()
+    assert code == 2 and line == "discern serve: error: decision worker exited at start (exit code 1)"
+
+
 @pytest.mark.parametrize("command, arguments, message", [
     ("serve", ["--listen", "tcp/127.0.0.1:99999"], "zenoh could not open the session (--listen tcp/127.0.0.1:99999): invalid port value"),
     ("router", ["--listen", "foo/127.0.0.1:7447"], "zenoh could not open the session (--listen foo/127.0.0.1:7447): Unicast not supported for foo protocol"),
