@@ -393,11 +393,12 @@ class Judge:
 
     def _receipt(self, job: Job) -> Outcome:
         """A job answered before the worker took it: into the window it goes, and no second answer."""
-        proposal, error = self._remember(job)
-        return Outcome(job.rid, decoded=proposal is not None, error=error, receipt=True)
+        proposal, error, kind = self._remember(job)
+        return Outcome(job.rid, decoded=proposal is not None, error=error, error_kind=kind, receipt=True)
 
-    def _remember(self, job: Job) -> tuple[Optional[Proposal], Optional[str]]:
-        """Admit a job answered already into its vehicle's window: the proposal, or why it is none.
+    def _remember(self, job: Job) -> tuple[Optional[Proposal], Optional[str], Optional[str]]:
+        """Admit a job answered already into its vehicle's window: the proposal, or why it is none (and, for bad
+        input, its kind).
 
         A frame out of order stays out of the window, as it would if decided; its answer is already
         given, so it is not refused either.
@@ -405,15 +406,15 @@ class Judge:
         try:
             proposal = decode_proposal(job.payload, job.vehicle)
         except InputError as exc:
-            return None, str(exc)
+            return None, str(exc), exc.kind
         except Exception as exc:  # nothing a proposal does may take the worker down
             log.exception("internal error reading a proposal of %s", job.vehicle)
-            return None, f"internal error: {type(exc).__name__}: {exc}"
+            return None, f"internal error: {type(exc).__name__}: {exc}", None
         try:
             self._state(job.vehicle).admit(proposal.scene, job.arrived)
         except InputError:
             pass
-        return proposal, None
+        return proposal, None, None
 
     def _state(self, vehicle: str) -> VehicleState:
         state = self.vehicles.get(vehicle)

@@ -326,6 +326,8 @@ class MonitorServer:
 
     def _read_late(self, outcome: Outcome) -> None:
         """The worker's word on a payload whose answer went before it was read (at the deadline, at shutdown)."""
+        if outcome.error_kind is not None and not outcome.decoded:  # bad input all the same, as the log records it
+            self.counters.input_refused(outcome.error_kind)
         if self.answers is not None:
             self.answers.read(outcome.rid, None if outcome.decoded else (outcome.error or outcome.no_verdict))
 

@@ -88,7 +88,8 @@ class StatusCounters:
             self._latency_n += 1
 
     def input_refused(self, kind: str) -> None:
-        """A proposal refused without a verdict (it named no vehicle to answer)."""
+        """A proposal found to be bad input whose refusal was not sent: it named no vehicle to answer, or its
+        fail-safe went first (at the deadline)."""
         with self._lock:
             self._counts["errors"] += 1
             self._errors[kind] += 1

@@ -120,7 +120,9 @@ def test_a_worker_that_once_was_slow_still_tries_fresh_proposals():
     assert stale.verdict is None and "left after queueing" in stale.no_verdict
 
 
-def test_a_malformed_payload_answered_at_the_deadline_is_logged_as_refused_not_as_a_proposal(slow_monitor, slow_log):
+def test_a_malformed_payload_answered_at_the_deadline_is_logged_and_counted_as_refused_not_as_a_proposal(
+        slow_monitor, slow_log):
+    [before] = status(slow_monitor, "slow")
     session = zenoh.open(ZenohSettings(listen=[], connect=[slow_monitor]).to_zenoh())
     try:
         busy = ask(session, "busy", proposal("busy", highway_scene(0, 4)))  # the worker's next 400 ms
@@ -137,6 +139,9 @@ def test_a_malformed_payload_answered_at_the_deadline_is_logged_as_refused_not_a
     records = wait_until(logged)
     assert [r.kind for r in records] == ["rejected", "verdict"]  # no proposal record: it never was one
     assert records[0].rejected.error.startswith("malformed JSON") and records[0].rejected.excerpt == MALFORMED.decode()
+    [after] = status(slow_monitor, "slow")  # as the audit counts it: a refused input, whatever was sent in time
+    assert after["errors"] - before["errors"] == 1
+    assert after["errors_by_kind"]["json"] - before["errors_by_kind"].get("json", 0) == 1
 
 
 SHED_BUDGET_MS, SHED_DELAY_MS = 1000, 700  # alone a decision makes its budget; queued behind another it cannot
