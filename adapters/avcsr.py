@@ -11,6 +11,7 @@ kept and reported as a note on the scene, never silently fixed.
 
 from __future__ import annotations
 
+import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,7 +19,7 @@ from typing import Union
 
 from pydantic import ValidationError
 
-from discern.rules.scene import Action, IntersectionStage, Scene, Zone, describe_error
+from discern.rules.scene import JSON_AS_SCHEMA, Action, IntersectionStage, Scene, Zone, describe_error
 
 Term = Union[int, float, str, "Compound", list]
 
@@ -64,6 +65,18 @@ def _tokens(text: str, path: str):
         line += value.count("\n")
 
 
+MAX_TERM_DEPTH = 16
+MAX_DIGITS = 30  # a whole number longer is no speed, id or frame; Python refuses past 4300 digits anyway
+
+
+def _number(tok: str, where: str) -> Union[int, float]:
+    if "." in tok or "e" in tok.lower():
+        return float(tok)  # too large a float is inf, which the scene model names
+    if len(tok) > MAX_DIGITS:
+        raise AvcsrError(f"{where}: the number {tok[:12]}... has {len(tok)} digits, more than {MAX_DIGITS}")
+    return int(tok)
+
+
 class _Parser:
     def __init__(self, text: str, path: str):
         self.tokens = list(_tokens(text, path))
@@ -96,29 +109,31 @@ class _Parser:
             out.append((term, line))
         return out
 
-    def term(self) -> Term:
+    def term(self, depth: int = 0) -> Term:
         kind, tok, line = self.take()
+        if depth > MAX_TERM_DEPTH:  # AV-CSR's facts nest two deep; a deep one must not exhaust the stack
+            raise AvcsrError(f"{self.path}:{line}: a term nested more than {MAX_TERM_DEPTH} deep")
         if kind == "num":
-            return float(tok) if "." in tok or "e" in tok.lower() else int(tok)
+            return _number(tok, f"{self.path}:{line}")
         if kind == "var":
             raise AvcsrError(f"{self.path}:{line}: variable {tok} in a fact (facts must be ground)")
         if kind == "punct" and tok == "[":
             items: list = []
             if not self.at("]"):
-                items.append(self.term())
+                items.append(self.term(depth + 1))
                 while self.at(","):
                     self.take(",")
-                    items.append(self.term())
+                    items.append(self.term(depth + 1))
             self.take("]")
             return items
         if kind != "atom":
             raise AvcsrError(f"{self.path}:{line}: unexpected {tok!r}")
         if self.at("("):
             self.take("(")
-            args = [self.term()]
+            args = [self.term(depth + 1)]
             while self.at(","):
                 self.take(",")
-                args.append(self.term())
+                args.append(self.term(depth + 1))
             self.take(")")
             return Compound(tok, tuple(args))
         return tok
@@ -222,7 +237,8 @@ def read_file(path: Union[str, Path]) -> list[AvcsrFrame]:
     except OSError as exc:  # a broken symlink or a directory named x.pl, found in a directory given
         raise AvcsrError(f"{path}: cannot read: {exc.strerror or exc}") from None
     environment, zone, file_notes = _environment(text)
-    headers = [(m.start(), int(m.group(1))) for m in _HEADER.finditer(text)]
+    headers = [(m.start(), _number(m.group(1), f"{path}:{text.count(chr(10), 0, m.start()) + 1}"))
+               for m in _HEADER.finditer(text)]
     line_starts = [0] + [i + 1 for i, c in enumerate(text) if c == "\n"]
 
     def block_of(line: int) -> int | None:
@@ -374,7 +390,8 @@ def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) ->
     ]
     data["ego"] = ego
     try:
-        return Scene.model_validate(data), expected, notes
+        # through JSON, strictly, as a scene from a planner is read: a quoted atom ('12') is no number
+        return Scene.model_validate_json(json.dumps(data, default=_show), **JSON_AS_SCHEMA), expected, notes
     except ValidationError as exc:
         raise AvcsrError("\n".join(_problem(err, origins, path, t) for err in exc.errors(include_url=False))) from None
 

@@ -136,23 +136,19 @@ def cmd_catalog(args: argparse.Namespace) -> int:
 def _scenario_inputs(paths: Sequence[str]) -> tuple[list[Path], list[Path]]:
     """The AV-CSR frame files (.pl) and scenario files (.json) that the given files and directories hold.
 
-    A directory with .pl files is a set of AV-CSR frames (the paper's table); any other is searched for scenarios.
+    A directory is searched, subdirectories too, for both: its .pl files make the paper's table, its .json files
+    run as scenarios; one kind never hides the other.
     """
     frames: list[Path] = []
     scenarios: list[Path] = []
     for name in paths:
         path = Path(name)
         if path.is_dir():
-            found = sorted(path.glob("*.pl"))
-            if found:
-                frames += found
-                continue
-            from discern.scenarios.runner import ScenarioError, scenario_files
-
-            try:
-                scenarios += scenario_files(path)
-            except ScenarioError as exc:
-                raise UserError(f"{exc} and no AV-CSR frame files (*.pl)") from None
+            found_frames, found_scenarios = sorted(path.rglob("*.pl")), sorted(path.rglob("*.json"))
+            if not found_frames and not found_scenarios:
+                raise UserError(f"{path}: no scenario files (*.json) and no AV-CSR frame files (*.pl)")
+            frames += found_frames
+            scenarios += found_scenarios
         elif not path.exists():
             raise UserError(f"{path}: no such file or directory")
         elif path.suffix == ".pl":

@@ -274,10 +274,12 @@ def test_a_file_without_frames_is_refused(tmp_path, text):
      "f.pl:9: obj_meta(1, 4, car, pos(0, 100000), lane(current, 1), none): position.y: Input should be less than"),
     ("traffic_light(blue, 1).", "f.pl:9: traffic_light(blue, 1): colour: unknown value 'blue'"),
     ("obj_meta(1, 4, car, pos(0, f(3)), lane(current, 1), none).",
-     "f.pl:9: obj_meta(1, 4, car, pos(0, f(3)), lane(current, 1), none): position.y: Input should be a valid number (got f(3))"),
+     "f.pl:9: obj_meta(1, 4, car, pos(0, f(3)), lane(current, 1), none): position.y: Input should be a valid number (got 'f(3)')"),
     ("obj_meta(1, 4, car, pos(0, 3, 4), lane(current, 1), none).",
      "f.pl:9: obj_meta/6 cannot be read: expected pos(_, _), found pos(0, 3, 4)"),
     ("lanes(oncoming, abc, 1).", "f.pl:9: lanes/3 cannot be read: expected a list of lane ids such as [1, 2], found abc"),
+    ("obj_meta(1, '4', car, pos(0, 30), lane(current, 1), none).",  # a quoted atom is no number, as in Prolog
+     "f.pl:9: obj_meta(1, 4, car, pos(0, 30), lane(current, 1), none): id: Input should be a valid integer (got '4')"),
 ])
 def test_a_value_the_scene_refuses_is_named_by_its_fact_and_line(tmp_path, fact, message):
     """Once 'frame 1:' and 'objects.0.class', a list position the file never wrote, on a second line."""
@@ -288,6 +290,16 @@ def test_a_value_the_scene_refuses_is_named_by_its_fact_and_line(tmp_path, fact,
 def test_the_speed_of_a_frame_is_named_by_its_fact_when_the_scene_refuses_it(tmp_path):
     said = refused(tmp_path, BASE.replace("self_speed(8, 1).", "self_speed(-8, 1)."))
     assert said == f"{tmp_path / 'f.pl'}:3: self_speed(-8, 1): Input should be greater than or equal to 0 (got -8)"
+
+
+@pytest.mark.parametrize("text, message", [
+    ("self_speed(" + "[" * 500 + "]" * 500 + ", 1).", "f.pl:9: a term nested more than 16 deep"),
+    ("self_speed(" + "9" * 5000 + ", 1).", "f.pl:9: the number 999999999999... has 5000 digits, more than 30"),
+    ("%%% FRAME " + "9" * 5000 + " %%%", "f.pl:9: the number 999999999999... has 5000 digits, more than 30"),
+])
+def test_a_term_too_deep_or_a_number_too_long_is_named_by_its_line(tmp_path, text, message):
+    said = refused(tmp_path, BASE + text + "\n")
+    assert said == str(tmp_path / message.split(":", 1)[0]) + ":" + message.split(":", 1)[1]
 
 
 def test_prologs_own_spellings_read_as_prolog_reads_them(tmp_path):

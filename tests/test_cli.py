@@ -291,6 +291,19 @@ def test_scenarios_run_fails_when_any_expectation_fails(tmp_path, capsys):
     assert "FAIL  acc.cut_in #0" in out and "action brake, expected cruise" in out and "0 passed, 1 failed" in out
 
 
+def test_scenarios_run_on_a_directory_runs_its_frame_files_and_its_scenarios_subdirectories_too(avcsr_dir, tmp_path,
+                                                                                                capsys):
+    frames = sorted(avcsr_dir.glob("*.pl"))[0]
+    (tmp_path / frames.name).write_text(frames.read_text())
+    data = json.loads((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
+    data["frames"][0]["expect"]["action"] = "cruise"
+    (tmp_path / "deeper").mkdir()
+    write(tmp_path / "deeper", data, "wrong.json")
+    assert main(["scenarios", "run", str(tmp_path), "--repeats", "1"]) == 1  # the failing scenario is not hidden
+    out = capsys.readouterr().out
+    assert "agreement with expected_action: 3/3 frames" in out and "0 passed, 1 failed" in out
+
+
 def test_scenarios_run_runs_every_readable_file_and_names_each_broken_one(tmp_path, capsys):
     (tmp_path / "acc.cut_in.json").write_text((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
     (tmp_path / "a_broken.json").write_text('{"name": "broken", "frames": [\n')
