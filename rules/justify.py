@@ -18,7 +18,7 @@ from clingo import Symbol
 from .answer_set import AnswerSet
 from .catalog import DEFINITION_PREFIXES, SETTING_PREFIX, TRACED, Catalog, CompiledRule
 from .phrases import Phrasebook
-from .terms import Env, Literal, Term, Unbound, check_comparison, evaluate, is_assignment, match
+from .terms import Env, Literal, Term, Unbound, Undefined, check_comparison, evaluate, is_assignment, match
 from .verdict import JustificationNode
 
 # Replaying a predicate's rules for one object costs about 0.1-0.3 ms; reading the predicate whole, about 4 us an
@@ -339,6 +339,8 @@ class Prover:
             return
         try:
             ground = evaluate(term, env)
+        except Undefined:
+            return  # no atom has an undefined argument
         except Unbound:
             ground = None
         if ground is not None:

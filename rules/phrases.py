@@ -11,7 +11,7 @@ from clingo.ast import ComparisonOperator as _CMP
 
 from .answer_set import AnswerSet
 from .catalog import PLACEHOLDER, Catalog, CompiledRule, PredTemplate
-from .terms import CMP_TEXT, Env, Literal, Term, Unbound, evaluate, term_vars
+from .terms import CMP_TEXT, Env, Literal, Term, Unbound, Undefined, evaluate, term_vars
 
 
 @functools.lru_cache(maxsize=None)
@@ -210,6 +210,8 @@ class Phrasebook:
         for term in terms:
             try:
                 values.append(evaluate(term, env))
+            except Undefined as exc:  # "needs that X = (S/0) can be evaluated (a division by zero), which is false"
+                return f"{lit.source} can be evaluated ({exc})"
             except Unbound:
                 values.append(None)
         numbers = [v.number for v in values if v is not None and v.type == SymbolType.Number]

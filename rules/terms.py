@@ -34,6 +34,11 @@ class Unbound(Exception):
     """A term still has a free variable."""
 
 
+class Undefined(Unbound):
+    """Arithmetic clingo leaves undefined (a division by zero, zero to a negative power, a non-number): the literal
+    holding it does not hold, as in clingo's grounding, where its rule instance goes."""
+
+
 def compile_term(node: ast.AST) -> Term:
     kind = node.ast_type
     if kind == ast.ASTType.Variable:
@@ -114,28 +119,42 @@ def evaluate(term: Term, env: Env) -> Symbol:
     if tag == "f":
         args = [evaluate(a, env) for a in term[2]]
         return Tuple_(args) if term[1] == "" else Function(term[1], args)
-    if tag == "u":
-        value = evaluate(term[2], env).number
-        if term[1] == _UN.Minus:
-            return Number(-value)
-        if term[1] == _UN.Absolute:
-            return Number(abs(value))
-        return Number(~value)
-    a, b = evaluate(term[2], env).number, evaluate(term[3], env).number
+    try:
+        if tag == "u":
+            value = evaluate(term[2], env).number
+            if term[1] == _UN.Minus:
+                return Number(_wrap(-value))
+            if term[1] == _UN.Absolute:
+                return Number(_wrap(abs(value)))
+            return Number(~value)
+        a, b = evaluate(term[2], env).number, evaluate(term[3], env).number
+    except RuntimeError:  # .number of a non-number: clingo's arithmetic on it is undefined
+        raise Undefined("arithmetic on a non-number") from None
     op = term[1]
     if op == _BIN.Plus:
-        return Number(a + b)
+        return Number(_wrap(a + b))
     if op == _BIN.Minus:
-        return Number(a - b)
+        return Number(_wrap(a - b))
     if op == _BIN.Multiplication:
-        return Number(a * b)
+        return Number(_wrap(a * b))
+    if op in (_BIN.Division, _BIN.Modulo) and b == 0:
+        raise Undefined("a division by zero")
     if op == _BIN.Division:
-        return Number(_int_div(a, b))
+        return Number(_wrap(_int_div(a, b)))
     if op == _BIN.Modulo:
-        return Number(a - b * _int_div(a, b))
+        return Number(_wrap(a - b * _int_div(a, b)))
     if op == _BIN.Power:
-        return Number(a**b)
+        if b < 0:
+            if a == 0:
+                raise Undefined("zero to a negative power")
+            return Number(0)
+        return Number(_wrap(pow(a, b, 1 << 32)))
     raise Unbound(f"unsupported operator {op}")
+
+
+def _wrap(value: int) -> int:
+    """clingo's integers are 32-bit and wrap around: the prover must compute what the grounder did."""
+    return (value + (1 << 31)) % (1 << 32) - (1 << 31)
 
 
 Shape = tuple  # (is_function, name, args) of a symbol
@@ -246,7 +265,10 @@ def check_comparison(lit: Literal, env: Env) -> Optional[Env] | bool:
         right = guards[0][1]
         var, expr = (left, right) if left[0] == "v" and left[1] not in env else (right, left)
         extended = dict(env)
-        extended[var[1]] = evaluate(expr, env)
+        try:
+            extended[var[1]] = evaluate(expr, env)
+        except Undefined:
+            return False
         return extended
     try:
         lhs = evaluate(left, env)
@@ -255,6 +277,8 @@ def check_comparison(lit: Literal, env: Env) -> Optional[Env] | bool:
             if not compare(op, lhs, rhs):
                 return False
             lhs = rhs
+    except Undefined:
+        return False
     except Unbound:
         return None
     return env

@@ -66,6 +66,12 @@ def test_a_rule_through_its_own_negation_is_rejected_as_unstratified(tmp_path):
         load_catalog(write_rules(tmp_path, text))
 
 
+def test_a_rule_with_an_unsafe_variable_is_refused_on_loading_in_clingos_words_naming_its_file(tmp_path):
+    text = "%! rule x.unsafe\n%! says U.\n%! source s\nforbidden(A) :- not hazard(_).\n"
+    with pytest.raises(CatalogError, match=r"r\.lp: clingo cannot ground it: .*r\.lp:4:1-31: error: unsafe variables"):
+        load_catalog(write_rules(tmp_path, text))
+
+
 def test_a_syntax_error_names_the_file_and_line(tmp_path):
     with pytest.raises(CatalogError, match=r"r\.lp: cannot parse: .*r\.lp:4"):
         load_catalog(write_rules(tmp_path, "%! rule x.a\n%! says A.\n%! source s\na :- b,.\n"))

@@ -462,6 +462,20 @@ def test_check_names_the_vehicle_of_a_proposal_file(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["vehicle"] == "car_7"
 
 
+def test_a_rule_whose_arithmetic_clingo_leaves_undefined_is_explained_not_raised(tmp_path, capsys):
+    import shutil
+
+    rules = tmp_path / "rules"
+    shutil.copytree(ROOT / "rules" / "catalog", rules)
+    with open(rules / "40_lane_change.lp", "a") as f:
+        f.write("\n%! rule test.arith\n%! says Never.\n%! source test\nforbidden(cruise) :- ego_speed(S), X = S/0, X < 1.\n")
+    empty = {"frame_id": 1, "ego": {"speed": 12.0, "lane": 1}, "speed_limit": 13.0, "lanes": [{"kind": "current", "id": 1}]}
+    assert main(["check", write(tmp_path, empty), "--proposed", "cruise", "--rules", str(rules), "--explain", "text"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("approve cruise")
+    assert "rule test.arith needs that X = (S/0) can be evaluated (a division by zero), which is false" in out
+
+
 @pytest.mark.parametrize("files, message", [
     ({}, "has no *.lp files: there are no rules to judge by"),
     ({"notes.txt": "not rules"}, "has no *.lp files: there are no rules to judge by"),

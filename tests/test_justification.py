@@ -682,3 +682,28 @@ def test_a_70_mph_sign_read_as_31_3_m_s_is_usual_on_a_highway(reasoner):
     sc = sanity_scene(speed=25.0, zone="highway", limit=31.3, signs=[{"kind": "speed_limit", "value": 31.3, "source": "camera"}])
     verdict = reasoner.decide(sc, "accelerate", explain=True)
     assert "is doubted: unusual" not in verdict.justification.text and not any(r.startswith("san.limit") for r in verdict.rules)
+
+
+@pytest.mark.parametrize("expression", [
+    "1200*1200*1200*1200", "2147483647+1", "2**31", "3**31", "2**40", "3**(-1)", "1**(-1)", "(-1)**(-2)", "0**0",
+    "(-7)/2", "(-7)\\2", "7/(-2)", "-(-2147483647-1)", "|-2147483647-1|", "5/0", "7\\0", "0**(-1)", "2+a",
+])
+def test_the_provers_arithmetic_is_clingos_32_bit_arithmetic_undefined_where_clingos_is(expression):
+    """The prover replays rule bodies: a value it computes otherwise than the grounder did explains another frame."""
+    from clingo import Control, ast
+
+    from discern.rules.terms import Undefined, compile_term, evaluate
+
+    control = Control(["--warn=none"])
+    control.add("base", [], f"x(X) :- X = {expression}.")
+    control.ground([("base", [])])
+    grounded = [a.symbol.arguments[0] for a in control.symbolic_atoms.by_signature("x", 1)]
+    statements = []
+    ast.parse_string(f"x :- X = {expression}.", statements.append)
+    term = compile_term(statements[-1].body[0].atom.guards[0].term)
+    if grounded:
+        assert [evaluate(term, {})] == grounded
+    else:
+        with pytest.raises(Undefined):
+            evaluate(term, {})
+
