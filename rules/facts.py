@@ -79,7 +79,7 @@ class Params:
                 problems.append(f"--param {pair!r}: expected NAME=VALUE, such as decel=4")
                 continue
             try:
-                number = float(value)
+                number = None if "_" in value else float(value)  # Python's 4_0 is 40: no operator's 4.0
             except ValueError:
                 number = None
             if name not in known:

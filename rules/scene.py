@@ -18,14 +18,21 @@ SCHEMA_VERSION = 1
 
 
 def _a_json_integer(value: object) -> object:
-    """The version is the JSON integer 1: a Literal alone takes true and 1.0 too (they equal 1 in Python), which the
-    published schema refuses, so that a log would hold a message its own channel schema rejects."""
-    if type(value) is not int:
+    """The version is the JSON number 1 (1.0 too, as JSON Schema's `const` has it): a Literal alone also takes true,
+    which the published schema refuses, so that a log would hold a message its own channel schema rejects."""
+    if type(value) not in (int, float) or value != 1:
         raise ValueError(f"Input should be 1 (got {_shown(value)})")
-    return value
+    return 1
+
+
+def _whole(value: object) -> object:
+    """JSON Schema's "integer" is any number without a fraction: 3.0 is a lane id the published schema accepts, so the
+    model takes it too, where strict validation alone would refuse it. A fraction still gets the integer error."""
+    return int(value) if type(value) is float and value.is_integer() else value
 
 
 Version = Annotated[Literal[1], BeforeValidator(_a_json_integer)]
+WholeNumber = Annotated[int, BeforeValidator(_whole)]
 
 
 class Action(str, Enum):
@@ -195,7 +202,7 @@ class Velocity(Strict):
 
 class Ego(Strict):
     speed: Speed = Field(description="ego speed, m/s")
-    lane: int = Field(ge=1, le=MAX_LANE_ID, description="id of the ego's lane among the current lanes (1 = leftmost)")
+    lane: WholeNumber = Field(ge=1, le=MAX_LANE_ID, description="id of the ego's lane among the current lanes (1 = leftmost)")
     intent: Intent = Intent.continue_in_lane
     zone: Zone = Field(Zone.city, description="where the ego drives; omitted, a city is assumed (the strictest "
                        "usual limits) and the verdict's notes say so")
@@ -205,7 +212,7 @@ class Ego(Strict):
 
 class Lane(Strict):
     kind: LaneKind
-    id: int = Field(ge=1, le=MAX_LANE_ID, description="1 = leftmost lane of its kind")
+    id: WholeNumber = Field(ge=1, le=MAX_LANE_ID, description="1 = leftmost lane of its kind")
     ends_in: Optional[NonNegMetres] = Field(None, description="metres ahead where this lane ends")
     leaves_road: bool = Field(False, description="where it ends, this lane leaves the road (an exit or turn lane) "
                               "rather than dropping into the next lane")
@@ -214,7 +221,7 @@ class Lane(Strict):
 
 class LaneRef(Strict):
     kind: LaneKind
-    id: int = Field(ge=1, le=MAX_LANE_ID)
+    id: WholeNumber = Field(ge=1, le=MAX_LANE_ID)
 
 
 class Size(Strict):
@@ -224,7 +231,7 @@ class Size(Strict):
 
 
 class DetectedObject(Strict):
-    id: int = Field(ge=1, le=MAX_ID, description="object id; 0 is the ego")
+    id: WholeNumber = Field(ge=1, le=MAX_ID, description="object id; 0 is the ego")
     cls: ObjectClass = Field(alias="class")
     position: Vec2 = Field(description=(
         "metres relative to the ego: x right, centre to centre; y ahead, from the ego's nearest bumper to the "
@@ -240,7 +247,8 @@ class DetectedObject(Strict):
     sources: list[Source] = Field(default_factory=lambda: [Source.camera], max_length=len(Source))
     elevation: Optional[Metres] = Field(None, description="height of the object's base above the road, m")
     size: Optional[Size] = None
-    track_age: Optional[int] = Field(None, ge=0, le=MAX_ID, description="frames this track has existed")
+    track_age: Optional[Annotated[int, Field(ge=0, le=MAX_ID), BeforeValidator(_whole)]] = Field(
+        None, description="frames this track has existed")
 
 
 class TrafficLight(Strict):
@@ -261,7 +269,8 @@ class Intersection(Strict):
     type: IntersectionType
     stage: IntersectionStage = IntersectionStage.arriving
     road: Optional[Literal["major", "minor"]] = Field(None, description="road class of the ego's approach")
-    arrival_rank: Optional[int] = Field(None, ge=1, le=MAX_ID, description="ego's arrival order at an all-way stop")
+    arrival_rank: Optional[Annotated[int, Field(ge=1, le=MAX_ID), BeforeValidator(_whole)]] = Field(
+        None, description="ego's arrival order at an all-way stop")
     distance: Optional[NonNegMetres] = Field(None, description="metres to the stop line")
     stop_line: bool = False
     stop_controlled: bool = Field(False, description="map data: the ego's approach is stop-controlled")
@@ -289,7 +298,7 @@ class PathCrossing(Strict):
 class Scene(Strict):
     """One frame of the world as the planner saw it."""
 
-    frame_id: int = Field(ge=0, le=MAX_FRAME_ID)
+    frame_id: WholeNumber = Field(ge=0, le=MAX_FRAME_ID)
     timestamp: float = Field(0.0, ge=-MAX_TIMESTAMP_S, le=MAX_TIMESTAMP_S, allow_inf_nan=False, description="seconds")
     ego: Ego
     speed_limit: Optional[Speed] = Field(None, description="limit in force as perceived, m/s")

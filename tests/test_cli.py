@@ -252,7 +252,7 @@ def test_check_param_past_its_bound_is_refused_rather_than_wrapped_into_a_permis
     """A reaction time of 800 s once wrapped clingo's 32-bit arithmetic and approved cruising at a stopped car."""
     path = write(tmp_path, json.loads(scene(speed=30, limit=35, objects=[obj("car", 0, 60, lane=1, vy=0.0)])
                                       .model_dump_json(by_alias=True)))
-    for setting in ("reaction_s=800", "headway_s=800", "accel_step=1000", "min_gap=1e7"):
+    for setting in ("reaction_s=800", "headway_s=800", "accel_step=1000", "min_gap=1e7", "decel=4_0"):
         assert main(["check", path, "--proposed", "cruise", "--param", setting]) == 2
         err = capsys.readouterr().err
         name, _, value = setting.partition("=")

@@ -95,7 +95,7 @@ def test_every_proposal_the_schema_admits_decodes_strictly_or_fails_only_a_cross
     (("explain",), 1, "explain: Input should be a valid boolean (got 1)"),
     (("version",), "1", "version: Input should be 1 (got '1')"),
     (("version",), True, "version: Input should be 1 (got True)"),
-    (("version",), 1.0, "version: Input should be 1 (got 1.0)"),
+    (("scene", "ego", "lane"), 1.5, "scene.ego.lane: Input should be a valid integer (got 1.5)"),
 ])
 def test_a_wire_value_of_another_json_type_than_the_schema_says_is_refused_not_converted(path, value, expected):
     document = json.loads(PROPOSAL.model_dump_json(by_alias=True))
@@ -115,6 +115,18 @@ def test_json_integers_are_numbers_and_enum_strings_are_their_values_on_the_wire
     proposal = decode_proposal(payload, "car_1")
     assert proposal.scene.ego.speed == 25.0 and isinstance(proposal.scene.ego.speed, float)
     assert proposal.action is Action.cruise and proposal.scene.objects[0].cls.value == "car"
+
+
+def test_a_whole_number_written_with_a_fraction_is_the_integer_json_schema_takes_it_for():
+    """JSON Schema's "integer" is any number without a fraction: a planner that checks its messages against the
+    published schema must not be refused by the monitor for writing 3.0."""
+    payload = (b'{"version": 1.0, "action": "cruise", "scene": {"frame_id": 3.0, "ego": {"speed": 25, "lane": 1.0}, '
+               b'"lanes": [{"kind": "current", "id": 1.0}], "objects": [{"id": 7.0, "class": "car", "track_age": 2.0, '
+               b'"position": {"x": 0, "y": 40}}]}}')
+    proposal = decode_proposal(payload, "car_1")
+    scene = proposal.scene
+    assert (proposal.version, scene.frame_id, scene.ego.lane, scene.lanes[0].id) == (1, 3, 1, 1)
+    assert (scene.objects[0].id, scene.objects[0].track_age) == (7, 2) and type(scene.frame_id) is int
 
 
 def test_a_field_under_its_python_name_is_refused_on_the_wire_as_the_schema_does():
