@@ -60,7 +60,7 @@ class VehicleState:
         if last is not None and scene.frame_id <= last:
             what = "duplicate" if scene.frame_id == last else "out-of-order"
             raise InputError(
-                f"frame_id: {what} frame {scene.frame_id}, the last frame judged for this vehicle was {last}",
+                f"frame_id: {what} frame {scene.frame_id}, the last frame received for this vehicle was {last}",
                 "order",
             )
         if last is None or scene.timestamp < self.last_timestamp:  # the clock going back is a new episode too
