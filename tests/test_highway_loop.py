@@ -140,8 +140,9 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
         (["--monitor", "--param", "decel=4"], "--param has no effect with --monitor: the monitor decides with its own"),
         (["--monitor", "--record", "rec"], "--record has nothing to add with --monitor: the monitor logs every proposal"),
         (["--variants", ","], "--variants names no variant"),
-        (["--duration", "nan"], "--duration must be a finite number of seconds above 0"),
-        (["--duration", "inf"], "--duration must be a finite number of seconds above 0"),
+        (["--duration", "nan"], "--duration must be a number of seconds above 0 and at most 3600, got nan"),
+        (["--duration", "inf"], "--duration must be a number of seconds above 0 and at most 3600, got inf"),
+        (["--duration", "1e300"], "--duration must be a number of seconds above 0 and at most 3600, got 1e+300"),
         (["--faults", "none", "missed", "--miss-rate", "0"], "--faults gives more than one set that comes out as 'none'"),
         (["--seed", "-1"], "--seed must be at least 0 (the environment's seeds are), got -1"),
         (["--jobs", "0"], "--jobs must be at least 1, got 0"),
@@ -197,6 +198,19 @@ def test_an_evaluation_stops_at_the_first_step_its_monitor_gives_no_verdict_for(
         evaluate(1, [Faults()], ["discern"], Setup(duration=2, monitor=(gone,)), progress=False)
 
 
+def test_an_evaluation_stops_at_a_fail_safe_verdict_rather_than_count_its_brake_as_the_rules():
+    """A monitor answering after its budget once gave a 'discern' row of deadline brakes, and exit status 0."""
+    from tests.monitor_process import serve
+
+    proc, endpoint = serve("--id", "slow-eval", "--test-only-decision-delay-ms", "100")
+    try:
+        with pytest.raises(RuntimeError, match=r"discern episode 10000 \(none\), step 0: a fail-safe verdict "
+                                               r"\(monitor\.deadline\), not the rules': .*--budget-ms"):
+            evaluate(1, [Faults()], ["discern"], Setup(duration=2, monitor=(endpoint,)), progress=False)
+    finally:
+        assert proc.stop() == 0, proc.output
+
+
 def test_a_recorded_evaluation_logs_discerns_verdicts_not_rsss(tmp_path):
     """RSS's overrides in the log read, to the audit and its replay, as Discern decisions that would change."""
     from discern.monitor.log.reader import read_log
@@ -218,10 +232,12 @@ def test_cli_says_a_weights_file_that_holds_no_weights_is_not_the_planners(tmp_p
     ("{tmp}", "planner weights {tmp}: a directory, not a weights file"),
     ("{tmp}/scene.json", "{tmp}/scene.json is not a planner weights file (a torch state dict from the trainer)"),
     ("{tmp}/hi.pt", "{tmp}/hi.pt is not a planner weights file (a torch state dict from the trainer)"),  # a pickle opcode
+    ("{tmp}/log.csv", "{tmp}/log.csv is not a planner weights file (a torch state dict from the trainer)"),  # IndexError
 ])
 def test_cli_says_a_weights_path_that_is_no_weights_file_is_not_one(tmp_path, capsys, weights, message):
     (tmp_path / "scene.json").write_text('{"frame_id": 1}')
     (tmp_path / "hi.pt").write_text("hi\n")
+    (tmp_path / "log.csv").write_text("step,loss\n1,0.5\n")
     weights, message = weights.format(tmp=tmp_path), message.format(tmp=tmp_path)
     code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "planner", "--faults", "none", "--quiet",
                      "--weights", weights, "--duration", "1", "--out", str(tmp_path / "out")])

@@ -13,6 +13,7 @@ from discern.monitor.config import path_arg, path_text
 DEMO_FAULTS = ("none", "signs,missed")
 MONITOR_WAIT_S = 5.0
 MAX_NOISE_M = 100.0  # std at 150 m is 3.2 times it: more would put objects past the scene's 10 km bound
+MAX_DURATION_S = 3600.0  # an hour of driving an episode: an evaluation that ends
 
 
 def register(subparsers) -> None:
@@ -126,8 +127,10 @@ def _run_eval(args: argparse.Namespace) -> int:
         problems.append(f"--jobs must be at least 1, got {args.jobs}")
     problems += [f"{flag} {path}: not a directory" for flag, path in (("--out", args.out), ("--record", args.record))
                  if path is not None and path.exists() and not path.is_dir()]
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        problems.append(f"--duration must be a finite number of seconds above 0, got {args.duration}")
+    if args.duration is not None and not (0 < args.duration <= MAX_DURATION_S):  # NaN fails too
+        # an episode ends only on a crash or its duration: a huge one never ends for a planner that does not crash
+        problems.append(f"--duration must be a number of seconds above 0 and at most {MAX_DURATION_S:g}, "
+                        f"got {args.duration:g}")
     problems += _rate_problems(args)
     fault_sets = []
     for kinds in args.faults:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from discern.monitor.protocol import RULE_NO_ANSWER
+from discern.monitor.protocol import RULE_DEADLINE, RULE_NO_ANSWER
 from discern.monitor.status import percentile
 from discern.rules.verdict import Decision
 
@@ -30,6 +30,7 @@ from .wrapper import VEHICLE_PARAMS, DiscernWrapper
 VARIANTS = ("planner", "discern", "rss")
 NAN = float("nan")
 SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
+HINT_DEADLINE = " (a monitor too busy for its budget: give it a larger --budget-ms, or run fewer --jobs)"
 
 
 @dataclass
@@ -140,9 +141,14 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
             action = planner.act(truth.ego, lanes, perceived.camera_tracks(), perceived.sign.limit)
             started = time.perf_counter()
             verdict = env.judge(action)
-            if verdict is not None and RULE_NO_ANSWER in verdict.rules:
-                # a monitor that stopped answering: the row would be the client's fail-safe brakes, not Discern's
-                raise RuntimeError(f"{variant} episode {seed} ({faults.label()}), step {result.steps}: {verdict.error}")
+            if verdict is not None and verdict.failsafe:
+                # No monitor answering, one answering late, a checker that failed: the row would count fail-safe
+                # brakes as the rules' verdicts, and their braking would change the episode itself.
+                where = f"{variant} episode {seed} ({faults.label()}), step {result.steps}"
+                if RULE_NO_ANSWER in verdict.rules:
+                    raise RuntimeError(f"{where}: {verdict.error}")
+                raise RuntimeError(f"{where}: a fail-safe verdict ({', '.join(verdict.rules)}), not the rules': "
+                                   f"{verdict.error}" + (HINT_DEADLINE if RULE_DEADLINE in verdict.rules else ""))
             if verdict is not None:
                 result.decide_ms.append((time.perf_counter() - started) * 1000.0)
                 if verdict.decision is not Decision.approve:

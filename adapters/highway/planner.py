@@ -7,7 +7,6 @@ follows the speed-limit sign it reads: a misread sign makes it speed, which is w
 
 from __future__ import annotations
 
-import pickle
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -114,12 +113,13 @@ class Planner:
         network = QNetwork()
         try:
             state = torch.load(path, map_location="cpu", weights_only=True)
-        except (pickle.UnpicklingError, RuntimeError, EOFError, KeyError, ValueError, TypeError, AttributeError):
-            # Any of these from torch's unpickler, for a file whose first bytes happen to be pickle opcodes; torch's
-            # own reason advises weights_only=False, which would run whatever code the file holds.
-            raise RuntimeError(f"{path} is not a planner weights file (a torch state dict from the trainer)") from None
         except OSError as exc:
             raise RuntimeError(f"planner weights {path}: cannot read: {exc.strerror or exc}") from None
+        except Exception:
+            # torch's unpickler raises whatever a file whose first bytes happen to be pickle opcodes leads it to
+            # (UnpicklingError, IndexError, KeyError, ...); its own reason advises weights_only=False, which would run
+            # whatever code the file holds.
+            raise RuntimeError(f"{path} is not a planner weights file (a torch state dict from the trainer)") from None
         try:
             network.load_state_dict(state)
         except (RuntimeError, TypeError) as exc:  # another network's weights, or no state dict at all

@@ -234,9 +234,11 @@ class McapLogWriter:
         self.directory.mkdir(parents=True, exist_ok=True)  # it may have been deleted since the last file
         stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S")
         path = self.directory / f"discern-{self.monitor_id}-{stamp}-{self.run[:RUN_CHARS]}-{self.opened:04d}.mcap"
-        stream = open(path, "wb")
+        opening = path.with_name(path.name + ".opening")  # no log's name: no keep cap looks at it unlocked
+        stream = open(opening, "wb")
         try:
             fcntl.flock(stream.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)  # being written: see _being_written
+            os.replace(opening, path)
             compression = CompressionType.ZSTD if self.settings.compression == "zstd" else CompressionType.NONE
             writer = Writer(stream, chunk_size=CHUNK_BYTES, compression=compression)
             writer.start(profile="", library="discern")
@@ -254,7 +256,7 @@ class McapLogWriter:
             stream.flush()
         except BaseException:
             # Not a log file: remove it, as the index only moves on with a file opened.
-            for undo in (stream.close, lambda: path.unlink(missing_ok=True)):
+            for undo in (stream.close, lambda: opening.unlink(missing_ok=True), lambda: path.unlink(missing_ok=True)):
                 try:
                     undo()
                 except OSError:
