@@ -489,7 +489,7 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
             if not normal:  # a choice, a disjunction or a constraint: no fact the prover could cite
                 raise CatalogError(f"{path}:{stm.location.begin.line}: only normal rules and facts are supported")
             catalog.facts.append(stm)
-            for atom in _ground_fact(stm):
+            for atom in _ground_fact(stm, path):
                 catalog.fact_predicates.add(atom.name)
                 catalog.fact_atoms.setdefault(atom.name, []).append(atom)
                 if info is not None:
@@ -499,7 +499,10 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
             raise CatalogError(f"{path}:{stm.location.begin.line}: rule has no '%! rule' annotation")
         if not normal:
             raise CatalogError(f"{path}:{stm.location.begin.line}: {info.id}: only normal rules are supported")
-        body = tuple(compile_literal(lit) for lit in stm.body)
+        try:
+            body = tuple(compile_literal(lit) for lit in stm.body)
+        except ValueError as exc:  # an aggregate, a conditional literal: nothing the prover can replay
+            raise CatalogError(f"{path}:{stm.location.begin.line}: {info.id}: {exc}") from None
         head, computed = _computed_head_arguments(stm.head.atom.symbol, body)
         body += computed
         if any(lit.negated and not lit.is_atom for lit in body):
@@ -608,12 +611,17 @@ def _assignments(body: tuple[Literal, ...]) -> frozenset[int]:
     return frozenset(found)
 
 
-def _ground_fact(stm: ast.AST) -> list[Symbol]:
+def _ground_fact(stm: ast.AST, path: str) -> list[Symbol]:
     """The atoms a catalog fact stands for (pools expanded), to credit them to their rule."""
-    ctl = Control(["--warn=none"])
-    with ast.ProgramBuilder(ctl) as builder:
-        builder.add(stm)
-    ctl.ground([("base", [])])
+    messages: list[str] = []
+    ctl = Control(["--warn=none"], logger=lambda _code, message: messages.append(message.strip()))
+    try:
+        with ast.ProgramBuilder(ctl) as builder:
+            builder.add(stm)
+        ctl.ground([("base", [])])
+    except RuntimeError:  # a fact with a variable (`foo(X).`) is unsafe
+        said = " ".join(" ".join(m.split()) for m in messages).replace("<string>", path)
+        raise CatalogError(f"{path}: clingo cannot ground it: {said or 'no reason given'}") from None
     return [a.symbol for a in ctl.symbolic_atoms if a.is_fact]
 
 

@@ -301,6 +301,21 @@ def test_a_shown_time_is_the_millisecond_its_record_falls_in_so_given_back_it_ke
     assert parse_time(str(late), through=True) == late  # epoch nanoseconds are exact
 
 
+@pytest.mark.parametrize("until, last", [
+    ("2026-11-27T17:12", "2026-11-27T17:12:59.999Z"),  # a minute: all of it
+    ("2026-11-27T17", "2026-11-27T17:59:59.999Z"),
+    ("20261127T1712Z", "2026-11-27T17:12:59.999Z"),  # the basic format
+    ("2026-11-27 17:12-05:00", "2026-11-27T22:12:59.999Z"),
+    ("2026-W48-5", "2026-11-27T23:59:59.999Z"),  # a week date: the day
+    ("2026-W48", "2026-11-29T23:59:59.999Z"),  # ... without its day: the week
+    ("2026-11-27T17:12:50,091Z", "2026-11-27T17:12:50.091Z"),  # a decimal comma
+    ("1764263571.5", "2025-11-27T17:12:51.599Z"),
+])
+def test_until_runs_to_the_end_of_the_unit_the_time_is_written_to_however_iso_writes_it(until, last):
+    assert iso(parse_time(until, through=True)) == last
+    assert parse_time(until, through=True) % 10**6 == 999_999  # to the last nanosecond of that unit
+
+
 def test_a_report_that_would_overwrite_a_log_is_refused_before_the_logs_are_read(capsys, tmp_path, logs):
     run = tmp_path / "run"
     run.mkdir()
@@ -374,6 +389,8 @@ def test_a_report_that_cannot_be_written_is_refused_before_the_logs_are_read(cap
         (["{log}", "--workers", "100000"], "--workers must be 1 to 64, got 100000"),
         (["{log}", "--since", ""], "--since: time '' is neither ISO 8601"),  # an unset shell variable
         (["{log}", "--replay", "--until", ""], "--until: time '' is neither ISO 8601"),
+        (["{log}", "--vehicle", ""], "--vehicle is empty: it would match nothing"),
+        (["{log}", "--rule", " "], "--rule is empty: it would match nothing"),
         (["{log}", "--replay", "--window", "inf"], "--window must be a finite number above 0 s and at most 60 s, got inf"),
         (["{log}", "--replay", "--window", "0"], "--window must be a finite number above 0 s and at most 60 s, got 0.0"),
         (["{log}", "--html", "/nonexistent/dir/report.html"], "cannot write /nonexistent/dir/report.html"),

@@ -83,6 +83,28 @@ def test_a_pair_split_by_file_rotation_is_joined(capsys, tmp_path, fleet):
     assert doc["odometry"] == pytest.approx(whole["odometry"])
 
 
+def test_proposals_without_a_logged_verdict_are_those_the_audited_files_leave_unanswered_whatever_lies_beside(
+        capsys, tmp_path, fleet):
+    """A file's lead-in (the run's file before it, beside it in the directory) pairs the proposal its last verdict
+    answers; that proposal once cancelled one of the audited file's own, counted by no task when the lead-in
+    file was not audited itself."""
+    with open(fleet, "rb") as f:
+        topics = [c.topic for _, c, _ in make_reader(f).iter_messages(log_time_order=False)]
+    cuts = [i for i, t in enumerate(topics) if i > 10 and t.endswith("/proposal") and topics[i + 1].endswith("/verdict")]
+    rotated = tmp_path / "rotated"
+    rotated.mkdir()
+    parts = [rotated / f"discern-m1-20260101T00000{k}-0badcafe-000{k}.mcap" for k in range(3)]
+    rewrite(fleet, parts, splits=(cuts[0], cuts[len(cuts) // 2]))  # each of the first two ends on a proposal
+
+    def unanswered(*paths) -> int:
+        return audit_json(capsys, tmp_path, *paths)["unanswered_proposals"]
+
+    assert unanswered(rotated) == 0
+    assert unanswered(parts[1]) == 1  # its last proposal's verdict is in the next file, not audited
+    assert unanswered(parts[0]) == 1
+    assert unanswered(parts[0], parts[2]) == 1
+
+
 def test_unknown_channels_are_skipped_with_a_warning(capsys, tmp_path, fleet, caplog):
     mixed = tmp_path / "mixed.mcap"
     rewrite(fleet, [mixed], foreign=True)

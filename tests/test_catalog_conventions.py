@@ -72,6 +72,16 @@ def test_a_rule_with_an_unsafe_variable_is_refused_on_loading_in_clingos_words_n
         load_catalog(write_rules(tmp_path, text))
 
 
+@pytest.mark.parametrize("text, problem", [
+    ("%! rule x.fact\n%! says F.\n%! source s\nfoo(X).\n", r"r\.lp: clingo cannot ground it: .*r\.lp:4:1-8: error: unsafe"),
+    ("%! rule x.count\n%! says C.\n%! source s\nfoo :- #count{X : bar(X)} > 1.\n",
+     r"r\.lp:4: x\.count: unsupported literal in a catalog rule: 1 < #count"),
+])
+def test_a_variable_fact_or_an_aggregate_is_refused_naming_its_file_not_raised(tmp_path, text, problem):
+    with pytest.raises(CatalogError, match=problem):
+        load_catalog(write_rules(tmp_path, text))
+
+
 def test_a_syntax_error_names_the_file_and_line(tmp_path):
     with pytest.raises(CatalogError, match=r"r\.lp: cannot parse: .*r\.lp:4"):
         load_catalog(write_rules(tmp_path, "%! rule x.a\n%! says A.\n%! source s\na :- b,.\n"))

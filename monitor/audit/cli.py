@@ -197,6 +197,9 @@ def _filters(args: argparse.Namespace) -> Filters:
         raise UsageError(str(exc)) from None
     if since is not None and until is not None and since > until:
         raise UsageError(f"--since {args.since} is after --until {args.until}")
+    for flag in ("vehicle", "rule"):
+        if any(not pattern.strip() for pattern in getattr(args, flag)):
+            raise UsageError(f"--{flag} is empty: it would match nothing (an unset shell variable?)")
     return Filters(
         vehicles=tuple(args.vehicle),
         since_ns=since,

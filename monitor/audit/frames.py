@@ -56,6 +56,7 @@ class FrameTask:
 
     paths: tuple[str, ...]
     lead_in: tuple[str, ...] = ()
+    audited_lead_in: tuple[str, ...] = ()  # the lead-in files audited too: their own tasks counted their leftovers
 
 
 @dataclass
@@ -66,7 +67,7 @@ class PairingCounts:
     rejected: int = 0
     status: int = 0
     unanswered: int = 0  # proposals left without a verdict at the end of their file
-    carried: int = 0  # verdicts paired with a proposal from the lead-in: not unanswered after all
+    carried: int = 0  # verdicts paired with a proposal an audited lead-in file counted: not unanswered after all
 
     def merge(self, other: "PairingCounts") -> None:
         for name in self.__dataclass_fields__:
@@ -85,14 +86,17 @@ class Pairing:
         window_s: Optional[float] = None,
         lead_in: tuple[str, ...] = (),
         counted: Optional[Callable[[Optional[str], int], bool]] = None,
+        audited_lead_in: tuple[str, ...] = (),
     ):
-        """`lead_in`: the files read for context only, whose leftover proposals their own tasks counted.
+        """`lead_in`: the files read for context only, whose leftover proposals are not this task's to count;
+        `audited_lead_in`, those of them the audit reads as its own files too, whose tasks counted them.
 
         `counted(vehicle, log_time_ns)`: the refusals and unanswered proposals counted, as the audit's
         vehicle and time filters count frames (default: all).
         """
         self.window_s = window_s
         self.lead_in = frozenset(lead_in)
+        self.audited_lead_in = frozenset(audited_lead_in)
         self.counted = counted or (lambda vehicle, log_time_ns: True)
         self.pending: dict[str, deque[LogRecord]] = {}
         self.states: dict[str, VehicleState] = {}
@@ -126,7 +130,8 @@ class Pairing:
         return self.counted(record.vehicle, record.log_time_ns)
 
     def _unanswered(self, proposal: LogRecord) -> bool:
-        """Whether a proposal given up on counts here: not one of the lead-in's, which its own task counted."""
+        """Whether a proposal given up on counts here: not one of the lead-in's, its own task's to count (no task's,
+        where that file is not audited)."""
         return str(proposal.path) not in self.lead_in and self._counts(proposal)
 
     def _frame(self, record: LogRecord) -> Frame:
@@ -135,7 +140,7 @@ class Pairing:
         proposal_record = self._take(vehicle, verdict.frame_id)
         frame = Frame(file=str(record.path), log_time_ns=record.log_time_ns, vehicle=vehicle, verdict=verdict)
         if proposal_record is not None:
-            if str(proposal_record.path) in self.lead_in:
+            if str(proposal_record.path) in self.audited_lead_in:  # counted unanswered by its own task: not so
                 self.counts.carried += self._counts(proposal_record)
             frame.proposal = proposal_record.proposal
             frame.arrived_ns = proposal_record.log_time_ns
@@ -175,10 +180,13 @@ def plan_tasks(paths: list[str], parts: int = 1, lead_in_s: float = LEAD_IN_SLAC
     fewer lead-ins.
     """
     tasks = []
-    for sequence in _sequences([str(p) for p in log_files(paths)]):
+    given = [str(p) for p in log_files(paths)]
+    audited = set(given)
+    for sequence in _sequences(given):
         before = _earlier_in_run(sequence[0])
         for stretch in _even_runs(sequence, parts):
-            tasks.append(FrameTask(tuple(stretch), _lead_in(before, stretch, lead_in_s)))
+            lead_in = _lead_in(before, stretch, lead_in_s)
+            tasks.append(FrameTask(tuple(stretch), lead_in, tuple(f for f in lead_in if f in audited)))
             before = before + stretch
     return tasks
 
@@ -307,7 +315,7 @@ def read_frames(
     `counted` picks the refusals and unanswered proposals counted (Pairing).
     The Pairing holds the task's counts once iteration ends.
     """
-    pairing = Pairing(window_s, task.lead_in, counted)
+    pairing = Pairing(window_s, task.lead_in, counted, task.audited_lead_in)
 
     def frames() -> Iterator[Frame]:
         if task.lead_in:

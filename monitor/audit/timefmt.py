@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from datetime import datetime, timedelta, timezone
 from decimal import Decimal, InvalidOperation
 
@@ -37,16 +38,28 @@ def parse_time(text: str, option: str = "time", through: bool = False) -> int:
 
 
 def _unit_ns(value: str) -> int:
-    """The unit a time is written to, in ns: 1 for epoch nanoseconds, else that of its last decimal of seconds."""
+    """The unit a time is written to, in ns: 1 for epoch nanoseconds; for epoch seconds, their last decimal; in ISO
+    8601, that of its last field (a day, week, hour, minute, second or decimal of a second, however written)."""
     if value.isdigit() and MIN_EPOCH_NS <= int(value) <= MAX_EPOCH_NS:
         return 1
-    if len(value) == 10 and value[4] == value[7] == "-":  # a date alone: the whole day
-        return 86_400 * 10**9
-    seconds = value.replace("Z", "").split("+")[0]
-    if "T" in seconds or " " in seconds:  # ISO 8601: a zone offset may follow, as -05:00
-        seconds = seconds.split("T")[-1].split(" ")[-1].split("-")[0]
-    decimals = len(seconds.split(".")[1]) if "." in seconds else 0
-    return 10 ** (9 - min(decimals, 9))
+    if _EPOCH_SECONDS.fullmatch(value):
+        return 10 ** (9 - min(len(value.partition(".")[2]), 9))
+    date, separator, clock = value.replace(" ", "T", 1).partition("T")
+    if not separator:  # a date alone: the whole day, or the whole week of a week date without its day
+        return (7 if _WEEK.fullmatch(date) else 1) * 86_400 * 10**9
+    written = _CLOCK.match(_ZONE.sub("", clock))
+    if written is None:
+        return 10**9
+    whole, fraction = written.group(1).replace(":", ""), written.group(2)
+    if fraction:
+        return 10 ** (9 - min(len(fraction), 9))
+    return {2: 3600, 4: 60}.get(len(whole), 1) * 10**9
+
+
+_EPOCH_SECONDS = re.compile(r"\d+(\.\d*)?")
+_WEEK = re.compile(r"\d{4}-?W\d{2}")
+_ZONE = re.compile(r"(Z|[+-]\d{2}(:?\d{2}(:?\d{2}(\.\d+)?)?)?)$")
+_CLOCK = re.compile(r"([\d:]+)(?:[.,](\d+))?")
 
 
 def _parse_time(text: str, option: str) -> int:
