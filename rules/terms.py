@@ -123,33 +123,38 @@ def evaluate(term: Term, env: Env) -> Symbol:
         if tag == "u":
             value = evaluate(term[2], env).number
             if term[1] == _UN.Minus:
-                return Number(_wrap(-value))
-            if term[1] == _UN.Absolute:
-                return Number(_wrap(abs(value)))
-            return Number(~value)
+                value = -value
+            elif term[1] == _UN.Absolute:
+                value = abs(value)
+            else:
+                return Number(~value)
+            return Number(value if _LOW <= value <= _HIGH else _wrap(value))
         a, b = evaluate(term[2], env).number, evaluate(term[3], env).number
     except RuntimeError:  # .number of a non-number: clingo's arithmetic on it is undefined
         raise Undefined("arithmetic on a non-number") from None
     op = term[1]
     if op == _BIN.Plus:
-        return Number(_wrap(a + b))
-    if op == _BIN.Minus:
-        return Number(_wrap(a - b))
-    if op == _BIN.Multiplication:
-        return Number(_wrap(a * b))
-    if op in (_BIN.Division, _BIN.Modulo) and b == 0:
-        raise Undefined("a division by zero")
-    if op == _BIN.Division:
-        return Number(_wrap(_int_div(a, b)))
-    if op == _BIN.Modulo:
-        return Number(_wrap(a - b * _int_div(a, b)))
-    if op == _BIN.Power:
+        value = a + b
+    elif op == _BIN.Minus:
+        value = a - b
+    elif op == _BIN.Multiplication:
+        value = a * b
+    elif op == _BIN.Division or op == _BIN.Modulo:
+        if b == 0:
+            raise Undefined("a division by zero")
+        value = _int_div(a, b) if op == _BIN.Division else a - b * _int_div(a, b)
+    elif op == _BIN.Power:
         if b < 0:
             if a == 0:
                 raise Undefined("zero to a negative power")
             return Number(0)
-        return Number(_wrap(pow(a, b, 1 << 32)))
-    raise Unbound(f"unsupported operator {op}")
+        value = pow(a, b, 1 << 32)
+    else:
+        raise Unbound(f"unsupported operator {op}")
+    return Number(value if _LOW <= value <= _HIGH else _wrap(value))
+
+
+_LOW, _HIGH = -(1 << 31), (1 << 31) - 1
 
 
 def _wrap(value: int) -> int:
