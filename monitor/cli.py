@@ -144,7 +144,9 @@ def _scenario_inputs(paths: Sequence[str]) -> tuple[list[Path], list[Path]]:
     for name in paths:
         path = Path(name)
         if path.is_dir():
-            found_frames, found_scenarios = sorted(path.rglob("*.pl")), sorted(path.rglob("*.json"))
+            from discern.scenarios.runner import scenario_files
+
+            found_frames, found_scenarios = sorted(path.rglob("*.pl")), scenario_files(path)
             if not found_frames and not found_scenarios:
                 raise UserError(f"{path}: no scenario files (*.json) and no AV-CSR frame files (*.pl)")
             frames += found_frames

@@ -613,16 +613,24 @@ def _assignments(body: tuple[Literal, ...]) -> frozenset[int]:
 
 def _ground_fact(stm: ast.AST, path: str) -> list[Symbol]:
     """The atoms a catalog fact stands for (pools expanded), to credit them to their rule."""
+    control = _ground_alone([stm], path)  # held while its atoms are read: they live in it
+    return [a.symbol for a in control.symbolic_atoms if a.is_fact]
+
+
+def _ground_alone(statements: Iterable[ast.AST], path: str) -> Control:
+    """The statements grounded with no facts. clingo finds an unsafe variable (`foo(X).`, `p(A) :- not q.`) only
+    when it grounds: refused here in its own words, named by the file."""
     messages: list[str] = []
-    ctl = Control(["--warn=none"], logger=lambda _code, message: messages.append(message.strip()))
+    control = Control(["--warn=none"], logger=lambda _code, message: messages.append(message.strip()))
     try:
-        with ast.ProgramBuilder(ctl) as builder:
-            builder.add(stm)
-        ctl.ground([("base", [])])
-    except RuntimeError:  # a fact with a variable (`foo(X).`) is unsafe
+        with ast.ProgramBuilder(control) as builder:
+            for statement in statements:
+                builder.add(statement)
+        control.ground([("base", [])])
+    except RuntimeError:
         said = " ".join(" ".join(m.split()) for m in messages).replace("<string>", path)
         raise CatalogError(f"{path}: clingo cannot ground it: {said or 'no reason given'}") from None
-    return [a.symbol for a in ctl.symbolic_atoms if a.is_fact]
+    return control
 
 
 def _check_stratified(catalog: Catalog) -> None:
@@ -701,23 +709,13 @@ def catalog_dirs() -> list[Path]:
 
 
 def _check_safe(catalog: Catalog) -> None:
-    """clingo finds an unsafe variable only when it grounds the rule: a catalog with one is refused on loading, in
-    clingo's own words, rather than at every frame. Each file's rules are grounded alone (no facts: quick), so
-    that the message names the file."""
+    """A catalog with a rule clingo cannot ground is refused on loading, not at every frame: each file's rules
+    grounded alone (no facts: quick), so that the message names the file."""
     by_file: dict[str, list[ast.AST]] = {}
     for rule in catalog.compiled:
         by_file.setdefault(rule.info.file, []).append(rule.statement)
     for file, statements in by_file.items():
-        messages: list[str] = []
-        control = Control(["--warn=none"], logger=lambda _code, message: messages.append(message.strip()))
-        try:
-            with ast.ProgramBuilder(control) as builder:
-                for statement in statements:
-                    builder.add(statement)
-            control.ground([("base", [])])
-        except RuntimeError:
-            said = " ".join(" ".join(m.split()) for m in messages).replace("<string>", file)
-            raise CatalogError(f"{file}: clingo cannot ground it: {said or 'no reason given'}") from None
+        _ground_alone(statements, file)
 
 
 def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> Catalog:
