@@ -37,6 +37,7 @@ malloc: $(BIN)/.installed
 # Each benchmark writes its own section of docs/benchmarks.md; run them on an otherwise idle machine.
 bench: $(BIN)/.installed malloc
 	$(BIN)/python bench/bench_core.py
+	$(BIN)/python bench/bench_idle.py
 	$(BIN)/python bench/bench_sanity.py
 	$(BIN)/python bench/bench_zenoh.py
 	$(BIN)/python bench/bench_worker.py
