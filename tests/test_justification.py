@@ -706,4 +706,3 @@ def test_the_provers_arithmetic_is_clingos_32_bit_arithmetic_undefined_where_cli
     else:
         with pytest.raises(Undefined):
             evaluate(term, {})
-
