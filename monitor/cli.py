@@ -14,11 +14,10 @@ from typing import Optional, Sequence
 from pydantic import ValidationError
 
 from discern.rules.catalog import CatalogError, load_driving_rules
-from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack
+from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack, reasoner_for
 from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
-from discern.sanity.jurisdiction import reasoner_for
 
 from .config import path_text
 

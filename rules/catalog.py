@@ -701,11 +701,8 @@ def _components(edges: dict[str, set[tuple[str, bool]]]) -> dict[str, int]:
 
 def catalog_dirs() -> list[Path]:
     """The shipped catalogs: driving rules, then sanity rules."""
-    dirs = [Path(str(resources.files("discern.rules") / "catalog"))]
-    sanity = Path(str(resources.files("discern.sanity"))) / "catalog"
-    if sanity.is_dir():
-        dirs.append(sanity)
-    return dirs
+    return [Path(str(resources.files("discern.rules") / "catalog")),
+            Path(str(resources.files("discern.sanity") / "catalog"))]
 
 
 def _check_safe(catalog: Catalog) -> None:

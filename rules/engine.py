@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Callable, Iterable, Optional, Protocol, Sequence
@@ -314,8 +315,19 @@ def _summary(decision: Decision, proposed: Action, action: Action, recommended: 
 
 
 def _default_providers() -> list[FactProvider]:
-    try:
-        from discern.sanity import default_providers
-    except ImportError:
-        return []
+    from discern.sanity import default_providers  # here, not at the top: the sanity layer reads the scene model
+
     return list(default_providers())
+
+
+def reasoner_for(jurisdiction: str = "us") -> Reasoner:
+    """A Reasoner with the rule pack of `jurisdiction` (us or uk), built once per jurisdiction, however it is written.
+
+    Raises ValueError naming the known jurisdictions for any other name.
+    """
+    return _reasoner_for(str(jurisdiction).strip().lower())
+
+
+@lru_cache(maxsize=None)
+def _reasoner_for(jurisdiction: str) -> Reasoner:
+    return Reasoner(jurisdiction=jurisdiction)

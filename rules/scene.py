@@ -363,9 +363,6 @@ class Scene(Strict):
                                   f"{crossing.object_path!r} is no object's predicted path; it cannot apply")
         return self
 
-    def current_lanes(self) -> list[int]:
-        return sorted(l.id for l in self.lanes if l.kind is LaneKind.current)
-
 
 MAX_ID_LENGTH = 128
 ID_RULE = f"[A-Za-z0-9_-]{{1,{MAX_ID_LENGTH}}}"  # a vehicle or monitor id: one zenoh key chunk

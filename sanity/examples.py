@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
-from discern.rules.engine import Reasoner
+from discern.rules.engine import Reasoner, reasoner_for
 from discern.rules.justify import Prover
 from discern.rules.scene import Action, Scene
 from discern.rules.verdict import JustificationNode, Verdict
@@ -79,8 +79,6 @@ class Example:
     blocked_jurisdiction: Optional[str] = None
 
     def reasoners(self) -> tuple[Reasoner, Reasoner]:
-        from .jurisdiction import reasoner_for
-
         return reasoner_for(self.jurisdiction), reasoner_for(self.blocked_jurisdiction or self.jurisdiction)
 
 

@@ -4,9 +4,16 @@ import pytest
 
 pytest.importorskip("ad_rss")
 
-from discern.adapters.highway.rss import RssChecker, RssParameters, rss_formula, safe_distance
+from discern.adapters.highway.rss import RssChecker, RssParameters, safe_distance
 from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, Scene, Size, Vec2, Velocity, Zone
 from discern.rules.verdict import Decision
+
+
+def rss_formula(v_rear: float, v_front: float, p: RssParameters) -> float:
+    """The RSS paper's safe longitudinal distance (same direction), never negative: what ad-rss must compute."""
+    rho, a, bmin, bmax = p.response_time, p.accel_max, p.brake_min, p.brake_max
+    d = v_rear * rho + 0.5 * a * rho**2 + (v_rear + rho * a) ** 2 / (2 * bmin) - v_front**2 / (2 * bmax)
+    return max(d, 0.0)
 
 
 @pytest.mark.parametrize("rear,front", [(30.0, 25.0), (25.0, 30.0), (30.0, 0.0), (20.0, 20.0), (10.0, 40.0)])

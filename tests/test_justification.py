@@ -670,7 +670,7 @@ def test_a_thing_behind_that_cannot_move_is_said_to_stand_not_to_keep_pace(reaso
 def test_a_time_made_of_a_distance_and_a_speed_reads_in_seconds():
     """'-X * 1000 / VX < G' with G a time setting once read '17.9 m/s < 50.0 m/s'."""
     from discern.scenarios import runner
-    from discern.sanity.jurisdiction import reasoner_for
+    from discern.rules.engine import reasoner_for
 
     scenario = runner.load(Path(__file__).resolve().parents[1] / "scenarios" / "rules" / "tr.crossing_user.stepping_in.json")
     text = runner.run(scenario, reasoner_for("us"))[0].verdict.justification.text

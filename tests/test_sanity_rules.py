@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 from clingo import Function, Number
 
+from discern.rules.engine import reasoner_for
 from discern.rules.scene import Action
 from discern.rules.verdict import Decision
 from discern.sanity import examples
 from discern.sanity.examples import EXAMPLES, fired, obj, scene, sensor
-from discern.sanity.jurisdiction import reasoner_for
 
 BY_RULE = {e.rule: e for e in EXAMPLES}
 DOC = Path(__file__).resolve().parents[1] / "docs" / "sanity.md"

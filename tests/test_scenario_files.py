@@ -2,8 +2,8 @@ from pathlib import Path
 
 import pytest
 
+from discern.rules.engine import reasoner_for
 from discern.rules.scene import Action
-from discern.sanity.jurisdiction import reasoner_for
 from discern.scenarios import runner
 
 ROOT = Path(__file__).resolve().parents[1] / "scenarios"

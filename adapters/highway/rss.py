@@ -37,13 +37,6 @@ class RssParameters:
     brake_max: float = 6.0  # m/s^2 the leader may brake with (highway-env IDM's ACC_MAX)
 
 
-def rss_formula(v_rear: float, v_front: float, p: RssParameters) -> float:
-    """The RSS paper's safe longitudinal distance (same direction), never negative."""
-    rho, a, bmin, bmax = p.response_time, p.accel_max, p.brake_min, p.brake_max
-    d = v_rear * rho + 0.5 * a * rho**2 + (v_rear + rho * a) ** 2 / (2 * bmin) - v_front**2 / (2 * bmax)
-    return max(d, 0.0)
-
-
 def _state(speed: float, p: RssParameters, ego: bool):
     phys, rss = ad_rss.physics, ad_rss.rss
     state = rss.core.RelativeObjectState()
