@@ -25,7 +25,7 @@ MAX_PARAM_TIME_S = 60.0
 MAX_PARAM_DECEL = 100.0  # m/s², ten times gravity
 MAX_PARAM_SPEED = 50.0  # m/s: a closing speed (up to twice MAX_SPEED_MS) raised by accel_step, times a minute, still fits
 _TIMES = frozenset({"reaction_s", "headway_s", "turn_gap_s"})
-_SPEEDS = frozenset({"stopped_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop"})
+_SPEEDS = frozenset({"stopped_speed", "drift_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop"})
 
 
 def _largest(name: str) -> float:
@@ -53,6 +53,7 @@ class Params:
     crossing_dist: float = 15.0  # m, vulnerable road users crossing nearer than this block a turn
     turn_gap_s: float = 5.0  # time a turn across traffic takes to clear: traffic due sooner blocks it
     stopped_speed: float = 0.5  # m/s, slower than this a vehicle, the ego or another, has stopped
+    drift_speed: float = 0.5  # m/s, a vehicle moving sideways at least this fast is moving into the next lane
     range_match: float = 3.0  # m, a range reading this close to an object's distance is that object
     lane_width: float = 3.5  # m, places objects reported without a lane; a side reading within it is in the next lane
     accel_step: float = 0.5  # m/s an accelerate adds before the next decision: nearer the limit than this, it would pass it

@@ -55,6 +55,7 @@ _SETTINGS = {
     "caution_speed": ("slowest cautious speed", "m/s", 100),
     "caution_drop": ("drop below the limit that caution calls for", "m/s", 100),
     "stopped_speed": ("speed under which a vehicle counts as stopped", "m/s", 100), "min_gap": ("minimum gap", "m", 100),
+    "drift_speed": ("sideways speed at which a vehicle moves into the next lane", "m/s", 100),
     "range_match": ("distance within which a range reading is an object's", "m", 100),
     "confirm_frames": ("number of frames that confirm a reading", "", 1),
     "confirm_ms": ("time that confirms a reading", "s", 1000),
@@ -254,7 +255,7 @@ class Phrasebook:
         n = value.number
         said = _MOTION[fmt][op]
         if n == 0:
-            return said if op == _EQ else f"{said} (it holds)"
+            return said if op == _EQ else f"{said} (it stays the same)"
         verb = "shrinks" if n > 0 else "grows"
         if said == f"the gap {verb}":  # the words already say which way: "the gap shrinks by 5.0 m/s"
             return f"{said} by {abs(n) / 100:.1f} m/s"

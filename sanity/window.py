@@ -332,11 +332,13 @@ class _Clock:
     @classmethod
     def of(cls, times: Sequence[float], untimed_frame_s: float) -> "_Clock":
         """A frame lasts the window's median frame interval (the lower middle one): the frame rate's, which a dropout
-        does not stretch as it does the mean. Frames without timestamps come `untimed_frame_s` apart."""
+        does not stretch as it does the mean. Frames without timestamps (all 0) or out of order come `untimed_frame_s`
+        apart; frames of one instant are one frame seen again, which lasts as long as one."""
         ms = [round(t * 1000) for t in times]
-        if not ms[-1] > ms[0]:
+        if not any(ms) or ms[-1] < ms[0]:
             ms = [round(i * untimed_frame_s * 1000) for i in range(len(times))]
-        return cls(tuple(ms), statistics.median_low([b - a for a, b in zip(ms, ms[1:]) if b > a]))
+        steps = [b - a for a, b in zip(ms, ms[1:]) if b > a]
+        return cls(tuple(ms), statistics.median_low(steps) if steps else round(untimed_frame_s * 1000))
 
     def lasted(self, first: int, last: int) -> int:
         """How long something seen from the frame at index `first` to the one at `last` lasted: from the first to the

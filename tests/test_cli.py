@@ -279,7 +279,7 @@ def test_scenarios_run_takes_single_files_of_either_kind_and_explains_each_verdi
     assert "pass  acc.cut_in #0: override accelerate with brake" in out and "1 passed, 0 failed" in out
     assert "agreement with expected_action: 3/3 frames" in out
     # --explain: each verdict's proof under its line, the scenario's and the paper frames' alike
-    assert "            - car 1 signals into lane 2 within the gap it needs, because  [def.lane_claimed]" in out
+    assert "            - car 1 is heading into lane 2 within the gap it needs, because  [def.lane_claimed]" in out
     assert f"{frames.stem} frame 1:\n        approve accelerate: permitted" in out
 
 

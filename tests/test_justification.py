@@ -644,9 +644,9 @@ def test_reasons_worded_alike_are_both_argued_when_their_own_reasons_differ(reas
     verdict = reasoner.decide(sc, "change_lane_left", explain=True)
     text = verdict.justification.text
     assert "the ego needs 10.0 m of gap to car 1  [def.gap_needed]" in text
-    assert "moving in beside car 1 needs a headway gap of 10.0 m  [def.headway_gap]" in text
+    assert "moving into the lane of car 1 needs a headway gap of 10.0 m to it  [def.headway_gap]" in text
     html_page = render_html(verdict)
-    assert "moving in beside car 1 needs a headway gap of 10.0 m" in html_page
+    assert "moving into the lane of car 1 needs a headway gap of 10.0 m to it" in html_page
 
 
 def test_an_oncoming_car_of_unknown_speed_is_not_said_to_keep_pace_with_the_traffic(reasoner):

@@ -420,9 +420,48 @@ def test_a_car_signalling_into_the_target_lane_blocks_the_change_and_the_merge()
     cutting = obj("car", -7, 5, lane=1, vy=10, indicator="right")
     verdict = decide(scene(lane=3, lanes=3, objects=[cutting]), "change_lane_left")
     assert verdict.decision.value == "override" and "cll.lane_claimed" in verdict.rules
-    assert "car 1 signals into lane 2 within the gap it needs" in verdict.justification.text
+    assert "car 1 is heading into lane 2 within the gap it needs" in verdict.justification.text
     merging = scene(lane=3, lanes=3, intent="merge_into_left_lane", objects=[cutting])
     assert decide(merging, "change_lane_left").action.value == "brake"
+
+
+def test_a_car_drifting_into_the_egos_lane_without_a_signal_is_a_cut_in():
+    """Not every driver signals: a car beside the ego moving sideways into its lane claims it as a signalling one does."""
+    def beside(sideways: float):
+        return scene(speed=20, lane=2, lanes=3, limit=29, zone="highway",
+                     objects=[obj("car", -2.5, 3, lane=1, velocity={"x": sideways, "y": 20.0})])
+
+    drifting = decide(beside(2.0), "accelerate")
+    assert drifting.decision.value == "override" and drifting.action.value == "brake" and "acc.cut_in" in drifting.rules
+    assert "car 1 moves sideways into lane 2, because  [def.moves_into]" in drifting.justification.text
+    assert "acc.cut_in" not in decide(beside(0.2), "accelerate").rules  # keeping its lane, within the drift speed
+    assert "acc.cut_in" not in decide(beside(-2.0), "accelerate").rules  # moving away, into lane 0
+
+
+def test_a_lane_change_in_front_of_a_faster_car_leaves_it_room_to_brake_no_harder_than_the_ego():
+    """RSS with equal braking: a car behind at 40 m/s needs 40 m of headway plus (40² - 25²) / 12 = 81 m more than
+    the ego at 25 m/s; 41 m, past the gap it needs to stop firmly (33.8 m), forced it to brake hard."""
+    def behind(gap: float):
+        return scene(speed=25, lane=2, lanes=2, limit=29, zone="highway",
+                     objects=[obj("car", -3.5, -gap, lane=1, vy=40.0)])
+
+    close = decide(behind(41), "change_lane_left")
+    assert close.decision.value == "override" and "cll.lane_taken" in close.rules
+    assert "moving into the lane of car 1 needs a headway gap of 121.2 m to it" in close.justification.text
+    assert decide(behind(125), "change_lane_left").decision.value == "approve"
+
+
+def test_a_pedestrian_walking_into_the_egos_half_of_a_crossing_is_yielded_to_however_fast_the_ego_is():
+    """A faster ego would pass before the pedestrian reaches its lane; yielding does not depend on winning that race."""
+    def crossing(speed: float, walking: float):
+        return scene(speed=speed, limit=13.4, light="green", intersection={"type": "signaled", "stage": "at"},
+                     other_lanes=("cross_left", "cross_right"),
+                     objects=[obj("pedestrian", 4, 4, lane=1, kind="cross_right", velocity={"x": walking, "y": 0.0})])
+
+    assert decide(crossing(2.0, -1.4), "cruise").action.value == "brake"  # the ego would meet them: their tracks cross
+    passing_first = decide(crossing(5.0, -1.4), "cruise")
+    assert passing_first.action.value == "brake" and "brake.pedestrian_at_crossing" in passing_first.rules
+    assert decide(crossing(5.0, 1.4), "cruise").decision.value == "approve"  # walking off, away from the ego's half
 
 
 def test_after_its_full_stop_at_a_stop_sign_the_ego_still_waits_for_near_cross_traffic():
@@ -592,7 +631,7 @@ def test_a_lane_change_leaves_the_time_headway_to_a_vehicle_at_its_speed_and_les
     assert "cll.lane_taken" in beside(12, vy=31, speed=30).rules  # barely faster: 30 - 61/12 = 24.9 m needed
     falling_back = scene(speed=30, limit=35, lane=2, lanes=2, objects=[obj("car", -3.5, -20, lane=1, vy=20)])
     text = REASONER.decide(falling_back, "change_lane_left", explain=True).justification.text
-    assert "moving in beside car 1 needs a headway gap of 0.0 m  [def.headway_gap]" in text
+    assert "moving into the lane of car 1 needs a headway gap of 0.0 m to it  [def.headway_gap]" in text
 
 
 at_green_to_turn_left = {"speed": 0, "intent": "enter_left_lane", "light": "green", "other_lanes": ("oncoming",),

@@ -250,6 +250,23 @@ def test_a_standing_camera_only_car_closer_than_braking_takes_is_treated_as_real
     assert "brake.obstacle_ahead" in verdict.rules and "san.radar.phantom" not in verdict.rules
 
 
+def test_a_possible_phantom_nearer_than_a_comfortable_stop_is_slowed_for_as_a_confirmed_car_is():
+    """Beyond the gap needed, a standing car makes the ego begin slowing comfortably; doubting it must not let the ego
+    speed up instead (at 20 m/s braking at 3 m/s² takes 86.7 m)."""
+    road = {"zone": "road", "limit": 22.0, "lanes": 2, "lane": 1, "speed": 20.0}
+    radar_beside = obj(9, "car", 3.5, 60.0, 2, vy=20.0, sources=("radar",))
+
+    def standing(distance: float, sources: tuple):
+        return (scene(**road, objects=[obj(1, "car", 0.0, distance, 1, vy=0.0, sources=sources), radar_beside]),)
+
+    for distance in (55.0, 75.0):
+        doubted = _decide(standing(distance, ("camera",)), Action.accelerate)
+        assert doubted.decision is Decision.override and doubted.action is Action.brake
+        assert "san.radar.phantom_caution" in doubted.rules and "brake.obstacle_ahead" not in doubted.rules
+        assert _decide(standing(distance, ("camera", "radar")), Action.accelerate).decision is Decision.override
+    assert _decide(standing(95.0, ("camera",)), Action.accelerate).decision is Decision.approve
+
+
 def test_a_far_possible_phantom_forbids_holding_speed_as_well_as_accelerating():
     phantom = obj(9, "car", 0.0, 16.0, 2, vy=5.0, sources=("camera",))
     frames = (scene(**HW, objects=[RADAR_CAR, phantom]),)

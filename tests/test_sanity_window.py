@@ -495,3 +495,13 @@ def test_a_timestamp_too_large_for_the_windows_clock_is_refused_by_the_scene_mod
         scene(frame=1, timestamp=-1e306)
     early, late = scene(frame=1, timestamp=1e12 - 0.1), scene(frame=2, timestamp=1e12)
     assert WindowProvider().facts(late, [early])  # the largest allowed timestamps still make a window
+
+
+def test_one_frame_delivered_twice_is_seen_for_one_frame_not_two():
+    """Two frames of one timestamp are one picture: a reading in both lasts a frame (100 ms), not the 200 ms that
+    confirms it, as it did when the window took them for frames without timestamps."""
+    sign = [{"kind": "speed_limit", "value": 20.117}]
+    first, again = scene(frame=1, timestamp=5.0, signs=sign), scene(frame=2, timestamp=5.0, signs=sign)
+    assert "reading_time(2012,100)." in facts([first, again])
+    untimed = [scene(frame=1, timestamp=0.0, signs=sign), scene(frame=2, timestamp=0.0, signs=sign)]
+    assert "reading_time(2012,200)." in facts(untimed)
