@@ -166,6 +166,7 @@ def failsafe_verdict(
         recommended=safe,
         permitted=list(permitted),
         rules=[rule],
+        vetoed_by=[rule],
         justification=Justification(summary=summary, text=summary),
         failsafe=True,
         error=reason,

@@ -274,6 +274,7 @@ class Reasoner:
             recommended=recommended,
             permitted=solved.permitted,
             rules=rules,
+            vetoed_by=vetoing,
             justification=justification,
             latency_ms=(time.perf_counter() - start) * 1000.0,
             notes=list(scene.notes),

@@ -50,6 +50,7 @@ class Verdict(BaseModel):
     recommended: Optional[Action] = None
     permitted: list[Action] = Field(default_factory=list)
     rules: list[str] = Field(default_factory=list, description="ids of the rules that decided (the forbidding proofs' rules, or dec.permitted and what called for the action), then those of the sanity layer's notes: what it doubted or set aside in this frame")
+    vetoed_by: list[str] = Field(default_factory=list, description="ids of the rules that forbid the proposed action, first in `rules`; empty where it is permitted")
     justification: Justification
     latency_ms: Optional[float] = None
     failsafe: bool = False

@@ -106,6 +106,20 @@ def test_wrapper_refuses_an_env_without_the_five_meta_actions():
         DiscernWrapper(env, passthrough=True)
 
 
+def test_wrapper_refuses_a_speed_grid_its_vehicle_parameters_do_not_fit():
+    """accel_step is half the grid's 5 m/s step: on a 10 m/s grid a FASTER at 26 m/s passed a 30 m/s limit, approved."""
+    import gymnasium as gym
+
+    from discern.adapters.highway.wrapper import DiscernWrapper
+
+    coarse = gym.make("highway-fast-v0", config={"action": {"type": "DiscreteMetaAction",
+                                                            "target_speeds": [0, 10, 20, 30, 40]}})
+    with pytest.raises(ValueError, match=r"target speeds .* this environment's are \[0.0, 10.0, 20.0, 30.0, 40.0\]"):
+        DiscernWrapper(coarse)
+    DiscernWrapper(coarse, passthrough=True)  # the unshielded baseline checks nothing
+    DiscernWrapper(make_env("highway-fast-v0"))
+
+
 @pytest.mark.parametrize("name", ["roundabout-v0", "two-way-v0", "u-turn-v0", "exit-v0"])
 def test_wrapper_refuses_roads_the_scene_conversion_gets_wrong(name):
     import warnings

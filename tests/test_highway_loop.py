@@ -145,6 +145,9 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
         (["--duration", "1e300"], "--duration must be a number of seconds above 0 and at most 3600, got 1e+300"),
         (["--faults", "none", "missed", "--miss-rate", "0"], "--faults gives more than one set that comes out as 'none'"),
         (["--seed", "-1"], "--seed must be at least 0 (the environment's seeds are), got -1"),
+        (["--faults", "none", "--miss-rate", "0.9"], "--miss-rate 0.9 sets the 'missed' fault, which no --faults set injects"),
+        (["--faults", "signs", "--sign-rate", "0"], "--sign-rate 0 turns the 'signs' fault off, but a --faults set names it"),
+        (["--faults", "missed", "--sign-value", "30"], "--sign-value 30 sets the 'signs' fault, which no --faults set"),
         (["--jobs", "0"], "--jobs must be at least 1, got 0"),
     ],
 )

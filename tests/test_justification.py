@@ -32,6 +32,14 @@ def test_veto_names_the_vetoing_rules_and_the_numbers(reasoner):
     assert "accelerate is forbidden, because  [acc.hazard]" in text
 
 
+def test_a_verdict_names_apart_the_rules_that_forbid_the_proposal_from_those_their_proofs_use(reasoner):
+    """An evaluation counting which rules vetoed must not credit a hazard's rule with a veto it only fed."""
+    verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
+    assert set(verdict.vetoed_by) == {"acc.lane_not_clear", "acc.hazard"}
+    assert verdict.rules[:2] == verdict.vetoed_by and "brake.obstacle_ahead" in verdict.rules[2:]
+    assert reasoner.decide(scene(speed=5, limit=15), "accelerate").vetoed_by == []
+
+
 def test_negative_justification_says_there_is_no_evidence(reasoner):
     verdict = reasoner.decide(scene(speed=5, limit=15), "accelerate", explain=True)
     text = verdict.justification.text

@@ -131,7 +131,7 @@ def _run_eval(args: argparse.Namespace) -> int:
         # an episode ends only on a crash or its duration: a huge one never ends for a planner that does not crash
         problems.append(f"--duration must be a number of seconds above 0 and at most {MAX_DURATION_S:g}, "
                         f"got {args.duration:g}")
-    problems += _rate_problems(args)
+    problems += _rate_problems(args) + _unused_fault_settings(args)
     fault_sets = []
     for kinds in args.faults:
         try:
@@ -211,6 +211,27 @@ def _rate_problems(args: argparse.Namespace) -> list[str]:
         problems.append(f"--noise must lie in [0, {MAX_NOISE_M:g}] metres, got {args.noise}")
     if args.sign_value is not None and not 0.0 <= args.sign_value <= MAX_SIGN_VALUE:
         problems.append(f"--sign-value must lie in [0, {MAX_SIGN_VALUE:g}] m/s, got {args.sign_value}")
+    return problems
+
+
+def _unused_fault_settings(args: argparse.Namespace) -> list[str]:
+    """A setting for a fault no set injects, or one that turns a named fault off, would give a row that is not what its
+    label or the command line says."""
+    from .perception import FAULT_KINDS
+
+    named = {kind.strip() for kinds in args.faults for kind in kinds.split(",")}
+    named |= set(FAULT_KINDS) if "all" in named else set()
+    problems = []
+    for flag, value, kind in (("--miss-rate", args.miss_rate, "missed"), ("--phantom-rate", args.phantom_rate, "phantoms"),
+                              ("--sign-rate", args.sign_rate, "signs"), ("--sign-value", args.sign_value, "signs"),
+                              ("--noise", args.noise, "noise")):
+        if value is None:
+            continue
+        if kind not in named:
+            problems.append(f"{flag} {value:g} sets the {kind!r} fault, which no --faults set injects")
+        elif value == 0 and flag != "--sign-value":
+            problems.append(f"{flag} 0 turns the {kind!r} fault off, but a --faults set names it: leave {kind!r} out "
+                            "of that set instead")
     return problems
 
 

@@ -154,7 +154,7 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
                 if verdict.decision is not Decision.approve:
                     result.vetoes += 1
                     result.overrides += verdict.decision is Decision.override
-                    result.rules.update(verdict.rules)
+                    result.rules.update(verdict.vetoed_by)
                     true_limit = truth.lane_limit(truth.ego.lane)
                     if setup.judge_vetoes and proposal_was_safe(env, action, true_limit):
                         result.false_vetoes += 1

@@ -142,5 +142,6 @@ class RssChecker:
             proposed=proposed,
             action=action,
             rules=[RULE] if decision is not Decision.approve else [],
+            vetoed_by=[RULE] if decision is not Decision.approve else [],
             justification=Justification(summary=why),
         )

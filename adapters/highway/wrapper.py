@@ -23,7 +23,7 @@ from discern.rules.verdict import Decision, Verdict
 from discern.sanity import WindowConfig
 
 from .actions import from_catalog, to_catalog
-from .envs import SPEED_STEP, SUPPORTED, policy_period
+from .envs import SPEED_STEP, SUPPORTED, TARGET_SPEEDS, policy_period
 from .perception import Faults, Perceived, Perception
 from .scene import build_scene
 from .truth import VehicleIds, read_truth
@@ -126,6 +126,13 @@ class DiscernWrapper(gym.Wrapper):
             raise ValueError(
                 f"DiscernWrapper cannot convert {spec.id if spec else type(env.unwrapped).__name__}'s road into "
                 f"scenes (straight multi-lane roads only): use one of {', '.join(SUPPORTED)}"
+            )
+        speeds = tuple(float(v) for v in getattr(env.unwrapped.action_type, "target_speeds", ()))
+        if checker is None and not passthrough and speeds != TARGET_SPEEDS:
+            raise ValueError(
+                f"DiscernWrapper's vehicle parameters (accel_step {VEHICLE_PARAMS['accel_step']:g} m/s) assume the target "
+                f"speeds {list(TARGET_SPEEDS)} (envs.make_env); this environment's are {list(speeds)}: make it with "
+                "make_env, or pass a checker whose Params.accel_step is half its speed step"
             )
         self._owns_checker = checker is None
         self.vehicle = vehicle
