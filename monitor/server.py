@@ -32,6 +32,8 @@ from typing import Optional
 
 import zenoh
 
+from discern.rules.catalog import catalog_digest
+from discern.rules.engine import jurisdiction_pack
 from discern.rules.scene import Action, valid_id
 
 from . import keys
@@ -153,7 +155,8 @@ class MonitorServer:
         self.session = zenoh.open(zenoh_config)
         if self.config.log is not None:
             self.log = McapLogWriter(self.config.log, self.config.monitor_id, self.config.param_values(),
-                                     self.config.jurisdiction, self.config.window_s)
+                                     self.config.jurisdiction, self.config.window_s,
+                                     catalog_digest(extra_files=[jurisdiction_pack(self.config.jurisdiction)]))
             self.answers = _AnswerLog(self.log)
         self._spawn("discern-watchdog", self._watch)
         if self.log is not None:

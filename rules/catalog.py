@@ -18,6 +18,7 @@ only the rules that can fire on its facts.
 
 from __future__ import annotations
 
+import hashlib
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -141,6 +142,7 @@ class Catalog:
     compiled: list[CompiledRule]
     facts: list[ast.AST] = field(repr=False)
     fact_rule: dict[Symbol, str] = field(default_factory=dict, repr=False)
+    digest: str = ""  # of its files' names and texts: the same rules, the same digest (catalog_digest)
     fact_predicates: set[str] = field(default_factory=set, repr=False)
     fact_atoms: dict[str, list[Symbol]] = field(default_factory=dict, repr=False)  # the catalog's facts by predicate
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
@@ -715,8 +717,7 @@ def _check_safe(catalog: Catalog) -> None:
         _ground_alone(statements, file)
 
 
-def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> Catalog:
-    catalog = Catalog(rules=[], templates={}, compiled=[], facts=[])
+def _catalog_texts(dirs: Sequence[Path] | None, extra_files: Iterable[Path]) -> list[tuple[Path, str]]:
     files: list[Path] = []
     for directory in dirs if dirs is not None else catalog_dirs():
         directory = Path(directory)
@@ -724,14 +725,36 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
             raise CatalogError(f"rules directory {directory} does not exist")
         files.extend(sorted(directory.glob("*.lp")))
     files.extend(Path(f) for f in extra_files)
+    texts = []
     for path in files:
         try:
-            text = path.read_text(encoding="utf-8")
+            texts.append((path, path.read_text(encoding="utf-8")))
         except UnicodeDecodeError as exc:
             raise CatalogError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
         except OSError as exc:  # a broken symlink or a directory named x.lp
             raise CatalogError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    return texts
+
+
+def _digest(texts: list[tuple[Path, str]]) -> str:
+    digest = hashlib.blake2b(digest_size=8)
+    for path, text in texts:
+        digest.update(f"{path.name}\0{text}\0".encode())
+    return digest.hexdigest()
+
+
+def catalog_digest(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> str:
+    """What load_catalog(dirs, extra_files).digest would be, without compiling it: a log records which catalog
+    decided it, so that a replay by another one says so."""
+    return _digest(_catalog_texts(dirs, extra_files))
+
+
+def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> Catalog:
+    catalog = Catalog(rules=[], templates={}, compiled=[], facts=[])
+    texts = _catalog_texts(dirs, extra_files)
+    for path, text in texts:
         _compile_file(str(path), text, catalog)
+    catalog.digest = _digest(texts)
     _check_stratified(catalog)
     _check_safe(catalog)
     catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it

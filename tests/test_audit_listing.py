@@ -277,6 +277,23 @@ def test_since_and_until_take_epoch_nanoseconds_as_the_csv_gives_them(capsys, tm
     assert by_s["disagreements"] == by_ns["disagreements"]
 
 
+def test_the_html_reports_per_rule_table_says_which_cited_rule_this_versions_catalog_no_longer_has(
+    capsys, tmp_path, reasoner
+):
+    """A log an older catalog decided cites ids since renamed: an empty "says" cell left the reader guessing."""
+    class OlderCatalog:
+        def decide(self, *args, **kwargs):
+            verdict = reasoner.decide(*args, **kwargs)
+            return verdict.model_copy(update={"rules": ["acc.retired_rule"], "vetoed_by": ["acc.retired_rule"]})
+
+    log = write_log(tmp_path / "log", [("car_a", highway(1), "accelerate", 10**18, 10**18 + 10**6)], OlderCatalog())
+    page = tmp_path / "audit.html"
+    code, _, err = audit(capsys, str(log), "--html", str(page), "--workers", "1", "-q")
+    assert code == 0, err
+    html = page.read_text()
+    assert "<td>acc.retired_rule</td><td class=n>1</td><td>(no rule of this version&#x27;s catalog" in html
+
+
 def test_a_shown_time_is_the_millisecond_its_record_falls_in_so_given_back_it_keeps_the_record(
     capsys, tmp_path, reasoner
 ):
@@ -310,6 +327,9 @@ def test_a_shown_time_is_the_millisecond_its_record_falls_in_so_given_back_it_ke
     ("2026-W48", "2026-11-29T23:59:59.999Z"),  # ... without its day: the week
     ("2026-11-27T17:12:50,091Z", "2026-11-27T17:12:50.091Z"),  # a decimal comma
     ("1764263571.5", "2025-11-27T17:12:51.599Z"),
+    ("2026-11-27T17:12:50.717z", "2026-11-27T17:12:50.717Z"),  # RFC 3339's lowercase z
+    ("9999-12-31T23:59:59.999Z", "9999-12-31T23:59:59.999Z"),  # a time the audit shows for --until 9999-12-31T23:59:59Z
+    ("253402300799.5", "9999-12-31T23:59:59.599Z"),
 ])
 def test_until_runs_to_the_end_of_the_unit_the_time_is_written_to_however_iso_writes_it(until, last):
     assert iso(parse_time(until, through=True)) == last

@@ -18,7 +18,8 @@ from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings
 from discern.monitor.log import log_metadata
 from discern.monitor.log.writer import McapLogWriter
-from discern.rules.catalog import catalog_dirs
+from discern.rules.catalog import catalog_digest, catalog_dirs, load_catalog
+from discern.rules.engine import jurisdiction_pack
 from tests.audit_logs import (
     CLEAR_FRAMES,
     FLEET_A_FRAMES,
@@ -467,6 +468,7 @@ def test_a_replay_decides_with_the_jurisdiction_and_window_the_monitor_logged(ca
     files = serve_log(tmp_path / "uk", "uk", send, jurisdiction="uk", window_s=1.5)
     metadata = log_metadata(files[0])
     assert (metadata["jurisdiction"], metadata["window_s"]) == ("uk", "1.5")
+    assert metadata["catalog"] == load_catalog(extra_files=[jurisdiction_pack("uk")]).digest
     code, doc, _ = replay(capsys, tmp_path, str(tmp_path / "uk"), "--workers", "1")
     assert code == 0 and doc["changes"] == []
     code, doc, _ = replay(capsys, tmp_path, str(tmp_path / "uk"), "--workers", "1", "--jurisdiction", "us")
@@ -479,6 +481,31 @@ def test_recorded_settings_this_version_cannot_use_are_refused_naming_the_file(c
         code, _, err = audit(capsys, "--replay", str(tmp_path / name), "-q")
         assert code == 2 and "recorded reasoning parameters this version cannot use" in err and name in err
         assert "Traceback" not in err
+
+
+def test_a_replay_of_logs_another_catalog_decided_says_so_and_logs_of_two_catalogs_are_replayed_apart(capsys, tmp_path):
+    """Without the catalog's digest in the log, the changes a newer catalog brought read as the edit's own."""
+    McapLogWriter(LogSettings(directory=tmp_path / "old"), "m", catalog="0123456789abcdef").close()
+    code, _, err = audit(capsys, "--replay", str(tmp_path / "old"), "-q", "--workers", "1")
+    assert code == 0 and "warning: the logs were decided by the rules catalog 0123456789abcdef, not this version's" in err
+    current = catalog_digest(extra_files=[jurisdiction_pack("us")])
+    McapLogWriter(LogSettings(directory=tmp_path / "new"), "m", catalog=current).close()
+    code, _, err = audit(capsys, "--replay", str(tmp_path / "new"), "-q", "--workers", "1")
+    assert code == 0 and "warning" not in err
+    code, _, err = audit(capsys, "--replay", str(tmp_path / "old"), str(tmp_path / "new"), "-q")
+    assert code == 2 and "different settings" in err and f"catalog {current}" in err
+
+
+def test_a_catalogs_digest_is_that_of_its_files_names_and_texts(tmp_path):
+    copy = tmp_path / "catalog"
+    shutil.copytree(catalog_dirs()[0], copy)
+    pack = [jurisdiction_pack("us")]
+    assert catalog_digest([copy, catalog_dirs()[1]], pack) == catalog_digest(extra_files=pack)  # wherever installed
+    assert load_catalog(extra_files=pack).digest == catalog_digest(extra_files=pack)
+    assert catalog_digest(extra_files=[jurisdiction_pack("uk")]) != catalog_digest(extra_files=pack)
+    edited = copy / "30_speed.lp"
+    edited.write_text(edited.read_text() + "\n")
+    assert catalog_digest([copy, catalog_dirs()[1]], pack) != catalog_digest(extra_files=pack)
 
 
 def test_a_file_without_the_writers_metadata_does_not_block_a_replay(capsys, tmp_path):

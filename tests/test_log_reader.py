@@ -448,6 +448,22 @@ def test_a_chunk_whose_opcode_is_damaged_is_named_from_the_summary_not_passed_ov
     assert "indexed in the file's summary but not read" in report.summary()
 
 
+def test_the_messages_after_a_passed_over_chunk_that_declared_their_channels_are_read_from_the_summarys_channels(
+        tmp_path):
+    """The first chunk declares the channels: passed over unseen, it took every later message with it, counted as
+    on an unknown channel, and the audit reported no disagreement."""
+    data, chunks = write_chunked(tmp_path, 6)
+    start, end = chunks[0]
+    damaged = bytearray(data)
+    damaged[start] = 0x7F
+    path = tmp_path / "first.mcap"
+    path.write_bytes(bytes(damaged))
+    report = RecoveryReport()
+    assert [r.proposal.scene.frame_id for r in read_log(path, report)] == [1, 2, 3, 4, 5]
+    [f] = report.files
+    assert f.skipped == 0 and [(d.offset, d.kind) for d in f.damaged] == [(start, "chunk")]
+
+
 def test_a_last_chunk_of_an_impossible_length_is_where_reading_stops_not_the_record_before_it(tmp_path):
     data, chunks = write_chunked(tmp_path, 4)
     start, _ = chunks[-1]

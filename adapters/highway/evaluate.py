@@ -100,9 +100,12 @@ def _recorder(setup: Setup):
     if "recorder" not in _worker:
         from discern.monitor.config import LogSettings
         from discern.monitor.log.writer import McapLogWriter
+        from discern.rules.catalog import catalog_digest
+        from discern.rules.engine import jurisdiction_pack
 
-        # the in-process reasoner's: a running monitor logs its own verdicts, with its own parameters
-        _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), "highway-eval", dict(setup.params))
+        # the in-process reasoner's (the shipped catalog, US pack): a running monitor logs its own verdicts
+        _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), "highway-eval", dict(setup.params),
+                                            jurisdiction="us", catalog=catalog_digest(extra_files=[jurisdiction_pack("us")]))
     return _worker["recorder"]
 
 

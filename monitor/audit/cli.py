@@ -14,7 +14,7 @@ from typing import Callable, Optional, Sequence
 
 from discern.monitor.config import DEFAULT_LOG_DIR, WINDOW_MAX_S, check_number, path_text
 from discern.monitor.log import log_files
-from discern.rules.catalog import CatalogError, load_catalog
+from discern.rules.catalog import CatalogError, catalog_digest, load_catalog
 from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
 from discern.rules.facts import Params
 
@@ -159,6 +159,10 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         catalog.load()
     except CatalogError as exc:  # names the file and line it could not read
         raise UsageError(f"rules catalog: {exc}") from None
+    shipped = catalog_digest(extra_files=[jurisdiction_pack(catalog.jurisdiction)])
+    if recorded.catalog is not None and recorded.catalog != shipped:
+        print(f"discern audit: warning: the logs were decided by the rules catalog {recorded.catalog}, not this "
+              f"version's ({shipped}): the changes reported include the catalog's own since then", file=sys.stderr)
     result = replay_logs(paths, catalog, filters, args.workers, window, args.compare_rules)
     nothing_read = _warn_unreadable(result.tally.recovery)
     sys.stdout.write(replay_report.render_text(result, listing=not args.quiet))
@@ -249,8 +253,11 @@ def _write(path: Optional[str], render: Callable[[], str]) -> None:
 
 
 def _rule_text() -> dict[str, str]:
-    """What each shipped rule says (with the monitor's default rule pack), for the report's per-rule table."""
+    """What each shipped rule says, of every rule pack, for the report's per-rule table."""
     from discern.monitor.protocol import FAILSAFE_RULES
 
-    return {**FAILSAFE_RULES, **{r.id: r.says for r in load_catalog(extra_files=[jurisdiction_pack("us")]).rules}}
+    says = dict(FAILSAFE_RULES)
+    for name in JURISDICTIONS:
+        says.update((r.id, r.says) for r in load_catalog(extra_files=[jurisdiction_pack(name)]).rules)
+    return says
 

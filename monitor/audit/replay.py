@@ -405,6 +405,7 @@ class RecordedSetup:
     params: dict[str, float]
     jurisdiction: Optional[str] = None
     window_s: Optional[float] = None
+    catalog: Optional[str] = None  # the digest of the rules that decided (rules.catalog.catalog_digest)
 
 
 def recorded_setup(paths: Sequence[str]) -> RecordedSetup:
@@ -414,19 +415,20 @@ def recorded_setup(paths: Sequence[str]) -> RecordedSetup:
     writer's metadata (empty, foreign, cut before it) say nothing and are passed over. Raises ValueError naming
     the files when they disagree (each setup is its own replay) or a recorded value this version cannot use.
     """
-    first: dict[tuple[str, str, str], str] = {}  # the setup as recorded -> the first file that has it
+    first: dict[tuple[str, str, str, str], str] = {}  # the setup as recorded -> the first file that has it
     for path in log_files(paths):
         metadata = log_metadata(path)
         if metadata:
-            setup = (metadata.get("params", "{}"), metadata.get("jurisdiction", ""), metadata.get("window_s", ""))
+            setup = (metadata.get("params", "{}"), metadata.get("jurisdiction", ""), metadata.get("window_s", ""),
+                     metadata.get("catalog", ""))
             first.setdefault(setup, str(path))
     if len(first) > 1:
-        shown = "; ".join(f"{path}: params {p}, jurisdiction {j or '-'}, window {w or '-'} s"
-                          for (p, j, w), path in first.items())
+        shown = "; ".join(f"{path}: params {p}, jurisdiction {j or '-'}, window {w or '-'} s, catalog {c or '-'}"
+                          for (p, j, w, c), path in first.items())
         raise ValueError(f"the logs were decided with different settings ({shown}): replay them apart")
     if not first:
         return RecordedSetup({})
-    (params, jurisdiction, window), path = next(iter(first.items()))
+    (params, jurisdiction, window, catalog), path = next(iter(first.items()))
     try:
         pairs = [f"{name}={value}" for name, value in json.loads(params).items()]
     except (ValueError, AttributeError, TypeError):
@@ -443,7 +445,7 @@ def recorded_setup(paths: Sequence[str]) -> RecordedSetup:
             check_number("window_s", window_s, 0, unit=" s", above=True)
     except ValueError:
         raise ValueError(f"{path}: unreadable recorded history window {window!r}") from None
-    return RecordedSetup(values, jurisdiction or None, window_s)
+    return RecordedSetup(values, jurisdiction or None, window_s, catalog or None)
 
 
 def replay_logs(

@@ -296,6 +296,9 @@ def files_html(files: list[FileRecovery]) -> str:
     return table(["file", "state", "records", "bytes recovered", "skipped", "damaged", "stopped by"], rows, {2, 4})
 
 
+RETIRED = "(no rule of this version's catalog: the log was decided by another)"
+
+
 def render_html(tally: Tally, agg: Aggregates, filters: Filters, rule_text: dict[str, str]) -> str:
     d = tally.decisions
     lat = agg.latency
@@ -332,7 +335,7 @@ def render_html(tally: Tally, agg: Aggregates, filters: Filters, rule_text: dict
     )
     parts.append(
         "<h2>Per rule</h2>"
-        + table(["rule", "disagreements", "says"], [[r, n, rule_text.get(r, "")] for r, n in agg.per_rule], {1})
+        + table(["rule", "disagreements", "says"], [[r, n, rule_text.get(r, RETIRED)] for r, n in agg.per_rule], {1})
     )
     parts.append(
         "<h2>Per action pair (proposed &rarr; executed)</h2>"

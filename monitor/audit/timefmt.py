@@ -58,7 +58,7 @@ def _unit_ns(value: str) -> int:
 
 _EPOCH_SECONDS = re.compile(r"\d+(\.\d*)?")
 _WEEK = re.compile(r"\d{4}-?W\d{2}")
-_ZONE = re.compile(r"(Z|[+-]\d{2}(:?\d{2}(:?\d{2}(\.\d+)?)?)?)$")
+_ZONE = re.compile(r"([Zz]|[+-]\d{2}(:?\d{2}(:?\d{2}(\.\d+)?)?)?)$")
 _CLOCK = re.compile(r"([\d:]+)(?:[.,](\d+))?")
 
 
@@ -73,14 +73,14 @@ def _parse_time(text: str, option: str) -> int:
             raise ValueError(f"{option} {text}: not a finite time")
         if value.isdigit() and MIN_EPOCH_NS <= int(value) <= MAX_EPOCH_NS:
             return int(value)
-        if not 0 <= number <= MAX_EPOCH_S:
+        if not 0 <= number < MAX_EPOCH_S + 1:  # to the last nanosecond of 9999
             raise ValueError(
                 f"{option} {text}: out of range: epoch seconds go from 0 to {MAX_EPOCH_S} (year 9999), "
                 f"epoch nanoseconds (a whole number) from {MIN_EPOCH_NS} to {MAX_EPOCH_NS}"
             )
         return int(number.scaleb(9).to_integral_value())
     try:
-        moment = datetime.fromisoformat(value.replace("Z", "+00:00"))
+        moment = datetime.fromisoformat(re.sub(r"[Zz]$", "+00:00", value))  # RFC 3339 allows a lowercase z
     except ValueError:
         raise ValueError(
             f"{option}: time {text!r} is neither ISO 8601 (2026-11-21T15:20:00Z) nor seconds since the epoch"
@@ -88,6 +88,6 @@ def _parse_time(text: str, option: str) -> int:
     if moment.tzinfo is None:
         moment = moment.replace(tzinfo=timezone.utc)
     ns = (moment - EPOCH) // timedelta(microseconds=1) * 1000
-    if not 0 <= ns <= MAX_EPOCH_S * 10**9:
+    if not 0 <= ns < (MAX_EPOCH_S + 1) * 10**9:
         raise ValueError(f"{option} {text}: out of range: a log holds times from 1970 to the end of year 9999 UTC")
     return ns

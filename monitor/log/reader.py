@@ -310,8 +310,8 @@ def _read_file(
             )
             return
         recovery.closed = _ends_closed(fd, size)
-        decoder = _ChannelDecoder(path, recovery, vehicles)
         summary = _Summary(path)
+        decoder = _ChannelDecoder(path, recovery, vehicles, summary.declare)
         f.seek(len(MAGIC))
         records = _records(f)
         end = len(MAGIC)  # of the last record read whole
@@ -553,10 +553,14 @@ def _describe(exc: Exception) -> str:
 class _ChannelDecoder:
     """Turns schema, channel and message records of one file into LogRecords."""
 
-    def __init__(self, path: Path, recovery: FileRecovery, vehicles: Optional[Callable[[Optional[str]], bool]] = None):
+    def __init__(self, path: Path, recovery: FileRecovery, vehicles: Optional[Callable[[Optional[str]], bool]] = None,
+                 declare_all: Optional[Callable[["_ChannelDecoder"], None]] = None):
+        """`declare_all`: declares every schema and channel of the file (its summary's), once a message comes on a
+        channel no record read declared: the chunk that did may have been passed over unseen (a damaged opcode)."""
         self.path = path
         self.recovery = recovery
         self.vehicles = vehicles
+        self._declare_all = declare_all
         self.schemas: dict[int, Schema] = {}
         self.channels: dict[int, Optional[tuple[Optional[str], str, str]]] = {}
         self.elsewhere: set[int] = set()  # channels of vehicles another reader decodes
@@ -581,6 +585,9 @@ class _ChannelDecoder:
                     record.message_encoding,
                 )
         elif isinstance(record, Message):
+            if record.channel_id not in self.channels and self._declare_all is not None:
+                declare, self._declare_all = self._declare_all, None
+                declare(self)
             if record.channel_id in self.elsewhere:
                 return None
             if record.channel_id not in self.channels and not self._mine(None):

@@ -68,17 +68,18 @@ class McapLogWriter:
     """Append-only recorder; `write` never blocks, `close` finishes the file cleanly."""
 
     def __init__(self, settings: LogSettings, monitor_id: str, params: Optional[Mapping[str, float]] = None,
-                 jurisdiction: Optional[str] = None, window_s: Optional[float] = None):
+                 jurisdiction: Optional[str] = None, window_s: Optional[float] = None, catalog: Optional[str] = None):
         """`params`: the reasoning parameters the verdicts are decided with (rules.facts.Params overrides),
-        `jurisdiction` the rule pack and `window_s` the history window, kept in every file's metadata so that a
-        replay decides alike."""
+        `jurisdiction` the rule pack, `window_s` the history window and `catalog` the rules' digest
+        (rules.catalog.catalog_digest), kept in every file's metadata so that a replay decides alike, or says why
+        it cannot."""
         if settings.compression not in ("zstd", "none"):
             raise ValueError(f"log compression {settings.compression!r} is not 'zstd' or 'none'")
         self.settings = settings
         self.monitor_id = monitor_id
         self.params = dict(params or {})
-        self.setup = {name: str(value) for name, value in (("jurisdiction", jurisdiction), ("window_s", window_s))
-                      if value is not None}
+        self.setup = {name: str(value) for name, value in
+                      (("jurisdiction", jurisdiction), ("window_s", window_s), ("catalog", catalog)) if value is not None}
         self.directory = Path(settings.directory)
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
