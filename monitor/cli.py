@@ -210,7 +210,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
         # One reasoner per jurisdiction for all files: loading a --rules catalog per file took 30 times longer.
         outcomes, unreadable = runner.run_files(scenario_files, functools.lru_cache(maxsize=None)(lambda j: _reasoner(args, j)))
         for outcome in outcomes:
-            status = "pass" if outcome.passed else "FAIL"
+            status = "FAIL" if not outcome.passed else "pass" if outcome.checked else "hist"
             summary = outcome.verdict.justification.summary if outcome.verdict else "no verdict"
             print(f"{status}  {outcome.scenario} #{outcome.index}: {summary}")
             for problem in outcome.problems:
@@ -218,10 +218,12 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
             if args.explain and outcome.verdict:
                 print(_indented(outcome.verdict.justification.text))
         failed = sum(not o.passed for o in outcomes)
+        history = sum(o.passed and not o.checked for o in outcomes)
         for reason in unreadable:
             print(f"discern: error: {reason}", file=sys.stderr)
         cannot = f", {len(unreadable)} file{'s' if len(unreadable) > 1 else ''} not read" if unreadable else ""
-        print(f"{len(outcomes) - failed} passed, {failed} failed{cannot}")
+        kept = f", {history} history frame{'s' if history != 1 else ''} (nothing expected)" if history else ""
+        print(f"{len(outcomes) - failed - history} passed, {failed} failed{kept}{cannot}")
         if unreadable:
             return 2  # bad input, as for one file alone
         ok = ok and failed == 0

@@ -240,8 +240,8 @@ class Monitor:
                     return verdict
                 problem = (f"the monitor's reply is about vehicle {verdict.vehicle!r} frame {verdict.frame_id},"
                            f" not this proposal (vehicle {self.vehicle!r} frame {frame})")
-        except zenoh.ZError:
-            pass
+        except zenoh.ZError as exc:  # the session closing under the query: its own words, not a guess
+            problem = problem or f"the zenoh query failed: {str(exc).splitlines()[0] if str(exc) else exc!r}"
         if problem is not None:
             return problem
         if timed_out or time.monotonic() - started >= timeout:

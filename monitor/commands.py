@@ -101,7 +101,7 @@ def register(subparsers) -> None:
         "--test-only-decision-delay-ms",
         type=float,
         default=0.0,
-        help="TEST ONLY: sleep this long before deciding each batch, to exercise the fail-safe deadline",
+        help=argparse.SUPPRESS,  # TEST ONLY: sleep this long before deciding each batch (docs/protocol.md)
     )
     serve.add_argument("-v", "--verbose", action="store_true", help="log every refused proposal and more")
     serve.set_defaults(func=cmd_serve)

@@ -451,6 +451,7 @@ class MonitorServer:
                 self.session.put(keys.verdict_key(req.vehicle), answer.verdict, encoding=JSON)
         except Exception as exc:  # the session is closing, or the querier gave up
             log.warning("could not send the verdict for %s: %s", req.key, exc)
+            self.counters.count("unsent")
         finally:
             if self.answers is not None:
                 self.answers.release()  # after the verdict is on its way (_AnswerLog.claim)

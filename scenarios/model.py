@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from discern.rules.engine import jurisdiction_pack
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Scene
@@ -20,6 +20,11 @@ class Expectation(BaseModel):
     recommended: Optional[Action] = None
     rules: list[str] = Field(default_factory=list, description="rule ids that must appear in verdict.rules")
     text_contains: list[str] = Field(default_factory=list, description="phrases the justification must contain")
+
+    @property
+    def empty(self) -> bool:
+        """Expects nothing: its frame is history for the frames after it, not checked."""
+        return not (self.decision or self.action or self.recommended or self.rules or self.text_contains)
 
 
 class ScenarioFrame(BaseModel):
@@ -48,6 +53,13 @@ class Scenario(BaseModel):
         were decided, an unknown pack stopped the whole run without saying which file named it."""
         jurisdiction_pack(name)
         return name
+
+    @model_validator(mode="after")
+    def _checks_something(self) -> "Scenario":
+        """A scenario whose frames expect nothing passes whatever the rules decide."""
+        if all(frame.expect.empty for frame in self.frames):
+            raise ValueError("no frame expects anything (an empty `expect` marks a history frame): it would always pass")
+        return self
 
     @classmethod
     def load(cls, path: Path) -> "Scenario":

@@ -25,6 +25,7 @@ class FrameOutcome:
     index: int
     verdict: Optional[Verdict]  # None: deciding the frame raised, which `problems` says
     problems: list[str] = field(default_factory=list)
+    checked: bool = True  # False: a history frame, whose `expect` is empty
 
     @property
     def passed(self) -> bool:
@@ -69,7 +70,8 @@ def run(scenario: Scenario, reasoner: Reasoner) -> list[FrameOutcome]:
         except Exception as exc:  # a frame the engine cannot judge is a failed frame, not the end of the run
             outcomes.append(FrameOutcome(scenario.name, index, None, [f"deciding the frame raised {type(exc).__name__}: {exc}"]))
         else:
-            outcomes.append(FrameOutcome(scenario.name, index, verdict, check(verdict, frame.expect)))
+            outcomes.append(FrameOutcome(scenario.name, index, verdict, check(verdict, frame.expect),
+                                         not frame.expect.empty))
         history.append(frame.scene)
     return outcomes
 

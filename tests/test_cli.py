@@ -291,6 +291,21 @@ def test_scenarios_run_fails_when_any_expectation_fails(tmp_path, capsys):
     assert "FAIL  acc.cut_in #0" in out and "action brake, expected cruise" in out and "0 passed, 1 failed" in out
 
 
+def test_a_frame_that_expects_nothing_is_counted_as_history_and_a_scenario_that_checks_nothing_is_refused(tmp_path,
+                                                                                                        capsys):
+    """An empty `expect` printed "pass" and counted as passed: a file of such frames passed whatever the rules said."""
+    data = json.loads((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
+    data["frames"] = [{**data["frames"][0], "expect": {}}, data["frames"][0]]
+    assert main(["scenarios", "run", write(tmp_path, data, "history.json")]) == 0
+    out = capsys.readouterr().out
+    assert "hist  acc.cut_in #0: override accelerate" in out and "pass  acc.cut_in #1" in out
+    assert "1 passed, 0 failed, 1 history frame (nothing expected)" in out
+    data["frames"] = [data["frames"][0]]
+    assert main(["scenarios", "run", write(tmp_path, data, "nothing.json")]) == 2
+    captured = capsys.readouterr()
+    assert "no frame expects anything" in captured.err and "0 passed, 0 failed, 1 file not read" in captured.out
+
+
 def test_scenarios_run_on_a_directory_runs_its_frame_files_and_its_scenarios_subdirectories_too(avcsr_dir, tmp_path,
                                                                                                 capsys):
     frames = sorted(avcsr_dir.glob("*.pl"))[0]

@@ -113,12 +113,19 @@ def jobs(count: int, budget_s: float, scene_of=lambda i: highway_scene(i, 4)) ->
 def test_a_batch_that_fails_is_decided_one_by_one_so_only_the_poisoned_frame_fails():
     calls = itertools.count()
 
-    def poison():  # the engine's own solve hook: the batch's grounding fails, then the second frame's alone
-        if next(calls) in (0, 2):
-            raise RuntimeError("poisoned")
+    class Poisoned(Reasoner):  # the batch's grounding fails, then the second frame's alone
+        def solve_facts(self, texts, proposed):
+            if len(texts) > 1 and next(calls) in (0, 2):
+                raise RuntimeError("poisoned")
+            return super().solve_facts(texts, proposed)
+
+        def _solve_text(self, text, proposed):
+            if next(calls) in (0, 2):
+                raise RuntimeError("poisoned")
+            return super()._solve_text(text, proposed)
 
     judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
-    judge.reasoner = Reasoner(solve_hook=poison)
+    judge.reasoner = Poisoned()
     judge.time.learn(1, 0.001)  # timed once: it may batch
     backlog = jobs(3, 10.0)
     first, poisoned, third = judge.next_batch(backlog)

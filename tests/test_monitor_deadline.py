@@ -207,13 +207,29 @@ def test_only_a_rules_verdict_that_comes_after_its_failsafe_counts_as_a_late_dec
     from discern.monitor.decision_worker import Outcome
     from discern.monitor.server import MonitorServer
 
-    server = MonitorServer(MonitorConfig(monitor_id="late", zenoh=ZenohSettings(listen=["tcp/127.0.0.1:7447"])))
+    server = MonitorServer(MonitorConfig(monitor_id="late", zenoh=ZenohSettings(listen=[endpoint(free_port())])))
     # none of these requests is open any more: the watchdog answered them at their deadlines
     server._on_outcome(Outcome(rid=1, no_verdict="shed: too little of its budget left", decoded=True))
     server._on_outcome(Outcome(rid=2, verdict=b"{}", failsafe=True, error_kind="order", error="duplicate frame 3"))
     assert server.status().late_decisions == 0
     server._on_outcome(Outcome(rid=3, verdict=b"{}", decision="approve", decoded=True))
     assert server.status().late_decisions == 1
+
+
+def test_a_verdict_the_session_could_not_send_is_counted_as_unsent_not_only_as_decided():
+    """The status said every decided proposal was answered, also where no planner could get its verdict."""
+    from discern.monitor.config import MonitorConfig
+    from discern.monitor.server import Answer, MonitorServer, Request
+
+    config = MonitorConfig(monitor_id="unsent", zenoh=ZenohSettings(listen=[endpoint(free_port())]))
+    server = MonitorServer(config)
+    server.session = zenoh.open(config.zenoh.to_zenoh())
+    server.session.close()  # as at shutdown: a put on it fails
+    now = time.monotonic()
+    request = Request(1, "discern/car_1/proposal", "car_1", b"{}", b"", 2, now, time.time_ns(), now + 0.05)
+    assert server._answer(request, Answer(b"{}", "approve", False, 1.0))
+    status = server.status()
+    assert (status.proposals, status.approvals, status.unsent) == (1, 1, 1)
 
 
 def test_a_frame_waiting_behind_a_long_decision_finds_its_vehicles_window():

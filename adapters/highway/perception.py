@@ -130,7 +130,7 @@ class Perception:
     def reset(self, episode_seed: int, truth: Truth) -> Perceived:
         self.episode = int(episode_seed)
         self.frame = 0
-        self.signs.reset(self.episode, truth.ego.road_position, truth.lane_limit(truth.ego.lane))
+        self.signs.reset(self.episode, truth.lane_limit(truth.ego.lane))
         return self.perceive(truth)
 
     def step(self, truth: Truth) -> Perceived:

@@ -40,7 +40,7 @@ class SignLayer:
         self._believed: float | None = None
         self._misread = False
 
-    def reset(self, episode_seed: int, start: float, limit: float | None) -> None:
+    def reset(self, episode_seed: int, limit: float | None) -> None:
         """A new episode begins with the limit of the sign just passed, read correctly."""
         self.episode_seed = episode_seed
         self._believed = limit
