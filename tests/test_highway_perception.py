@@ -67,7 +67,7 @@ def test_faults_repeat_for_the_same_seed_and_differ_for_another():
 
 def test_misread_sign_reaches_the_scene_and_the_planner_speeds_up():
     layer = SignLayer(spacing=200.0, misread_rate=1.0, misread_value=80.0, seed=0)
-    layer.reset(episode_seed=3, start=0.0, limit=30.0)
+    layer.reset(episode_seed=3, limit=30.0)
     assert layer.read(100.0, 30.0).limit == 30.0  # the sign at 200 m is not in view yet
     reading = layer.read(150.0, 30.0)
     assert reading.misread and reading.limit == 80.0
@@ -91,6 +91,16 @@ def test_misread_limit_is_the_perceived_limit_and_the_map_keeps_the_true_one():
 def test_none_and_all_are_refused_in_a_list_of_kinds_as_standing_alone(kinds):
     with pytest.raises(ValueError, match=f"^fault set '{kinds}': 'none' and 'all' stand alone, not with other kinds$"):
         Faults.preset(kinds)
+
+
+def test_dropped_detections_are_a_fault_of_their_own_that_all_leaves_out():
+    """'missed' keeps the radar track in Discern's list (only the planner loses it); 'dropped' takes it from both."""
+    dropped = Faults.preset("signs,dropped", miss_rate=0.2)
+    assert dropped.miss_drop_track and dropped.miss_rate == 0.2 and dropped.label() == "dropped,signs"
+    assert not Faults.preset("missed").miss_drop_track and Faults.preset("missed").label() == "missed"
+    assert not Faults.preset("all").miss_drop_track and Faults.preset("all").label() == "noise,missed,phantoms,signs"
+    with pytest.raises(ValueError, match="'dropped' is 'missed' with the object gone"):
+        Faults.preset("missed,dropped")
 
 
 def test_unknown_fault_kind_is_named_in_the_error():

@@ -46,7 +46,7 @@ def _options(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         default=list(DEMO_FAULTS),
         metavar="SET",
-        help="fault sets, each 'none', 'all' or a comma list of noise, missed, phantoms, signs "
+        help="fault sets, each 'none', 'all' (all but dropped) or a comma list of noise, missed, dropped, phantoms, signs "
         "(e.g. --faults none signs,missed; default: %(default)s)",
     )
     parser.add_argument("--variants", default="planner,discern,rss", help="comma list of planner, discern, rss (default: %(default)s)")
@@ -217,10 +217,11 @@ def _rate_problems(args: argparse.Namespace) -> list[str]:
 def _unused_fault_settings(args: argparse.Namespace) -> list[str]:
     """A setting for a fault no set injects, or one that turns a named fault off, would give a row that is not what its
     label or the command line says."""
-    from .perception import FAULT_KINDS
+    from .perception import ALL_FAULTS
 
     named = {kind.strip() for kinds in args.faults for kind in kinds.split(",")}
-    named |= set(FAULT_KINDS) if "all" in named else set()
+    named |= set(ALL_FAULTS) if "all" in named else set()
+    named |= {"missed"} if "dropped" in named else set()  # --miss-rate sets how often either happens
     problems = []
     for flag, value, kind in (("--miss-rate", args.miss_rate, "missed"), ("--phantom-rate", args.phantom_rate, "phantoms"),
                               ("--sign-rate", args.sign_rate, "signs"), ("--sign-value", args.sign_value, "signs"),

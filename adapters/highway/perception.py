@@ -23,7 +23,8 @@ from discern.rules.scene import SensorSide, Source
 from .signs import SignLayer, SignReading
 from .truth import Track, Truth
 
-FAULT_KINDS = ("noise", "missed", "phantoms", "signs")
+FAULT_KINDS = ("noise", "missed", "dropped", "phantoms", "signs")
+ALL_FAULTS = ("noise", "missed", "phantoms", "signs")  # 'all': "dropped" is "missed" gone from Discern's list too
 RANGE_FRONT = 150.0  # m: long-range radar
 RANGE_REAR = 80.0
 RANGE_SIDE = 40.0  # m: corner radars
@@ -45,7 +46,7 @@ class Faults:
 
     @classmethod
     def preset(cls, kinds: str | list[str], seed: int = 0, **rates) -> "Faults":
-        """Faults from names ('none', 'all' or a comma list of noise, missed, phantoms, signs)."""
+        """Faults from names ('none', 'all' or a comma list of noise, missed, dropped, phantoms, signs)."""
         parts = [k.strip() for k in (kinds.split(",") if isinstance(kinds, str) else kinds)]
         names = [k for k in parts if k]
         if not names:
@@ -56,17 +57,21 @@ class Faults:
         if len(names) > 1 and {"none", "all"} & set(names):
             raise ValueError(f"fault set {','.join(names)!r}: 'none' and 'all' stand alone, not with other kinds")
         if names == ["all"]:
-            names = list(FAULT_KINDS)
+            names = list(ALL_FAULTS)
         if names == ["none"]:
             names = []
         unknown = sorted(set(names) - set(FAULT_KINDS))
         if unknown:
             raise ValueError(f"unknown fault kind(s) {', '.join(unknown)}: choose from none, all, {', '.join(FAULT_KINDS)}")
+        if {"missed", "dropped"} <= set(names):
+            raise ValueError(f"fault set {','.join(names)!r}: 'dropped' is 'missed' with the object gone from the list "
+                             "Discern gets too: name one of them")
         defaults = {"noise": 1.0, "miss_rate": 0.05, "phantom_rate": 0.1, "sign_rate": 0.5}
         defaults.update({k: v for k, v in rates.items() if v is not None})
         return cls(
             noise=defaults["noise"] if "noise" in names else 0.0,
-            miss_rate=defaults["miss_rate"] if "missed" in names else 0.0,
+            miss_rate=defaults["miss_rate"] if {"missed", "dropped"} & set(names) else 0.0,
+            miss_drop_track="dropped" in names,
             phantom_rate=defaults["phantom_rate"] if "phantoms" in names else 0.0,
             sign_rate=defaults["sign_rate"] if "signs" in names else 0.0,
             sign_value=defaults.get("sign_value", 80.0),
@@ -78,7 +83,8 @@ class Faults:
             name
             for name, on in (
                 ("noise", self.noise > 0),
-                ("missed", self.miss_rate > 0),
+                ("missed", self.miss_rate > 0 and not self.miss_drop_track),
+                ("dropped", self.miss_rate > 0 and self.miss_drop_track),
                 ("phantoms", self.phantom_rate > 0),
                 ("signs", self.sign_rate > 0),
             )
