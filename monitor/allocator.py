@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import re
+import signal
 import sys
 from pathlib import Path
 from typing import Mapping, Optional
@@ -84,8 +85,15 @@ def in_use() -> str:
     return "glibc malloc"
 
 
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT)
+
+
 def discern_command() -> int:
     """The `discern` console script: on jemalloc where the machine has it, then the CLI."""
+    if sys.argv[1:2] == ["serve"]:
+        # A stop asked for while the monitor starts is held, not lost, until serve's own handlers take it (the
+        # mask survives the relaunch's exec; a blocked signal stays pending even where a shell ignores it)
+        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         relaunch()
     except AllocatorError as exc:

@@ -16,6 +16,7 @@ from typing import Optional
 from discern.rules.engine import JURISDICTIONS
 
 from . import keys
+from .allocator import STOP_SIGNALS
 from .config import (
     BUDGET_MAX_MS,
     DEFAULT_ENDPOINT,
@@ -172,8 +173,9 @@ def _fail(command: str, message: str) -> int:
 def _stop_on_signal() -> threading.Event:
     """Set on SIGTERM or SIGINT: from before the monitor starts, so that a stop while it starts is a clean one."""
     stop = threading.Event()
-    for sig in (signal.SIGTERM, signal.SIGINT):
+    for sig in STOP_SIGNALS:
         signal.signal(sig, lambda *_: stop.set())
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)  # one that came while it started: held till now
     return stop
 
 

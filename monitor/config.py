@@ -140,7 +140,7 @@ def config_file_problem(text: str) -> str:
         message, position = _PARSER_EXPECTED.search(text), _PARSER_POSITION.search(text)
     if message is None:
         return " ".join(text.split())
-    reason = message.group(1)
+    reason = message.group(1).replace('\\"', '"')  # a value quoted inside the debug form's own quotes
     return f"line {position.group(1)} column {position.group(2)}: {reason}" if position else reason
 
 

@@ -199,7 +199,9 @@ class MonitorServer:
         extra = dict(vehicles=len(self._vehicles))
         if self.log is not None:
             extra.update(
-                log_files=[str(p) for p in self.log.files], log_records=self.log.records, log_dropped=self.log.dropped
+                # still on disk: one deleted from outside (an operator, a cleaner) is no longer this run's log
+                log_files=[str(p) for p in list(self.log.files) if p.exists()], log_records=self.log.records,
+                log_dropped=self.log.dropped
             )
         return self.counters.snapshot(**extra)
 

@@ -62,6 +62,14 @@ def test_written_records_read_back_as_the_same_models(tmp_path):
     assert f.state == "complete" and f.records == len(records) == 13 and f.recovered_bytes == f.size_bytes
 
 
+def test_a_log_directory_that_is_a_file_is_refused_as_one(tmp_path):
+    """"cannot create the log directory: File exists" left the operator to find the file themselves."""
+    taken = tmp_path / "log"
+    taken.write_text("")
+    with pytest.raises(OSError, match=f"^the log directory {taken} is a file, not a directory$"):
+        McapLogWriter(LogSettings(directory=taken), "m")
+
+
 def test_channels_are_json_with_json_schemas_foxglove_can_open(tmp_path):
     write_session(tmp_path, frames=1)
     [path] = tmp_path.glob("*.mcap")

@@ -6,6 +6,7 @@ import json
 import multiprocessing
 import os
 import signal
+import sys
 import time
 import threading
 
@@ -278,6 +279,29 @@ def test_a_decision_worker_signalled_to_stop_while_it_starts_lives_to_finish_its
         slot.conn.send(STOP)
         slot.stop()
     assert slot.process.exitcode == 0
+
+
+def test_a_sigint_in_the_first_moments_of_a_monitor_started_from_a_script_stops_it_once_it_can():
+    """A shell script's background job ignores SIGINT until the monitor's handler takes it: one sent while the
+    interpreter was still importing was lost, and the monitor served on."""
+    import subprocess
+    from pathlib import Path
+
+    script = Path(sys.executable).with_name("discern")  # the console script, which relaunches itself on jemalloc
+    proc = subprocess.Popen(
+        [str(script), "serve", "--listen", endpoint(free_port()), "--id", "early_int", "--no-log"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),  # as `cmd &` in a script starts it
+    )
+    try:
+        time.sleep(0.3)  # importing: before this fix, the SIGINT was lost
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0 and "discern serve: stopped after 0 proposals" in out, out
 
 
 def test_a_sigterm_while_the_monitor_starts_stops_it_cleanly():

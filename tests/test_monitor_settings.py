@@ -113,6 +113,9 @@ def test_a_zenoh_config_naming_no_listen_endpoint_is_told_that_zenohs_default_is
     [
         ("{ mode: \n", "line 2 column 1: expected array, boolean, null, number, object, or string"),
         ('{ mode: "pear" }\n', "line 1 column 9: unknown variant `pear`, expected one of `router`, `peer`, `client`"),
+        ('{ listen: { endpoints: "tcp/127.0.0.1:7447" } }\n',  # a quoted value, not \"tcp/...\"
+         'line 1 column 24: invalid type: string "tcp/127.0.0.1:7447", expected list of endpoints or mode dependent'
+         ' list of endpoints'),
     ],
 )
 def test_a_malformed_zenoh_config_is_one_line_naming_its_position(tmp_path, text, message):

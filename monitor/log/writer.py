@@ -83,8 +83,12 @@ class McapLogWriter:
         self.directory = Path(settings.directory)
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
+        except FileExistsError:
+            raise OSError(f"the log directory {self.directory} is a file, not a directory") from None
         except OSError as exc:
             raise OSError(f"cannot create the log directory {self.directory}: {exc.strerror}") from None
+        if not os.access(self.directory, os.W_OK | os.X_OK):  # not found out at the first file's odd temporary name
+            raise OSError(f"cannot write into the log directory {self.directory}")
         self.files: list[Path] = []  # this run's files still on disk, the one being written last
         self.opened = 0  # files this run opened: the next one's index
         self.deleted = 0  # files deleted to keep within keep_bytes
