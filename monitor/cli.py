@@ -26,7 +26,7 @@ PARTS: list[str] = [
     "discern.monitor.demo",
     "discern.monitor.commands",
     "discern.monitor.audit.cli",
-    "discern.adapters.highway.cli",
+    "discern.scenarios.highway.cli",
 ]
 
 

@@ -124,7 +124,7 @@ PLANNER_PACKAGES = {"torch", "highway_env", "gymnasium", "matplotlib", "tqdm", "
 def closed_loop(out: Path, episodes: int) -> int:
     banner("5. Closed loop in highway-env: the torch DQN planner alone, with Discern, with RSS")
     try:
-        from discern.adapters.highway.cli import demo
+        from discern.scenarios.highway.cli import demo
     except ImportError as exc:
         if (exc.name or "").split(".")[0] not in PLANNER_PACKAGES:  # a bug of Discern's own, not a missing extra
             raise

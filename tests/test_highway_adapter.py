@@ -99,7 +99,7 @@ def test_merge_lane_reports_where_it_ends():
 def test_wrapper_refuses_an_env_without_the_five_meta_actions():
     import gymnasium as gym
 
-    from discern.adapters.highway.wrapper import DiscernWrapper
+    from discern.scenarios.highway.wrapper import DiscernWrapper
 
     env = gym.make("intersection-v2")  # longitudinal meta-actions only
     with pytest.raises(ValueError, match="all five meta-actions"):
@@ -110,7 +110,7 @@ def test_wrapper_refuses_a_speed_grid_its_vehicle_parameters_do_not_fit():
     """accel_step is half the grid's 5 m/s step: on a 10 m/s grid a FASTER at 26 m/s passed a 30 m/s limit, approved."""
     import gymnasium as gym
 
-    from discern.adapters.highway.wrapper import DiscernWrapper
+    from discern.scenarios.highway.wrapper import DiscernWrapper
 
     coarse = gym.make("highway-fast-v0", config={"action": {"type": "DiscreteMetaAction",
                                                             "target_speeds": [0, 10, 20, 30, 40]}})
@@ -126,7 +126,7 @@ def test_wrapper_refuses_roads_the_scene_conversion_gets_wrong(name):
 
     import gymnasium as gym
 
-    from discern.adapters.highway.wrapper import DiscernWrapper
+    from discern.scenarios.highway.wrapper import DiscernWrapper
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)

@@ -8,12 +8,12 @@ pytest.importorskip("highway_env")
 pytest.importorskip("torch")
 
 from discern.adapters.highway.actions import FASTER, from_catalog
-from discern.adapters.highway.cli import demo
+from discern.scenarios.highway.cli import demo
 from discern.monitor.cli import main as cli_main
 from discern.adapters.highway.envs import make_env
-from discern.adapters.highway.evaluate import Setup, evaluate, summarise
+from discern.scenarios.highway.evaluate import Setup, evaluate, summarise
 from discern.adapters.highway.perception import Faults
-from discern.adapters.highway.wrapper import DiscernWrapper, ReasonerChecker
+from discern.scenarios.highway.wrapper import DiscernWrapper, ReasonerChecker
 from discern.rules.verdict import Decision, Verdict
 
 
@@ -180,7 +180,7 @@ def test_cli_refuses_an_output_folder_inside_a_file_before_any_episode_runs(tmp_
 def test_planner_weights_that_are_not_finite_are_refused(tmp_path, capsys):
     import torch
 
-    from discern.adapters.highway.planner import default_weights
+    from discern.scenarios.highway.planner import default_weights
 
     state = torch.load(default_weights(), map_location="cpu", weights_only=True)
     diverged = tmp_path / "nan.pt"
@@ -257,7 +257,7 @@ def test_training_refuses_what_it_could_not_train_or_save_before_it_starts(tmp_p
     import sys
 
     (tmp_path / "scene.json").write_text("{}")
-    done = subprocess.run([sys.executable, "-m", "discern.adapters.highway.train", *[a.format(tmp=tmp_path) for a in argv]],
+    done = subprocess.run([sys.executable, "-m", "discern.scenarios.highway.train", *[a.format(tmp=tmp_path) for a in argv]],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path)  # never near the packaged weights
     assert done.returncode == 2 and done.stdout == "", done.stdout
     assert done.stderr.splitlines()[-1] == f"train.py: error: {message.format(tmp=tmp_path)}", done.stderr
@@ -374,7 +374,7 @@ def test_logs_decided_with_different_parameters_are_not_replayed_as_one(tmp_path
 def test_the_judge_counts_holding_a_speed_above_the_limit_as_speeding_and_slowing_down_as_not():
     """A veto of keeping 35 m/s on a 30 m/s road is no false veto; one of slowing down from it would be."""
     from discern.adapters.highway.actions import IDLE, SLOWER
-    from discern.adapters.highway.oracle import proposal_was_safe
+    from discern.scenarios.highway.oracle import proposal_was_safe
 
     env = make_env("highway-fast-v0", duration=10)
     env.reset(seed=10_001)

@@ -9,7 +9,7 @@ pytest.importorskip("highway_env")
 from discern.adapters.highway.actions import FASTER, IDLE, SLOWER
 from discern.adapters.highway.envs import make_env
 from discern.adapters.highway.perception import Faults, Perception
-from discern.adapters.highway.planner import follow_sign
+from discern.scenarios.highway.planner import follow_sign
 from discern.adapters.highway.scene import build_scene
 from discern.adapters.highway.signs import SignLayer
 from discern.adapters.highway.truth import VehicleIds, read_truth

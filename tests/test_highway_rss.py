@@ -4,7 +4,7 @@ import pytest
 
 pytest.importorskip("ad_rss")
 
-from discern.adapters.highway.rss import RssChecker, RssParameters, safe_distance
+from discern.scenarios.highway.rss import RssChecker, RssParameters, safe_distance
 from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, Scene, Size, Vec2, Velocity, Zone
 from discern.rules.verdict import Decision
 

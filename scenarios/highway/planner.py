@@ -15,9 +15,9 @@ import numpy as np
 import torch
 from torch import nn
 
-from .actions import FASTER, IDLE, LANE_LEFT, LANE_RIGHT, SLOWER
-from .envs import TARGET_SPEEDS, speed_index
-from .truth import EgoTruth, Track
+from discern.adapters.highway.actions import FASTER, IDLE, LANE_LEFT, LANE_RIGHT, SLOWER
+from discern.adapters.highway.envs import TARGET_SPEEDS, speed_index
+from discern.adapters.highway.truth import EgoTruth, Track
 
 OBSERVED_TRACKS = 6
 EGO_FEATURES = 5
@@ -89,7 +89,7 @@ def available(action: int, ego: EgoTruth, lanes: int) -> bool:
 
 
 def default_weights() -> Path:
-    return Path(str(resources.files("discern.adapters.highway") / "weights" / WEIGHTS_FILE))
+    return Path(str(resources.files("discern.scenarios.highway") / "weights" / WEIGHTS_FILE))
 
 
 @dataclass
@@ -108,7 +108,7 @@ class Planner:
         if not path.is_file():
             raise FileNotFoundError(
                 f"planner weights not found at {path}: train them with "
-                "`python -m discern.adapters.highway.train` or reinstall the package"
+                "`python -m discern.scenarios.highway.train` or reinstall the package"
             )
         network = QNetwork()
         try:

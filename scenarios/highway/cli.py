@@ -89,9 +89,9 @@ def _options(parser: argparse.ArgumentParser) -> None:
 
 def _run_eval(args: argparse.Namespace) -> int:
     try:
-        from .envs import SUPPORTED
+        from discern.adapters.highway.envs import SUPPORTED
         from .evaluate import VARIANTS, Setup, evaluate, report
-        from .perception import Faults
+        from discern.adapters.highway.perception import Faults
     except ImportError as exc:
         print(
             f"discern eval: error: the highway evaluation needs the planner extra (pip install 'discern[planner]'): {exc}",
@@ -217,7 +217,7 @@ def _rate_problems(args: argparse.Namespace) -> list[str]:
 def _unused_fault_settings(args: argparse.Namespace) -> list[str]:
     """A setting for a fault no set injects, or one that turns a named fault off, would give a row that is not what its
     label or the command line says."""
-    from .perception import ALL_FAULTS
+    from discern.adapters.highway.perception import ALL_FAULTS
 
     named = {kind.strip() for kinds in args.faults for kind in kinds.split(",")}
     named |= set(ALL_FAULTS) if "all" in named else set()

@@ -1,6 +1,6 @@
 """Train the planner's DQN on highway-fast-v0 (double DQN, own torch code, CPU, seeded).
 
-    python -m discern.adapters.highway.train --steps 50000 --seed 0 --out adapters/highway/weights/dqn_highway_fast.pt
+    python -m discern.scenarios.highway.train --steps 50000 --seed 0 --out scenarios/highway/weights/dqn_highway_fast.pt
 
 The cruise control that follows the (true) speed-limit sign is in the loop while training, as it is when
 the planner drives, so the DQN learns to brake and change lanes around it. Hyper-parameters follow
@@ -20,9 +20,9 @@ import numpy as np
 import torch
 from torch import nn
 
-from .envs import make_env
+from discern.adapters.highway.envs import make_env
 from .planner import N_ACTIONS, OBSERVATION_SIZE, QNetwork, available, follow_sign, observation
-from .truth import VehicleIds, read_truth
+from discern.adapters.highway.truth import VehicleIds, read_truth
 
 
 def lanes_of(truth) -> int:
@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=_at_least(1), default=50_000,
                         help="training steps, at least 1 (default: 50000, as the shipped weights)")
     parser.add_argument("--seed", type=_at_least(0), default=0, help="seed, at least 0 (the environment's seeds are)")
-    parser.add_argument("--out", type=Path, default=Path("adapters/highway/weights/dqn_highway_fast.pt"),
+    parser.add_argument("--out", type=Path, default=Path("scenarios/highway/weights/dqn_highway_fast.pt"),
                         help="where to write the trained weights (default: %(default)s, the packaged ones)")
     args = parser.parse_args(argv)
     # Checked before training, which would otherwise fail at its first save, minutes or hours in.

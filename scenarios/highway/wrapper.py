@@ -22,11 +22,11 @@ from discern.rules.scene import Action, Proposal, Scene
 from discern.rules.verdict import Decision, Verdict
 from discern.sanity import WindowConfig
 
-from .actions import from_catalog, to_catalog
-from .envs import SPEED_STEP, SUPPORTED, TARGET_SPEEDS, policy_period
-from .perception import Faults, Perceived, Perception
-from .scene import build_scene
-from .truth import VehicleIds, read_truth
+from discern.adapters.highway.actions import from_catalog, to_catalog
+from discern.adapters.highway.envs import SPEED_STEP, SUPPORTED, TARGET_SPEEDS, policy_period
+from discern.adapters.highway.perception import Faults, Perceived, Perception
+from discern.adapters.highway.scene import build_scene
+from discern.adapters.highway.truth import VehicleIds, read_truth
 
 
 # highway-env's MDPVehicle sheds 4.3-5 m/s in the second after a SLOWER (measured in the closed loop):

@@ -21,9 +21,9 @@ from discern.monitor.protocol import RULE_DEADLINE, RULE_NO_ANSWER
 from discern.monitor.status import percentile
 from discern.rules.verdict import Decision
 
-from .envs import make_env, policy_period
+from discern.adapters.highway.envs import make_env, policy_period
 from .oracle import SPEED_TOLERANCE, proposal_was_safe
-from .perception import Faults
+from discern.adapters.highway.perception import Faults
 from .planner import Planner
 from .wrapper import VEHICLE_PARAMS, DiscernWrapper
 

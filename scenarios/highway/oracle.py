@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import copy
 
-from .actions import IDLE, SLOWER
+from discern.adapters.highway.actions import IDLE, SLOWER
 
 SPEED_TOLERANCE = 0.5  # m/s above the true limit before a target speed counts as speeding
 
