@@ -57,7 +57,8 @@ def jurisdiction_pack(name: str) -> Path:
 
 
 class FactProvider(Protocol):
-    """Adds facts derived from more than the current frame (the sanity layer's window)."""
+    """Adds facts derived from more than the current frame (the sanity layer's window). One that defines
+    `bind(static_atoms, params)` is handed the catalog's static model and the parameters once, by its Reasoner."""
 
     def facts(self, scene: Scene, history: Sequence[Scene]) -> str: ...
 
@@ -105,6 +106,10 @@ class Reasoner:
         self._param_names = frozenset(FACT_NAME.findall(self._param_facts))
         self.providers = list(providers) if providers is not None else _default_providers()
         self.slicer = PresenceSlicer(self.catalog, self._param_facts, self._param_names)
+        for provider in self.providers:
+            bind = getattr(provider, "bind", None)
+            if bind is not None:  # what the catalog says of things the frames do not (sanity.window.Bodies)
+                bind(self.slicer.static_atoms, params)
         self._tagger = FrameTagger(self.catalog, shared=self._param_names, specializer=self.slicer.specializer)
         self._controls = self.slicer.controls
         self._static_atoms: dict = {}  # shared by the proofs of all its frames (justify.Prover)

@@ -61,7 +61,7 @@ class PresenceSlicer:
         self.static = static_predicates(catalog, shared)
         ahead = catalog.facts + [rule.statement for rule in catalog.compiled if rule.signature[0] in self.static]
         self._ahead = {id(statement) for statement in ahead}
-        static_atoms = static_model(ahead, constant)
+        self.static_atoms = static_atoms = static_model(ahead, constant)
         self.specializer = Specializer(static_atoms, self.static)
         self.controls = PreparedControls(self.program, static_atoms)
         self._learned: dict[Kind, Slice] = {}  # a kind of frame -> its learned slice

@@ -17,7 +17,10 @@ import math
 import statistics
 import weakref
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Iterable, NamedTuple, Optional, Sequence
+
+from clingo import Symbol, SymbolType
 
 from discern.rules.facts import cm
 from discern.rules.scene import (DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour, ObjectClass,
@@ -26,30 +29,14 @@ from discern.rules.scene import (DetectedObject, IntersectionStage, Intersection
 CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Source.annotation}
 PICTURE = {Source.camera, Source.fused}  # sources that classify signs from a picture (def.read_from_a_picture)
 EGO_LENGTH, EGO_WIDTH = 4.6, 2.0
-HALF_LANE = 1.75  # m: half a lane, the ego's corridor when predicting crossings
-# How the catalog moves an object of unknown speed, mirrored here (tests hold these to the catalog): ahead, a motor
-# vehicle (def.motor_vehicle: an automobile, not a vulnerable road user) keeps pace with the ego, unless it is in a
-# crossing lane, and anything else stands (def.closing_unknown_vehicle and _oncoming, def.closing_unknown_across,
-# def.closing_unknown_thing); behind, a thing that cannot move by itself stands and the rest keep pace
-# (def.rear_closing_thing, def.rear_closing_unknown).
-MOTOR_VEHICLES = frozenset({ObjectClass.car, ObjectClass.truck, ObjectClass.bus, ObjectClass.bike,
-                            ObjectClass.motorcycle, ObjectClass.emergency_vehicle})
-STANDS_BY_NATURE = frozenset({ObjectClass.traffic_light, ObjectClass.plastic_bag, ObjectClass.roadblock,
-                              ObjectClass.barrier, ObjectClass.traffic_cone, ObjectClass.debris})
 CROSSING = frozenset({LaneKind.cross_left, LaneKind.cross_right})
-# Typical footprint (length, width) per class when the detector gives no size.
-FOOTPRINT = {
-    ObjectClass.car: (4.5, 1.8),
-    ObjectClass.truck: (10.0, 2.5),
-    ObjectClass.bus: (12.0, 2.5),
-    ObjectClass.emergency_vehicle: (6.0, 2.2),
-    ObjectClass.motorcycle: (2.2, 0.8),
-    ObjectClass.bike: (2.2, 0.8),
-    ObjectClass.bicycle: (1.8, 0.6),
-    ObjectClass.pedestrian: (0.6, 0.6),
-    ObjectClass.animal: (1.5, 0.6),
-}
-DEFAULT_FOOTPRINT = (1.0, 1.0)
+# Typical width per class when the detector gives no size; the lengths are the catalog's (ent.typical_length), and
+# for the classes it gives none, these.
+WIDTH = {ObjectClass.car: 1.8, ObjectClass.truck: 2.5, ObjectClass.bus: 2.5, ObjectClass.emergency_vehicle: 2.2,
+         ObjectClass.motorcycle: 0.8, ObjectClass.bike: 0.8, ObjectClass.bicycle: 0.6, ObjectClass.pedestrian: 0.6,
+         ObjectClass.animal: 0.6}
+LENGTH = {ObjectClass.pedestrian: 0.6, ObjectClass.animal: 1.5}
+DEFAULT_SIZE = 1.0  # m, length and width of a thing of a class neither gives
 FLASH_MIN_PHASE_S = 0.25  # s: the shortest on or off phase of a flashing signal (about 0.3 s at 60 a minute)
 FLASH_MAX_PHASE_S = 1.0  # s: the longest (0.8 s lit at 50 a minute), with a frame of slack
 LINE_EVIDENCE = "a_stop_line_and_no_traffic_lights"
@@ -138,18 +125,67 @@ class _Summary:
         )
 
 
+@dataclass(frozen=True)
+class Bodies:
+    """How the catalog moves and sizes an object the detector says little of, read from the catalog itself, so that
+    the window's predicted courses and the rules agree: an object of unknown speed ahead keeps pace with the ego if
+    it is a motor vehicle (def.motor_vehicle) outside a crossing lane, and else stands; behind, one that cannot move
+    by itself (def.stands_by_nature) stands and the rest keep pace; lengths are ent.typical_length's. Half the
+    lane width (the parameter lane_width) tells a position ahead from one beside."""
+
+    motor: frozenset[ObjectClass]
+    stands: frozenset[ObjectClass]
+    lengths: dict[ObjectClass, float]
+    half_lane: float
+
+    @classmethod
+    def of(cls, static_atoms: Iterable[Symbol], lane_width: float) -> "Bodies":
+        """From the atoms of what no frame changes (the catalog's static model)."""
+        known = {c.value for c in ObjectClass}
+        by_name: dict[str, list[Symbol]] = {}
+        for atom in static_atoms:
+            if atom.arguments and atom.arguments[0].type == SymbolType.Function and atom.arguments[0].name in known:
+                by_name.setdefault(atom.name, []).append(atom)
+        classes = {name: frozenset(ObjectClass(a.arguments[0].name) for a in by_name.get(name, []))
+                   for name in ("motor_vehicle", "stands_by_nature")}
+        lengths = {ObjectClass(a.arguments[0].name): a.arguments[1].number / 100 for a in by_name.get("typical_length", [])}
+        return cls(classes["motor_vehicle"], classes["stands_by_nature"], {**LENGTH, **lengths}, lane_width / 2)
+
+    @staticmethod
+    @lru_cache(maxsize=1)
+    def shipped() -> "Bodies":
+        """The shipped catalog's, with the default parameters: for a provider no Reasoner has bound."""
+        from discern.rules.engine import Reasoner
+
+        reasoner = Reasoner(providers=[])
+        return Bodies.of(reasoner.slicer.static_atoms, reasoner.params.lane_width)
+
+    def footprint(self, obj: DetectedObject) -> tuple[float, float]:
+        if obj.size is not None:
+            return obj.size.length, obj.size.width
+        return self.lengths.get(obj.cls, DEFAULT_SIZE), WIDTH.get(obj.cls, DEFAULT_SIZE)
+
+
 class WindowProvider:
     """FactProvider for the sanity rules (see discern.rules.engine.FactProvider)."""
 
     def __init__(self, config: WindowConfig = WindowConfig()):
         self.config = config
+        self.bodies: Optional[Bodies] = None  # the catalog's, set by its Reasoner (bind); else the shipped one's
         # by id() of a live scene: a frame is read again by every later window it sits in
         self._summaries: dict[int, _Summary] = {}
 
+    def bind(self, static_atoms: Sequence[Symbol], params) -> None:
+        """Called by the Reasoner it feeds: its catalog's and parameters' idea of objects (Bodies)."""
+        self.bodies = Bodies.of(static_atoms, params.lane_width)
+
     def facts(self, scene: Scene, history: Sequence[Scene]) -> str:
+        if self.bodies is None:
+            self.bodies = Bodies.shipped()
+        bodies = self.bodies
         out: list[str] = []
-        out.extend(_world_facts(scene))
-        out.extend(_predicted_conflicts(scene, self.config.horizon_s))
+        out.extend(_world_facts(scene, bodies))
+        out.extend(_predicted_conflicts(scene, self.config.horizon_s, bodies))
         window = self.window(scene, history)
         if not window and _dark(scene):  # no earlier frame to weigh it against
             out.append("signal_dark.")
@@ -172,7 +208,7 @@ class WindowProvider:
             out.extend(_light_facts(now, past, times, c, clock))
             out.extend(_dark_signal(now, past, c, clock))
             out.extend(_sign_facts(now, past))
-            out.extend(_memory_facts(scene, now, window, past, c, clock))
+            out.extend(_memory_facts(scene, now, window, past, c, clock, bodies))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
         return "".join(out)
 
@@ -529,16 +565,10 @@ def _approaches(scenes: Sequence[Scene]) -> list[Optional[int]]:
 # --- objects -------------------------------------------------------------------
 
 
-def _footprint(obj: DetectedObject) -> tuple[float, float]:
-    if obj.size is not None:
-        return obj.size.length, obj.size.width
-    return FOOTPRINT.get(obj.cls, DEFAULT_FOOTPRINT)
-
-
-def _extent(obj: DetectedObject) -> tuple[float, float]:
+def _extent(obj: DetectedObject, bodies: Bodies) -> tuple[float, float]:
     """How far the object reaches along y (ahead) and along x (to the right). Its length lies along its course:
     across the ego's road for one moving more across it than along it, or standing in a crossing lane."""
-    length, width = _footprint(obj)
+    length, width = bodies.footprint(obj)
     v = obj.velocity
     if v is not None and (v.x or v.y):
         across = abs(v.x) > abs(v.y)
@@ -547,13 +577,13 @@ def _extent(obj: DetectedObject) -> tuple[float, float]:
     return (width, length) if across else (length, width)
 
 
-def _relative_velocity(obj: DetectedObject, ego_speed: float) -> tuple[float, float]:
-    """Velocity relative to the ego; an unknown speed as the catalog assumes it (MOTOR_VEHICLES, STANDS_BY_NATURE)."""
+def _relative_velocity(obj: DetectedObject, ego_speed: float, bodies: Bodies) -> tuple[float, float]:
+    """Velocity relative to the ego; an unknown speed as the catalog assumes it (Bodies)."""
     if obj.velocity is not None:
         return obj.velocity.x, obj.velocity.y - ego_speed
     if obj.position.y < 0:
-        return (0.0, -ego_speed) if obj.cls in STANDS_BY_NATURE else (0.0, 0.0)
-    if obj.cls in MOTOR_VEHICLES and (obj.lane is None or obj.lane.kind not in CROSSING):
+        return (0.0, -ego_speed) if obj.cls in bodies.stands else (0.0, 0.0)
+    if obj.cls in bodies.motor and (obj.lane is None or obj.lane.kind not in CROSSING):
         return 0.0, 0.0
     return 0.0, -ego_speed
 
@@ -571,13 +601,13 @@ def _to_gap(centre: float, length: float) -> float:
     return centre - reach if centre > reach else centre + reach if centre < -reach else 0.0
 
 
-def _world_facts(scene: Scene) -> list[str]:
+def _world_facts(scene: Scene, bodies: Bodies) -> list[str]:
     """Sizes, and camera-only vehicles that sit inside the outline of a confirmed object."""
     out = [f"obj_size({o.id},{cm(o.size.length)},{cm(o.size.width)})." for o in scene.objects if o.size is not None]
     camera_only = [o for o in scene.objects if o.sources == [Source.camera]]
     if not camera_only:
         return out
-    outlines = [(o.id, o.position.x, o.position.y, *_extent(o))
+    outlines = [(o.id, o.position.x, o.position.y, *_extent(o, bodies))
                 for o in scene.objects if CONFIRMING.intersection(o.sources)]
     if not outlines:
         return out
@@ -598,7 +628,7 @@ def _within_length(y: float, oy: float, length: float) -> bool:
     return near - 1.0 <= y <= far + 1.0
 
 
-def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
+def _predicted_conflicts(scene: Scene, horizon: float, bodies: Bodies) -> list[str]:
     """Objects whose course, kept as it is, meets the ego's corridor within the horizon.
 
     Objects already in the corridor are the lane rules' business; this looks
@@ -606,24 +636,25 @@ def _predicted_conflicts(scene: Scene, horizon: float) -> list[str]:
     """
     out = []
     for obj in scene.objects:
-        found = _conflict(obj, obj.position.x, obj.position.y, scene.ego.speed, horizon)
+        found = _conflict(obj, obj.position.x, obj.position.y, scene.ego.speed, horizon, bodies)
         if found is not None:
             out.append(f"predicted_conflict({obj.id},{found[0]},{found[1]}).")
     return out
 
 
-def _conflict(obj: DetectedObject, x: float, y: float, ego_speed: float, horizon: float) -> Optional[tuple[int, int]]:
+def _conflict(obj: DetectedObject, x: float, y: float, ego_speed: float, horizon: float,
+              bodies: Bodies) -> Optional[tuple[int, int]]:
     """When (ms) and how far ahead (cm) the course of `obj`, now at (x, y), enters the ego's corridor; None if
     it does not within the horizon, is in it already, or its velocity is unknown."""
     if obj.velocity is None:
         return None
-    length, width = _extent(obj)  # along y, along x
+    length, width = _extent(obj, bodies)  # along y, along x
     reach_x = (EGO_WIDTH + width) / 2 + 0.3
     reach_y = (EGO_LENGTH + length) / 2 + 0.5
     y = _to_centre(y, length)
     if abs(x) < reach_x:
         return None
-    vx, vy = _relative_velocity(obj, ego_speed)
+    vx, vy = _relative_velocity(obj, ego_speed, bodies)
     span_x = _inside(x, vx, reach_x)
     span_y = _inside(y, vy, reach_y)
     if span_x is None or span_y is None:
@@ -650,14 +681,14 @@ def _legs(scenes: Sequence[Scene]) -> list[tuple[float, float]]:
     return [(max(b.timestamp - a.timestamp, 0.0), (a.ego.speed + b.ego.speed) / 2) for a, b in zip(scenes, scenes[1:])]
 
 
-def _track(obj: DetectedObject, legs: Sequence[tuple[float, float]]) -> Optional[tuple[float, float]]:
+def _track(obj: DetectedObject, legs: Sequence[tuple[float, float]], bodies: Bodies) -> Optional[tuple[float, float]]:
     """Where the track of a lost object puts it now, (x, y), from where it was last seen, at the velocity it had,
     while the ego drove the legs since as it did (slowing down, it leaves a pedestrian ahead of it, not under it).
     None if on the way the track overlaps the ego's own footprint: an object cannot be where the ego is."""
-    length, width = _extent(obj)  # along y, along x
+    length, width = _extent(obj, bodies)  # along y, along x
     x, y = obj.position.x, _to_centre(obj.position.y, length)
     for seconds, ego_speed in legs:
-        vx, vy = _relative_velocity(obj, ego_speed)
+        vx, vy = _relative_velocity(obj, ego_speed, bodies)
         span_x = _inside(x, vx, (EGO_WIDTH + width) / 2)
         span_y = _inside(y, vy, (EGO_LENGTH + length) / 2)
         if span_x is not None and span_y is not None and \
@@ -667,9 +698,9 @@ def _track(obj: DetectedObject, legs: Sequence[tuple[float, float]]) -> Optional
     return x, _to_gap(y, length)
 
 
-def _side_of(x: float, y: float) -> SensorSide:
+def _side_of(x: float, y: float, half_lane: float) -> SensorSide:
     """The range sensor that faces a position (y: the gap from the ego's bumper, 0 alongside)."""
-    if abs(x) < HALF_LANE:
+    if abs(x) < half_lane:
         return SensorSide.front if y > 0 else SensorSide.rear
     left = x < 0
     if y == 0:
@@ -680,7 +711,7 @@ def _side_of(x: float, y: float) -> SensorSide:
 
 
 def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: list[_Summary],
-                  config: WindowConfig, clock: _Clock) -> list[str]:
+                  config: WindowConfig, clock: _Clock, bodies: Bodies) -> list[str]:
     """Objects the camera lost, where their track puts them now, and what says they are still there;
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
@@ -711,12 +742,12 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     legs = _legs([*window, scene])
     for oid, (seen, obj) in last.items():
         age = max(scene.timestamp - window[seen].timestamp, 0.0)
-        placed = _track(obj, legs[seen:])
+        placed = _track(obj, legs[seen:], bodies)
         if placed is None:
             continue  # the ego would have hit it: it did not keep that course, and where it is is not known
         x, y = placed
         tracked = max(frames[oid], obj.track_age or 0)
-        side = _side_of(x, y)
+        side = _side_of(x, y, bodies.half_lane)
         reach = math.hypot(x, y) + config.sensor_margin
         facing = [r for r in scene.sensors if r.side is side]  # every range reading confirms (RangeSensor)
         reads = [r for r in facing if r.distance <= reach]
@@ -739,7 +770,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         if facing and not reads:  # it reads clear road past where the object should be (the rules say whether that clears it)
             out.extend(f"sensor_reads_past({oid},{r.side.value},{r.kind.value},{cm(r.distance)})." for r in facing)
             out.extend(f"reported_before({oid},{s.value})." for s in sorted(echoed.get(oid, ()), key=lambda s: s.value))
-        found = _conflict(obj, x, y, scene.ego.speed, config.horizon_s)
+        found = _conflict(obj, x, y, scene.ego.speed, config.horizon_s, bodies)
         if found is not None:
             out.append(f"remembered_conflict({oid},{found[0]},{found[1]}).")
     for oid, lit in lights.items():

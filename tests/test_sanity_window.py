@@ -9,6 +9,7 @@ from clingo import Function
 
 from discern.rules.scene import ObjectClass
 from discern.sanity import WindowConfig, WindowProvider, default_providers
+from discern.sanity.window import Bodies
 from discern.sanity.examples import MPH, limit_sign, obj, scene, sensor
 
 PROVIDER = WindowProvider()
@@ -305,11 +306,10 @@ def test_outlines_reach_away_from_the_ego_from_their_nearest_face():
 
 def test_a_lost_vehicle_of_unknown_speed_is_moved_as_the_catalog_assumes_it(reasoner):
     """Ahead, a motor vehicle keeps pace and anything else stands (a bicycle too); behind, all but things keep pace."""
-    from discern.sanity.window import MOTOR_VEHICLES, STANDS_BY_NATURE
-
+    bodies = reasoner.providers[0].bodies
     solved = reasoner.solve(scene(), "cruise")
-    assert MOTOR_VEHICLES == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("motor_vehicle", 1)}
-    assert STANDS_BY_NATURE == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("stands_by_nature", 1)}
+    assert bodies.motor == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("motor_vehicle", 1)} != set()
+    assert bodies.stands == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("stands_by_nature", 1)} != set()
     for cls, ahead_after in [("car", 2000), ("bicycle", 1900), ("pedestrian", 1900)]:  # lost for 0.1 s at 10 m/s
         seen = [at(0.1 * i, speed=10.0, objects=[obj(7, cls, 0.0, 20.0, 1)]) for i in range(3)]
         assert f"remembered_pos(7,0,{ahead_after})." in facts(seen + [at(0.3, speed=10.0)]), cls
@@ -475,14 +475,26 @@ def test_a_truck_driving_across_the_road_reaches_the_ego_path_with_its_length_no
     assert conflict.startswith("predicted_conflict(3,870,")
 
 
-def test_the_windows_footprints_have_the_catalogs_typical_lengths(reasoner):
-    """The rules place a vehicle across the road by its typical length (ent.typical_length), the window's predicted
-    courses by FOOTPRINT: two copies of one table, kept equal."""
-    from discern.sanity.window import FOOTPRINT
+def test_the_window_sizes_and_faces_objects_as_its_reasoners_catalog_and_parameters_say(tmp_path):
+    """It kept copies of the catalog's tables, held equal to the shipped catalog by tests: a --rules catalog or a
+    --param lane_width went unseen by the window's predicted courses and its choice of facing sensor."""
+    import shutil
 
-    lengths = {sym.arguments[0].name: sym.arguments[1].number for sym in reasoner.catalog.fact_rule
-               if sym.name == "typical_length"}
-    assert lengths and {c: round(FOOTPRINT[ObjectClass(c)][0] * 100) for c in lengths} == lengths
+    from discern.rules.catalog import catalog_dirs, load_catalog
+    from discern.rules.engine import Reasoner, jurisdiction_pack
+    from discern.rules.facts import Params
+
+    edited = tmp_path / "catalog"
+    shutil.copytree(catalog_dirs()[0], edited)
+    geometry = edited / "10_geometry.lp"
+    assert "typical_length(car, 450)." in geometry.read_text()
+    geometry.write_text(geometry.read_text().replace("typical_length(car, 450).", "typical_length(car, 520)."))
+    catalog = load_catalog([edited, catalog_dirs()[1]], [jurisdiction_pack("us")])
+    bodies = Reasoner(catalog=catalog, params=Params(lane_width=3.0)).providers[0].bodies
+    assert bodies.lengths[ObjectClass.car] == 5.2 and bodies.half_lane == 1.5
+    assert bodies.lengths[ObjectClass.pedestrian] == 0.6  # a class the catalog gives no length keeps the window's
+    shipped = Reasoner().providers[0].bodies
+    assert shipped.lengths[ObjectClass.car] == 4.5 and shipped.half_lane == 1.75 and shipped == Bodies.shipped()
 
 
 def test_a_timestamp_too_large_for_the_windows_clock_is_refused_by_the_scene_model():
