@@ -34,6 +34,8 @@ def run(frames: Iterable[AvcsrFrame], reasoner: Reasoner, repeats: int = 5) -> l
         raise ValueError(f"repeats must be at least 1 (the time is the median of the runs), got {repeats}")
     rows = []
     for frame in frames:
+        # the annotated action proposed, timing the approve path; the answer scored is the recommendation, which
+        # no proposal changes (tests/test_kitti_table.py)
         proposal = frame.expected or "cruise"
         times = []
         for _ in range(repeats):

@@ -12,6 +12,15 @@ def test_all_24_paper_frames_agree_with_expected_action(avcsr_dir, reasoner):
     assert disagreements == []
 
 
+def test_the_recommended_action_of_each_paper_frame_does_not_depend_on_the_action_proposed(avcsr_dir, reasoner):
+    """The table proposes the annotated action (the approve path it times); the answer scored is the recommendation,
+    which must not be the proposal echoed back."""
+    for frame in read_dir(avcsr_dir):
+        recommended = {reasoner.decide(frame.scene, proposed).recommended for proposed in
+                       ("cruise", "brake", "accelerate", "change_lane_left", frame.expected)}
+        assert recommended == {frame.expected}, (frame.scenario, frame.frame, recommended)
+
+
 def test_table_groups_frames_by_the_papers_four_environments(avcsr_dir, reasoner):
     rows = paper_table.run(read_dir(avcsr_dir), reasoner, repeats=1)
     table = paper_table.format_table(rows)
