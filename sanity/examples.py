@@ -244,6 +244,10 @@ def _examples() -> list[Example]:
                        objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),), Action.cruise,
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=31.3,
                        objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),)),
+        Example("san.limit.map_implausible", "In a city the map gives 85 mph (stale or wrong data) and no sign is read; "
+                "the ego drives 20 m/s.",
+                (scene(speed=20.0, limit=None, map_speed_limit=85 * MPH),), Action.accelerate,
+                (scene(speed=20.0, limit=None, map_speed_limit=45 * MPH),)),
         Example("san.limit.fallback_zone", "The taped 85 mph city sign, with no map and nothing read before.",
                 city_85, Action.accelerate, (scene(speed=16.0, limit=85 * MPH, map_speed_limit=15.0),)),
         Example("san.limit.zone_default", "Nothing tells the limit in a city; the ego drives 16 m/s.",
