@@ -90,7 +90,7 @@ STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT)
 
 def discern_command() -> int:
     """The `discern` console script: on jemalloc where the machine has it, then the CLI."""
-    if sys.argv[1:2] == ["serve"]:
+    if sys.argv[1:2] in (["serve"], ["router"]):
         # A stop asked for while the monitor starts is held, not lost, until serve's own handlers take it (the
         # mask survives the relaunch's exec; a blocked signal stays pending even where a shell ignores it)
         signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
