@@ -315,7 +315,7 @@ def _summary(decision: Decision, proposed: Action, action: Action, recommended: 
 
 
 def _default_providers() -> list[FactProvider]:
-    from discern.sanity import default_providers  # here, not at the top: the sanity layer reads the scene model
+    from discern.sanity import default_providers  # here, not at the top: the sanity layer imports from rules
 
     return list(default_providers())
 

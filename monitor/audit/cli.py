@@ -159,7 +159,8 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         catalog.load()
     except CatalogError as exc:  # names the file and line it could not read
         raise UsageError(f"rules catalog: {exc}") from None
-    shipped = catalog_digest(extra_files=[jurisdiction_pack(catalog.jurisdiction)])
+    # this version's catalog with the pack the logs were decided with, whatever --jurisdiction replays them with
+    shipped = catalog_digest(extra_files=[jurisdiction_pack(recorded.jurisdiction or "us")])
     if recorded.catalog is not None and recorded.catalog != shipped:
         print(f"discern audit: warning: the logs were decided by the rules catalog {recorded.catalog}, not this "
               f"version's ({shipped}): the changes reported include the catalog's own since then", file=sys.stderr)
