@@ -277,6 +277,21 @@ def test_since_and_until_take_epoch_nanoseconds_as_the_csv_gives_them(capsys, tm
     assert by_s["disagreements"] == by_ns["disagreements"]
 
 
+def test_csv_text_a_spreadsheet_would_run_as_a_formula_stays_text(capsys, tmp_path, reasoner):
+    """A verdict's error or summary that starts with '=' became a live formula when the CSV was opened."""
+    class Formulas:
+        def decide(self, *args, **kwargs):
+            verdict = reasoner.decide(*args, **kwargs)
+            return verdict.model_copy(update={"error": '=HYPERLINK("http://x","y")'})
+
+    log = write_log(tmp_path / "log", [("car_a", highway(1), "accelerate", 10**18, 10**18 + 10**6)], Formulas())
+    out = tmp_path / "audit.csv"
+    code, _, err = audit(capsys, str(log), "--csv", str(out), "--workers", "1", "-q")
+    assert code == 0, err
+    [row] = csv.DictReader(out.open())
+    assert row["error"] == '\'=HYPERLINK("http://x","y")' and row["log_time_ns"] == str(10**18 + 10**6)
+
+
 def test_the_html_reports_per_rule_table_says_which_cited_rule_this_versions_catalog_no_longer_has(
     capsys, tmp_path, reasoner
 ):

@@ -8,7 +8,7 @@ import json
 from html import escape
 
 from .replay import Change, ReplayResult
-from .report import files_html, files_json, page, plural, recovery_lines, table, verdict_html
+from .report import files_html, files_json, page, plural, recovery_lines, spreadsheet_safe, table, verdict_html
 from .timefmt import iso
 
 CSV_FIELDS = [
@@ -112,7 +112,7 @@ def render_csv(result: ReplayResult) -> str:
     writer = csv.DictWriter(out, fieldnames=CSV_FIELDS, lineterminator="\n")
     writer.writeheader()
     for c in result.tally.changes:
-        writer.writerow(_row(c))
+        writer.writerow(spreadsheet_safe(_row(c)))
     return out.getvalue()
 
 

@@ -166,8 +166,18 @@ def render_csv(tally: Tally) -> str:
     writer = csv.DictWriter(out, fieldnames=CSV_FIELDS, lineterminator="\n")
     writer.writeheader()
     for d in tally.disagreements:
-        writer.writerow(_row(d))
+        writer.writerow(spreadsheet_safe(_row(d)))
     return out.getvalue()
+
+
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def spreadsheet_safe(row: dict) -> dict:
+    """Text a spreadsheet would run as a formula (a logged error or summary starting with '=') kept as text, with a
+    leading apostrophe, as OWASP advises for CSV files; numbers stay numbers."""
+    return {key: f"'{value}" if isinstance(value, str) and value.startswith(_FORMULA_START) else value
+            for key, value in row.items()}
 
 
 def files_json(files: list[FileRecovery]) -> list[dict]:
