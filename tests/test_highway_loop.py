@@ -191,6 +191,23 @@ def test_planner_weights_that_are_not_finite_are_refused(tmp_path, capsys):
         f"discern eval: error: {diverged} holds NaN or infinite weights: a diverged training run, not a planner\n")
 
 
+def test_one_episode_of_a_run_is_run_again_alone_with_the_runs_fault_seed(tmp_path):
+    """--seed shifts the faults' seed with the episodes': an episode a table cites could not be run again alone."""
+    import csv
+
+    def rows(out, *argv):
+        assert cli_main(["eval", "highway", "--variants", "planner", "--faults", "signs,missed", "--quiet",
+                         "--duration", "8", "--out", str(tmp_path / out), *argv]) == 0
+        return {row["seed"]: row for row in csv.DictReader((tmp_path / out / "episodes.csv").open())}
+
+    run = rows("run", "--episodes", "3")
+    again = rows("again", "--episodes", "1", "--seed", "2", "--fault-seed", "0")
+    shifted = rows("shifted", "--episodes", "1", "--seed", "2")
+    assert list(again) == list(shifted) == ["10002"] and again["10002"] == run["10002"]
+    assert (shifted["10002"]["distance_m"], shifted["10002"]["misread_s"]) != (run["10002"]["distance_m"],
+                                                                               run["10002"]["misread_s"])
+
+
 def test_an_evaluation_stops_at_the_first_step_its_monitor_gives_no_verdict_for():
     """A monitor gone mid-run once gave a 'discern' row of the client's fail-safe brakes, and exit status 0; whenever the
     monitor stops answering, the episode's step is where the evaluation stops (here the first: none ever answered)."""

@@ -51,6 +51,9 @@ def _options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--variants", default="planner,discern,rss", help="comma list of planner, discern, rss (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=0, help="first episode seed offset; also seeds the faults")
+    parser.add_argument("--fault-seed", type=int, default=None,
+                        help="seeds the faults instead of --seed: --seed 3 --fault-seed 0 --episodes 1 runs the "
+                             "fourth episode of a --seed 0 run alone, faults and all")
     parser.add_argument("--env", default="highway-fast-v0", help="highway-fast-v0 (default), highway-v0 or merge-v0")
     parser.add_argument("--duration", type=float, default=None, help="episode length in seconds (env default)")
     parser.add_argument("--miss-rate", type=float, default=None, help="camera miss chance per vehicle and frame")
@@ -123,6 +126,8 @@ def _run_eval(args: argparse.Namespace) -> int:
         problems.append("--record writes one MCAP log from one process: use it with --jobs 1")
     if args.seed < 0:
         problems.append(f"--seed must be at least 0 (the environment's seeds are), got {args.seed}")
+    if args.fault_seed is not None and args.fault_seed < 0:
+        problems.append(f"--fault-seed must be at least 0, got {args.fault_seed}")
     if args.jobs < 1:
         problems.append(f"--jobs must be at least 1, got {args.jobs}")
     problems += [f"{flag} {path}: not a directory" for flag, path in (("--out", args.out), ("--record", args.record))
@@ -138,7 +143,7 @@ def _run_eval(args: argparse.Namespace) -> int:
             fault_sets.append(
                 Faults.preset(
                     kinds,
-                    seed=args.seed,
+                    seed=args.seed if args.fault_seed is None else args.fault_seed,
                     miss_rate=args.miss_rate,
                     phantom_rate=args.phantom_rate,
                     sign_rate=args.sign_rate,
