@@ -452,8 +452,9 @@ def test_a_chunk_whose_opcode_is_damaged_is_named_from_the_summary_not_passed_ov
     [f] = report.files
     assert f.state == "damaged"
     [chunk] = f.damaged
-    assert (chunk.offset, chunk.length, chunk.kind) == (start, end - start, "chunk")
-    assert "indexed in the file's summary but not read" in report.summary()
+    assert (chunk.offset, chunk.length, chunk.kind, chunk.messages) == (start, end - start, "chunk", 1)
+    assert f"chunk at byte {start} ({end - start} bytes, 1 message) skipped: indexed in the file's summary but not " \
+           "read" in report.summary()
 
 
 def test_the_messages_after_a_passed_over_chunk_that_declared_their_channels_are_read_from_the_summarys_channels(

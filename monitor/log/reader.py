@@ -410,7 +410,7 @@ def _read_file(
                 recovery.recovered_bytes = read_before if recovery.records else 0
                 break
             if isinstance(record, Footer):
-                lost += _unread(summary, chunks_read, messages, recovery) if summary.get() is not None else 0
+                lost += _unread(summary, chunks_read, messages, recovery, fd) if summary.get() is not None else 0
                 rest = os.pread(fd, len(MAGIC) + 1, end)
                 if rest == MAGIC:
                     recovery.complete = True
@@ -422,7 +422,7 @@ def _read_file(
                 break
 
 
-def _unread(summary: "_Summary", chunks_read: set[int], messages: int, recovery: FileRecovery) -> int:
+def _unread(summary: "_Summary", chunks_read: set[int], messages: int, recovery: FileRecovery, fd: int) -> int:
     """Name what a closed file's summary indexes or counts but the read never met; returns the bytes lost.
 
     mcap's StreamReader passes over a record of an unknown opcode without a word, so a chunk whose opcode
@@ -434,7 +434,8 @@ def _unread(summary: "_Summary", chunks_read: set[int], messages: int, recovery:
         if index.chunk_start_offset not in chunks_read and index.chunk_start_offset not in damaged_at:
             recovery.damaged.append(DamagedRecord(
                 index.chunk_start_offset, index.chunk_length,
-                "indexed in the file's summary but not read: its record header is damaged", "chunk"))
+                "indexed in the file's summary but not read: its record header is damaged", "chunk",
+                _indexed_messages(fd, index.message_index_offsets.values())))
             lost += index.chunk_length
     statistics = summary.get().statistics
     if not recovery.damaged and statistics is not None and messages < statistics.message_count:
@@ -443,6 +444,24 @@ def _unread(summary: "_Summary", chunks_read: set[int], messages: int, recovery:
             0, 0, f"{missing} of the {statistics.message_count} messages its summary counts were not read", "messages"))
     recovery.damaged.sort(key=lambda d: d.offset)
     return lost
+
+
+_MESSAGE_INDEX = 0x07  # MCAP opcode
+
+
+def _indexed_messages(fd: int, offsets) -> Optional[int]:
+    """How many messages a chunk's message index records list (None if one of them is unreadable too): each is its
+    opcode, its length, a channel id and a byte length of 16-byte (log time, offset) entries."""
+    count = 0
+    for offset in offsets:
+        head = os.pread(fd, 15, offset)
+        if len(head) < 15:
+            return None
+        opcode, _, _, length = struct.unpack("<BQHI", head)
+        if opcode != _MESSAGE_INDEX or length % 16:
+            return None
+        count += length // 16
+    return count
 
 
 class _Snapshot:
