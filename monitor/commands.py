@@ -143,12 +143,12 @@ def _zenoh_arguments(parser, *, listen_default, connect_default=None, modes=True
     parser.set_defaults(_connect_default=connect_default)
 
 
-def _zenoh_settings(args, mode=None) -> ZenohSettings:
+def _zenoh_settings(args) -> ZenohSettings:
     connect = args.connect
     if connect is None and args._connect_default and args.zenoh_config is None:
         connect = [args._connect_default]
     return ZenohSettings(
-        mode=mode or getattr(args, "mode", None),
+        mode=getattr(args, "mode", None),
         listen=args.listen,
         connect=connect,
         config_file=args.zenoh_config,
@@ -343,7 +343,7 @@ def cmd_router(args) -> int:
 
     stop = _stop_on_signal()
     try:
-        config = router_config(_zenoh_settings(args, mode="router"))
+        config = router_config(_zenoh_settings(args))
         listen = listen_endpoints(config)
         check_listen_ports(listen)
         session = zenoh.open(config)

@@ -7,12 +7,14 @@ monitor whose key expressions match, which is how a fleet is sharded.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import zenoh
 
 from .config import DEFAULT_ENDPOINT, ZenohSettings
 
 
 def router_config(settings: ZenohSettings) -> zenoh.Config:
-    """Router mode; by default on Discern's loopback endpoint, no multicast."""
-    settings.mode = "router"
-    return settings.to_zenoh(default_mode="router", default_listen=[DEFAULT_ENDPOINT])
+    """Router mode, whatever mode `settings` name (left as they are); by default on Discern's loopback endpoint, no
+    multicast."""
+    return replace(settings, mode="router").to_zenoh(default_listen=[DEFAULT_ENDPOINT])
