@@ -10,7 +10,9 @@ A new episode (a restarted planner, a reset simulation) starts the window
 afresh and its frame ids may start again. It is recognised by a frame that goes
 back in both frame id and scene time from past the episode's first frame to
 that first frame or before it: a replayed or late frame of the episode went out
-after its first frame, in both id and time, so it stays refused. (A replay of
+after its first frame, in both id and time, so it stays refused. A frame whose
+clock alone goes back is admitted with the history: the sanity window tells a
+late frame, one stamped ahead of its time and a new run apart. (A replay of
 the episode's very first frame cannot be told from a restart that repeats it
 exactly, and is admitted.) Scene time 0 is a time like any other once the
 vehicle's clock has moved past it: episodes often start at 0.0. Without scene
@@ -91,13 +93,17 @@ class VehicleState:
         )
 
     def _evict(self, scene: Scene, now: float) -> None:
+        """Forget frames too old to be in any window; which of the rest are this frame's past is the sanity
+        window's to tell (WindowProvider.window), as it is for the scenario runner and the replay, so that a late
+        frame or one odd timestamp costs the sidecar no more history than it costs them."""
         frames = self.frames
-        if frames and frames[-1][1].timestamp > scene.timestamp:
-            frames.clear()  # the clock went back, to 0.0 too: a new episode
         if scene.timestamp > 0:
-            # Scene time when the planner gives it: a simulation may run faster than the wall clock.
+            # Scene time when the planner gives it: a simulation may run faster than the wall clock. A frame stamped
+            # more than a window ahead of the last may be a clock glitch, and evicts nothing.
+            if frames and scene.timestamp - frames[-1][1].timestamp > self.window_s:
+                return
             oldest = scene.timestamp - self.window_s
-            while frames and not (oldest <= frames[0][1].timestamp <= scene.timestamp):
+            while frames and frames[0][1].timestamp < oldest:
                 frames.popleft()
         else:
             while frames and frames[0][0] < now - self.window_s:

@@ -228,24 +228,34 @@ class WindowProvider:
     def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:
         """The recent frames, oldest first: those of the current run newer than `seconds` before this one.
 
-        A run restarts where the clock or the frame ids go back and stay back: the frames before belong to an
-        earlier run (its frames are not this one's past, however close their timestamps). A single frame older
-        than the one delivered before it, followed by a newer one, came late: it is dropped, so that the window's
-        frames are in time order (a late frame put in the wrong place makes a steady light look dark and lit again).
-        Frames from this one's future are from an earlier run too. Frames with timestamps are kept for the whole
-        `seconds`, however many: at 50 Hz a cap of 40 frames cut a 2 s window to 0.8 s, too short to see a light
-        flash. Only frames without timestamps are counted against `max_frames`.
+        A frame older than, or numbered before, the one delivered before it is out of place, or starts a new run:
+        - followed by a frame that is not, it came late and is dropped, so that the frames are in time order (a late
+          frame put in the wrong place makes a steady light look dark and lit again);
+        - not older than the frame before that one, it is the one before that was out of place (stamped ahead of
+          its time, or delivered early): that one is dropped, so that one odd timestamp does not cost the frames
+          before it (a pedestrian hidden a moment is remembered through it);
+        - the frame being decided: its window is the frames before it, in id and time (it may have come late);
+        - otherwise the run restarts: what came before is another run, whose frames are not this one's past,
+          however close their timestamps.
+        Frames with timestamps are kept for the whole `seconds`, however many: at 50 Hz a cap of 40 frames cut a
+        2 s window to 0.8 s, too short to see a light flash. Only frames without timestamps are counted against
+        `max_frames`.
         """
         run: list[Scene] = []
-        frames = [*history, scene]
-        for i, past in enumerate(history):
-            if run and _goes_back(past, run[-1]):
-                if not _goes_back(frames[i + 1], run[-1]):
+        frames = (*history, scene)
+        for i, frame in enumerate(frames):
+            if run and _goes_back(frame, run[-1]):
+                later = frames[i + 1] if i + 1 < len(frames) else None
+                if later is not None and not _goes_back(later, run[-1]):
                     continue  # late: the run goes on after it
-                run = []  # a restart: what came before is another run
-            run.append(past)
-        if run and _goes_back(scene, run[-1]):
-            return []  # this frame goes back: the frames before it are from its future, or from an earlier run
+                if len(run) > 1 and not _goes_back(frame, run[-2]):
+                    run.pop()  # the frame before was out of place
+                elif later is None:
+                    run = [past for past in run if past.timestamp < frame.timestamp and past.frame_id < frame.frame_id]
+                else:
+                    run = []  # a restart
+            run.append(frame)
+        run.pop()  # the scene itself
         kept: list[Scene] = []
         timed = scene.timestamp > 0
         for past in reversed(run):
@@ -710,6 +720,19 @@ def _side_of(x: float, y: float, half_lane: float) -> SensorSide:
     return SensorSide.rear_left if left else SensorSide.rear_right
 
 
+def _ran_beside(oid: int, seen_in: list[int], summaries: list[_Summary]) -> set[Source]:
+    """The confirming sources that reported other objects on the same side of the ego (ahead, or beside and behind)
+    in frames that showed `oid`: they were running there while it was seen."""
+    found: set[Source] = set()
+    for index in seen_in:
+        summary = summaries[index]
+        ahead = summary.objects[oid].position.y > 0
+        for other, sources in summary.confirmed:
+            if other != oid and (summary.objects[other].position.y > 0) == ahead:
+                found |= sources
+    return found
+
+
 def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: list[_Summary],
                   config: WindowConfig, clock: _Clock, bodies: Bodies) -> list[str]:
     """Objects the camera lost, where their track puts them now, and what says they are still there;
@@ -723,12 +746,14 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     lights: dict[int, list[int]] = {}  # the frames (their indices) in which each object showed emergency lights
     earlier: dict[int, set[Source]] = {}
     echoed: dict[int, set[Source]] = {}  # lost objects: the confirming sources that reported them in the window
+    seen_in: dict[int, list[int]] = {}  # lost objects: the frames (their indices) they were seen in
     # a frame sits in some twenty windows: set operations on its summary, not a pass over its objects
     for index, (past, summary) in enumerate(zip(window, summaries)):
         for oid in sorted(summary.ids - now.ids):
             last[oid] = (index, summary.objects[oid])
             first.setdefault(oid, index)
             frames[oid] = frames.get(oid, 0) + 1
+            seen_in.setdefault(oid, []).append(index)
         for oid, confirming in summary.confirmed:
             if oid in unconfirmed:
                 earlier.setdefault(oid, set()).update(confirming)
@@ -769,7 +794,10 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
             out.append(f"sensor_still_reads({oid},{r.side.value},{r.kind.value},{cm(r.distance)}).")
         if facing and not reads:  # it reads clear road past where the object should be (the rules say whether that clears it)
             out.extend(f"sensor_reads_past({oid},{r.side.value},{r.kind.value},{cm(r.distance)})." for r in facing)
-            out.extend(f"reported_before({oid},{s.value})." for s in sorted(echoed.get(oid, ()), key=lambda s: s.value))
+        # the range sensors that reported it: one that echoes is gone when they read past it, and one none did may
+        # have been a phantom
+        out.extend(f"reported_before({oid},{s.value})." for s in sorted(echoed.get(oid, ()), key=lambda s: s.value))
+        out.extend(f"ran_beside({oid},{s.value})." for s in sorted(_ran_beside(oid, seen_in[oid], summaries), key=lambda s: s.value))
         found = _conflict(obj, x, y, scene.ego.speed, config.horizon_s, bodies)
         if found is not None:
             out.append(f"remembered_conflict({oid},{found[0]},{found[1]}).")

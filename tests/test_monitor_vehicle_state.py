@@ -8,6 +8,9 @@ from discern.monitor.example_planner import highway_scene
 from discern.monitor.protocol import InputError
 from discern.rules.scene import Action
 from discern.monitor.vehicle_state import EXPIRY_MARGIN_S, MAX_FRAMES, PermittedMemory, VehicleState
+from discern.sanity import WindowProvider
+
+WINDOW = WindowProvider()
 
 
 def frame(frame_id: int, timestamp: float):
@@ -46,10 +49,26 @@ def test_a_vehicle_silent_longer_than_the_window_starts_afresh():
     assert state.admit(frame(0, 0.0), now=2.5) == ()  # a restarted planner counts from 0 again
 
 
-def test_a_clock_going_back_clears_the_window():
+def window(state: VehicleState, scene, now: float) -> list[int]:
+    """The frame ids of the scene's window as its decision worker reads it: the sanity window over the history."""
+    return [s.frame_id for s in WINDOW.window(scene, state.admit(scene, now))]
+
+
+def test_a_clock_going_back_starts_the_window_afresh():
     state = VehicleState(window_s=2.0)
     state.admit(frame(1, 5.0), now=0.0)
-    assert state.admit(frame(2, 0.5), now=0.1) == ()  # new episode, same planner
+    assert window(state, frame(2, 0.5), now=0.1) == []  # new episode, same planner
+    assert window(state, frame(3, 0.6), now=0.2) == [2]
+
+
+def test_a_late_frame_and_one_stamped_ahead_of_its_time_cost_no_history():
+    state = VehicleState(window_s=2.0)
+    for i, t in enumerate([0.0, 0.1, 0.2, 0.3], start=1):
+        state.admit(frame(i, t), now=t)
+    assert window(state, frame(5, 0.25), now=0.4) == [1, 2, 3]  # came late
+    assert window(state, frame(6, 3.4), now=0.5) == []  # the clock glitched forward
+    assert window(state, frame(7, 0.5), now=0.6) == [1, 2, 3, 4]  # frame 5 was late: the run goes on after 4
+    assert window(state, frame(8, 0.6), now=0.7) == [1, 2, 3, 4, 7]
 
 
 def test_a_new_episode_going_back_in_frame_id_and_time_is_admitted_with_a_fresh_window():
@@ -66,12 +85,12 @@ def test_a_new_episode_starting_again_at_scene_time_zero_is_admitted_with_a_fres
         assert [len(h) for h in histories[:3]] == [0, 1, 2]  # frame 0 at 0.0 starts it, not 40 refusals
 
 
-def test_a_clock_going_back_to_zero_while_the_frame_id_rises_clears_the_window():
+def test_a_clock_going_back_to_zero_while_the_frame_id_rises_starts_the_window_afresh():
     state = VehicleState(window_s=2.0)
     for i in range(5):
         state.admit(frame(i, 1.0 + 0.05 * i), now=0.05 * i)
-    assert state.admit(frame(5, 0.0), now=0.25) == ()  # a planner that keeps counting across episodes
-    assert [s.frame_id for s in state.admit(frame(6, 0.05), now=0.3)] == [5]
+    assert window(state, frame(5, 0.0), now=0.25) == []  # a planner that keeps counting across episodes
+    assert window(state, frame(6, 0.05), now=0.3) == [5]
 
 
 def test_without_scene_timestamps_a_frame_going_back_is_refused_not_a_new_episode():

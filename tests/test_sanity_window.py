@@ -72,6 +72,28 @@ def test_window_drops_a_frame_that_arrives_late():
         assert [s.timestamp for s in PROVIDER.window(history[-1], history[:-1])] == [0.0, 0.1, 0.2, 0.4, 0.5]
 
 
+def test_one_frame_stamped_ahead_of_its_time_does_not_cost_the_frames_before_it():
+    times = [0.0, 0.1, 0.2, 0.3, 3.4, 0.5, 0.6]  # frame 5's clock glitched forward
+    history = [_framed(i + 1, t) for i, t in enumerate(times)]
+    assert [s.timestamp for s in PROVIDER.window(history[-1], history[:-1])] == [0.0, 0.1, 0.2, 0.3, 0.5]
+    assert [s.timestamp for s in PROVIDER.window(history[-2], history[:-2])] == [0.0, 0.1, 0.2, 0.3]
+
+
+@pytest.mark.parametrize("ids", [range(1, 7), [1, 2, 3, 5, 6, 4]])
+def test_a_frame_decided_as_it_comes_late_is_judged_with_the_frames_before_it(ids):
+    times = [0.0, 0.1, 0.2, 0.4, 0.5, 0.3]
+    history = [_framed(i, t) for i, t in zip(ids, times)]
+    assert [s.timestamp for s in PROVIDER.window(history[-1], history[:-1])] == [0.0, 0.1, 0.2]
+
+
+def test_a_pedestrian_hidden_across_a_clock_glitch_is_remembered():
+    walking = [obj(2, "pedestrian", 4.0 - 0.15 * i, 20 - i, vy=0.0, vx=-1.5, sources=["camera"])
+               for i in range(3)]
+    times = [0.0, 0.1, 0.2, 0.3, 3.4, 0.5]
+    frames = [_framed(i + 1, t, objects=[walking[i]] if i < 3 else []) for i, t in enumerate(times)]
+    assert any(f.startswith("remembered(2,") for f in facts(frames))
+
+
 def test_a_late_frame_without_the_light_does_not_make_a_steady_yellow_flash():
     yellow = [{"colour": "yellow"}]
     frames = [_framed(i + 1, t, lights=[] if t == 0.3 else yellow) for i, t in enumerate([0.0, 0.1, 0.2, 0.4, 0.5, 0.3, 0.6])]
