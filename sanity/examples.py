@@ -189,6 +189,14 @@ def _examples() -> list[Example]:
                       objects=[obj(7, "car", -3.5, -12.8 + 0.8 * i, 1, vy=20.0)]) for i in range(3)]
     lost = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0)
     lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)])
+    radar_lead = obj(2, "car", -3.5, 40.0, 1, vy=20.0)
+
+    def ghost_then_gone(sources: tuple) -> tuple[Scene, ...]:
+        seen = [scene(frame=i + 1, speed=20.0, lane=2, lanes=2, zone="highway", limit=29.0,
+                      objects=[radar_lead, obj(9, "car", 0.0, 60.0 - 2.0 * i, 2, vy=0.0, sources=sources)])
+                for i in range(4)]
+        return (*seen, scene(frame=5, speed=20.0, lane=2, lanes=2, zone="highway", limit=29.0, objects=[radar_lead]))
+
     walker = obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5, sources=("camera", "lidar"))
     stroller = obj(3, "pedestrian", 5.5, 22.0, vy=1.2, vx=0.0, sources=("camera", "lidar"))
     pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
@@ -404,6 +412,10 @@ def _examples() -> list[Example]:
                 school_bus, Action.cruise, school_bus, "us", "uk"),
         Example("san.memory.object_permanence", "The camera loses a faster car in the left lane; the rear-left radar still reads it.",
                 (*left_car, lost_seen), Action.change_lane_left, (left_car[2], lost)),
+        Example("san.memory.phantom_lost",
+                "Only the camera reported a standing car 60 m ahead for 0.4 s, while the radar reported the car in the "
+                "next lane; now the camera has lost it too (the near miss: the radar had reported it as well).",
+                ghost_then_gone(("camera",)), Action.cruise, ghost_then_gone(("camera", "radar"))),
         Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",
                 (scene(speed=8.0, limit=11.0, objects=[walker]),), Action.cruise,
                 (scene(speed=8.0, limit=11.0, objects=[stroller]),)),
