@@ -39,15 +39,18 @@ def highway_scene(frame_id: int, n_objects: int = 8, *, lanes: int = 3, seed: in
         # Rows of traffic alternately ahead of and behind the ego, 20 m apart;
         # the car ahead in the ego's lane is slowly being caught up.
         ahead = (row // 2 + 1) * 20.0 * (1 if row % 2 == 0 else -1)
+        speed = 22.0 + rng.uniform(-3, 3)
         if lane == ego_lane and row == 0:
             ahead = max(6.0, 40.0 - t * 3.0)
+        if lane == ego_lane and ahead > 0:  # caught up at about 1 m/s: followed at a safe gap for the first 2 s
+            speed = 24.0 + rng.uniform(-0.5, 0.5)
         objects.append(
             DetectedObject(
                 id=i + 1,
                 cls=ObjectClass.truck if i % 7 == 3 else ObjectClass.car,
                 position=Vec2(x=(lane - ego_lane) * LANE_WIDTH + rng.uniform(-0.2, 0.2), y=ahead),
                 lane=LaneRef(kind=LaneKind.current, id=lane),
-                velocity=Velocity(x=0.0, y=22.0 + rng.uniform(-3, 3)),
+                velocity=Velocity(x=0.0, y=speed),
             )
         )
     return Scene(

@@ -472,7 +472,7 @@ def test_an_explained_approval_proves_every_rule_it_cites(reasoner):
 
 def test_an_explained_approval_of_cruise_shows_the_catalog_fact_that_calls_for_it(reasoner):
     """applicable(cruise) is a fact of the catalog (cruise.default): cited, so shown, when another action is recommended."""
-    verdict = reasoner.decide(scene(speed=10, objects=[obj("car", 0, 12, lane=1, vy=8.0)]), "cruise", explain=True)
+    verdict = reasoner.decide(scene(speed=10, objects=[obj("car", 0, 15, lane=1, vy=8.0)]), "cruise", explain=True)
     assert verdict.decision.value == "approve" and verdict.recommended.value != "cruise"
     assert "cruise.default" in verdict.rules
     assert set(verdict.rules) <= _tree_rules(list(verdict.justification.tree))

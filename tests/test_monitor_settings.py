@@ -26,6 +26,7 @@ def config(tmp_path, **settings) -> MonitorConfig:
         (dict(budget_ms=0), "--budget-ms"),
         (dict(window_s=math.inf), "--window-s"),
         (dict(window_s=61), "--window-s"),  # a vehicle's state lives a window: one of hours keeps every vehicle seen
+        (dict(window_s=0.05), "--window-s"),  # shorter than a flash cycle: each frame judged afresh
         (dict(status_period_s=0), "--status-period-s"),
         (dict(status_period_s=-1), "--status-period-s"),
         (dict(status_period_s=math.nan), "--status-period-s"),
@@ -166,8 +167,9 @@ def test_a_monitor_decides_with_the_reasoning_parameters_it_is_given_and_logs_th
     from tests.monitor_process import serve
     from tests.scenes import obj, scene
 
-    # closing in at 15 m/s from 40 m: room to brake at the default 6 m/s², not at 4
-    ahead = scene(speed=20, limit=30, zone="highway", objects=[obj("car", 0, 40, lane=1, vy=5)])
+    # closing in at 15 m/s from 60 m: the ego covers 20 m in its headway and needs (20² - 5²) / (2 * 6) = 31.25 m
+    # more than the car to stop braking at the default 6 m/s² (51.25 m in all), but 46.9 m more at 4 (66.9 m)
+    ahead = scene(speed=20, limit=30, zone="highway", objects=[obj("car", 0, 60, lane=1, vy=5)])
     assert Reasoner().decide(ahead, "cruise").action.value == "cruise"
     proc, ep = serve("--id", "trucks", "--budget-ms", "5000", "--param", "decel=4", "--log-dir", str(tmp_path))
     try:

@@ -26,6 +26,23 @@ at_stop = {"type": "four_way", "stage": "at"}
 
 CASES = {
     "brake.hazard": (scene(objects=[ped_ahead]), scene()),
+    "brake.roundabout_yield": (
+        scene(speed=0, intersection={"type": "roundabout", "stage": "at"}, other_lanes=("cross_left",),
+              objects=[obj("car", -25, 4, lane=1, kind="cross_left", velocity={"x": 10.0, "y": 0.0})]),
+        scene(speed=0, intersection={"type": "roundabout", "stage": "at"}, other_lanes=("cross_left",),
+              objects=[obj("car", -25, 4, lane=1, kind="cross_left", velocity={"x": -10.0, "y": 0.0})]),
+    ),
+    "def.yields_in_crossing": (
+        scene(other_lanes=("cross_right",), objects=[obj("pedestrian", 0.5, 12, lane=1, kind="cross_right")]),
+        scene(other_lanes=("cross_right",), objects=[obj("pedestrian", 6.0, 12, lane=1, kind="cross_right")]),
+    ),
+    "def.roundabout_give_way": (
+        scene(speed=0, intersection={"type": "roundabout", "stage": "at"}),
+        scene(speed=0, intersection={"type": "four_way", "stage": "at"}, sign="stop"),
+    ),
+    "def.follow_headway": (scene(objects=[obj("car", 0, 30, lane=1, vy=8)]), scene(objects=[obj("car", 3.5, 30, lane=2, vy=8)], lanes=2, lane=1)),
+    "def.lead_speed": (scene(objects=[obj("car", 0, 30, lane=1, vy=8)]), scene(objects=[obj("car", 0, 30, lane=1)])),
+    "def.step_follow_headway": (scene(objects=[obj("car", 0, 30, lane=1, vy=8)]), scene(objects=[obj("car", 3.5, 30, lane=2, vy=8)], lanes=2, lane=1)),
     "brake.obstacle_ahead": (scene(objects=[ped_ahead]), scene(objects=[obj("plastic_bag", 0, 6, lane=1)])),
     "brake.red_light": (
         scene(light="red", intersection={"type": "signaled", "stage": "arriving"}),
@@ -679,16 +696,28 @@ def test_a_pedestrian_in_the_oncoming_lane_blocks_the_turn_across_it():
     assert verdict.decision.value == "override" and "tr.oncoming_lane_blocked" in verdict.rules
 
 
-def test_accelerating_allows_for_the_gap_one_step_faster_needs():
-    # a car driving at 2 m/s, 14 m ahead, clears the 13.3 m stopping distance from a closing speed of 8 m/s, not
-    # the 14.5 m from 8.5 m/s one accel_step on; a moving car, since the ego stops early (braking comfortably)
-    # for a standing thing or a person, which forbids accelerating farther out
-    just_beyond = scene(speed=10, objects=[obj("car", 0, 14, lane=1, vy=2)])
-    verdict = decide(just_beyond, "accelerate")
+def test_accelerating_allows_for_the_headway_one_step_faster_needs():
+    # a car driving at 2 m/s ahead of the ego at 10 m/s: one accel_step on (10.5 m/s) the ego covers 10.5 m in the
+    # 1 s headway and needs (10.5² - 2²) / (2 * 6) = 8.9 m more than the car to brake to a stop: 19.4 m
+    just_inside = scene(speed=10, objects=[obj("car", 0, 19, lane=1, vy=2)])
+    verdict = decide(just_inside, "accelerate")
     assert verdict.decision.value == "override" and "acc.lane_not_clear" in verdict.rules
     assert verdict.recommended.value != "accelerate"
-    assert "14.5 m" in REASONER.decide(just_beyond, "accelerate", explain=True).justification.text
-    assert decide(scene(speed=10, objects=[obj("car", 0, 15, lane=1, vy=2)]), "accelerate").decision.value == "approve"
+    assert "19.4 m" in REASONER.decide(just_inside, "accelerate", explain=True).justification.text
+    assert decide(scene(speed=10, objects=[obj("car", 0, 20, lane=1, vy=2)]), "accelerate").decision.value == "approve"
+
+
+def test_closing_at_speed_on_a_slower_car_more_than_a_seconds_travel_ahead_is_too_close_to_hold_the_speed():
+    """At 30 m/s behind a car at 22 m/s, 35 m is more than the 30 m a second takes, but the ego needs
+    (30² - 22²) / (2 * 6) = 34.7 m more than the car to brake to a stop: it drops back (RSS, equal braking)."""
+    closing = scene(speed=30, limit=31.3, zone="highway", lanes=2, objects=[obj("car", 0, 35, lane=1, vy=22)])
+    for proposed in ("cruise", "accelerate"):
+        verdict = decide(closing, proposed)
+        assert verdict.decision.value == "override" and verdict.action.value == "brake", proposed
+    text = REASONER.decide(closing, "cruise", explain=True).justification.text
+    assert "the ego's headway is 64.7 m" in text
+    same_speed = scene(speed=30, limit=31.3, zone="highway", lanes=2, objects=[obj("car", 0, 35, lane=1, vy=30)])
+    assert decide(same_speed, "cruise").decision.value == "approve"
 
 
 def test_a_follower_of_unknown_speed_in_the_next_lane_is_not_more_permissive_than_one_that_keeps_pace():
@@ -705,3 +734,34 @@ def test_a_traffic_cone_behind_is_not_a_tailgater():
     assert decide(cone, "brake").decision.value == "approve"
     car = scene(objects=[obj("car", 0, -3, lane=1)])
     assert "brake.no_phantom_braking" in decide(car, "brake").rules
+
+
+@pytest.mark.parametrize("jurisdiction, side", [("us", -1), ("uk", 1)])
+def test_at_a_roundabout_the_ego_gives_way_to_circulating_traffic_from_the_passing_side_only(jurisdiction, side):
+    """Circulating traffic comes from the left where traffic keeps right (US), from the right where it keeps left
+    (UK): a car 25 m to that side, on the far side of the roundabout (20 m ahead, past the crossing distance), due
+    in 2.5 s, holds the ego at the line; its mirror image on the other side does not (near cross traffic, within the
+    crossing distance, holds it from either side)."""
+    reasoner = Reasoner(jurisdiction=jurisdiction)
+
+    def entry(x: float) -> object:
+        kind = "cross_left" if x < 0 else "cross_right"
+        return scene(speed=0, intersection={"type": "roundabout", "stage": "at"}, other_lanes=(kind,),
+                     objects=[obj("car", x, 20, lane=1, kind=kind, velocity={"x": -x / 2.5, "y": 0.0})])
+
+    circulating = reasoner.decide(entry(25.0 * side), "accelerate")
+    assert circulating.decision.value == "override" and "brake.roundabout_yield" in circulating.rules
+    assert reasoner.decide(entry(-25.0 * side), "accelerate").decision.value == "approve"
+
+
+def test_in_the_uk_a_pedestrian_on_the_far_half_of_an_undivided_crossing_is_yielded_to():
+    """UK: a pedestrian on a zebra has precedence over the whole of it, unless a central refuge divides it; the US
+    yields to one on the ego's half of the road (or so close as to be in danger)."""
+    def crossing(divided: bool = False):
+        return scene(other_lanes=("oncoming", "cross_right"), divided_road=divided,
+                     objects=[obj("pedestrian", 4.5, 12, lane=1, kind="cross_right", velocity={"x": 0.0, "y": 0.0})])
+
+    uk = Reasoner(jurisdiction="uk").decide(crossing(), "cruise")
+    assert uk.decision.value == "override" and "brake.pedestrian_at_crossing" in uk.rules
+    assert Reasoner(jurisdiction="uk").decide(crossing(divided=True), "cruise").decision.value == "approve"
+    assert decide(crossing(), "cruise").decision.value == "approve"
