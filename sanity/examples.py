@@ -191,6 +191,10 @@ def _examples() -> list[Example]:
     lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)])
     radar_lead = obj(2, "car", -3.5, 40.0, 1, vy=20.0)
 
+    def zebra(divided: bool) -> Scene:
+        return scene(speed=10.0, limit=13.4, other_lanes=("oncoming", "cross_right"), divided_road=divided,
+                     objects=[obj(1, "pedestrian", 4.5, 12.0, 1, kind="cross_right", vy=0.0)])
+
     def ghost_then_gone(sources: tuple) -> tuple[Scene, ...]:
         seen = [scene(frame=i + 1, speed=20.0, lane=2, lanes=2, zone="highway", limit=29.0,
                       objects=[radar_lead, obj(9, "car", 0.0, 60.0 - 2.0 * i, 2, vy=0.0, sources=sources)])
@@ -464,6 +468,10 @@ def _examples() -> list[Example]:
         Example("jur.uk.lane_preference", "A roadblock in the middle lane of three (UK).",
                 (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), Action.cruise,
                 (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), "uk", "us"),
+        Example("jur.uk.zebra_whole_crossing",
+                "A pedestrian stands on a zebra crossing 12 m ahead, on the far half of an undivided UK road (the "
+                "near miss: a central refuge divides the road).",
+                (zebra(False),), Action.cruise, (zebra(True),), "uk"),
         Example("jur.uk.zone_limits", "Nothing tells the limit in a UK town; the ego drives 14 m/s.",
                 (scene(speed=14.0, limit=None),), Action.accelerate, (scene(speed=14.0, limit=None),), "uk", "us"),
     ]

@@ -55,7 +55,7 @@ def test_a_pedestrian_at_the_edge_of_the_egos_half_within_its_stopping_distance_
         verdict = decide(approach(20), proposed)
         assert overridden_with_brake(verdict) and "brake.pedestrian_at_crossing" in verdict.rules, proposed
     text = REASONERS["us"].decide(approach(20), "cruise", explain=True).justification.text
-    assert "pedestrian 1 is in a crossing on the ego's half of the road" in text
+    assert "pedestrian 1 is a vulnerable road user in a crossing ahead on the ego's half of the road" in text
     # beyond the stopping distance plus the minimum gap (43.75 m) the ego need not brake yet
     assert decide(approach(48), "cruise").decision.value == "approve"
     # on the far half of the road, away from the ego's side, it is not the ego's to stop for

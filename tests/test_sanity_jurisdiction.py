@@ -100,7 +100,7 @@ def test_zone_limits_are_the_countrys():
     assert US.decide(sc, "accelerate").decision.value == "approve"  # US usual 35 mph
     uk = UK.decide(sc, "accelerate")
     assert uk.decision.value == "override" and "san.limit.zone_default" in uk.rules  # UK 30 mph
-    assert "(30 mph) is usual and none above 17.9 m/s (40 mph) is plausible  [jur.uk.zone_limits]" in uk.justification.text
+    assert "(30 mph) is usual and none above 22.4 m/s (50 mph) is plausible  [jur.uk.zone_limits]" in uk.justification.text
     assert not any(r.startswith("jur.") for r in uk.rules)  # a setting shown in the proof, not a rule that forbids
 
 
