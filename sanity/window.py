@@ -330,42 +330,47 @@ def _runs(values: Iterable[Optional[int]]) -> list[_Run]:
 
 def _believed(runs: list[_Run], confirm: int) -> Optional[int]:
     """The index of the run whose limit held at the end of `runs`: the last run read in enough frames in a row, or
-    the latest lower one read since it in enough frames, in a row or across frames that read nothing (a sign seen
-    between occlusions; san.limit.debounce_drop). A reading since it in too few frames does not change the limit, up
-    or down (san.limit.debounce); the settled limit read again after a gap is the settled run still."""
+    the latest lower one read since it in enough frames, in a row or not, in at least half the frames from its first
+    reading on (a sign seen between occlusions, or in turn with the old limit; san.limit.debounce_drop): two
+    glimpses half a second apart are no sign. A reading since it in too few frames does not change the limit, up or
+    down (san.limit.debounce); the settled limit read again after a gap is the settled run still."""
     settled = [i for i, run in enumerate(runs) if run.value is not None and run.frames >= confirm]
     if not settled:
         return None
     last = settled[-1]
     for i in range(len(runs) - 1, last, -1):
         run = runs[i]
-        if run.value is not None and run.value < runs[last].value and _read_since(runs, i, last) >= confirm:
-            return i
+        if run.value is not None and run.value < runs[last].value:
+            count, span = _read_since(runs, i, last)
+            if count >= confirm and 2 * count >= span:
+                return i
     return last
 
 
-def _read_since(runs: list[_Run], i: int, settled: int) -> int:
-    """Frames reading run i's limit, counted back from it to the settled run, across runs that read nothing, until a
-    run that read another limit."""
-    count = 0
+def _read_since(runs: list[_Run], i: int, settled: int) -> tuple[int, int]:
+    """Frames reading run i's limit, counted back from it to the settled run, across runs that read nothing or a
+    higher limit, until a run that read a lower one; and how many frames there are from the first of them to run i's
+    last."""
+    value, count, first = runs[i].value, 0, runs[i].first
     for run in reversed(runs[settled + 1:i + 1]):
-        if run.value == runs[i].value:
-            count += run.frames
-        elif run.value is not None:
+        if run.value == value:
+            count, first = count + run.frames, run.first
+        elif run.value is not None and run.value < value:
             break
-    return count
+    return count, runs[i].last - first + 1
 
 
 def _seen_facts(value: int, readings: list[frozenset[int]], last: int, since: int, clock: "_Clock") -> str:
     """In how many frames a limit was read, counted back from index `last` to `since` (after the settled limit
-    before it) across frames that read nothing, until one that read another limit; and for how long from the first."""
+    before it) across frames that read nothing or only higher limits (the one it would lower), until one that read
+    a lower limit; for how long from the first; and over how many frames from the first to the last."""
     count, first = 0, last
     for i in range(last, since - 1, -1):
         if value in readings[i]:
             count, first = count + 1, i
-        elif readings[i]:
+        elif any(v < value for v in readings[i]):
             break
-    return f"reading_seen({value},{count},{clock.lasted(first, last)})."
+    return f"reading_seen({value},{count},{clock.lasted(first, last)}).reading_span({value},{last - first + 1})."
 
 
 @dataclass(frozen=True)
