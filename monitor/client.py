@@ -94,6 +94,7 @@ class Monitor:
         atexit.register(self.close)  # an unclosed zenoh session can hang interpreter exit
         self._closed = False
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
+        self._unreadable: Optional[tuple[float, str]] = None  # when the last unreadable verdict came, and why
         self._lock = threading.Lock()
         self._publisher = self.session.declare_publisher(keys.proposal_key(vehicle), encoding=JSON)
         self._querier = self.session.declare_querier(keys.check_key(vehicle))
@@ -235,8 +236,7 @@ class Monitor:
                 except ValidationError as exc:
                     problem = f"unreadable verdict from the monitor: {describe_validation_error(exc)}"
                     continue
-                # None: a refusal of a payload whose frame id the monitor could not read (cut, too large)
-                if verdict.vehicle == self.vehicle and verdict.frame_id in (frame, None):
+                if verdict.vehicle == self.vehicle and _about(verdict, frame):
                     return verdict
                 problem = (f"the monitor's reply is about vehicle {verdict.vehicle!r} frame {verdict.frame_id},"
                            f" not this proposal (vehicle {self.vehicle!r} frame {frame})")
@@ -251,6 +251,7 @@ class Monitor:
     def _publish_and_wait(self, payload: bytes, frame: Optional[int], timeout: float) -> Union[Verdict, str]:
         """The verdict of this frame (None: of a payload whose frame id cannot be read), else why none came."""
         slot = [threading.Event(), None]
+        started = time.monotonic()
         with self._lock:
             self._waiting[frame] = slot
         try:
@@ -261,6 +262,10 @@ class Monitor:
                 self._waiting.pop(frame, None)
         if slot[1] is not None:
             return slot[1]
+        with self._lock:
+            unreadable = self._unreadable
+        if unreadable is not None and unreadable[0] >= started:
+            return f"unreadable verdict from the monitor: {unreadable[1]}"
         key = keys.proposal_key(self.vehicle)
         return _too_late(key, timeout) if self._publisher.matching_status.matching else self._unserved(key)
 
@@ -270,8 +275,12 @@ class Monitor:
     def _on_sample(self, sample: zenoh.Sample) -> None:
         try:
             verdict = decode_verdict(sample.payload.to_bytes())
-        except ValueError:
-            log.warning("ignored an unreadable verdict on %s", sample.key_expr)
+        except ValidationError as exc:
+            # which frame it answers cannot be told: a wait that gets no verdict reports it, as a query does
+            reason = describe_validation_error(exc)
+            log.warning("ignored an unreadable verdict on %s: %s", sample.key_expr, reason)
+            with self._lock:
+                self._unreadable = (time.monotonic(), reason)
             return
         if verdict.vehicle != self.vehicle:  # on this vehicle's key, but about another: no verdict of its frames
             log.warning("ignored a verdict about vehicle %r on %s", verdict.vehicle, sample.key_expr)
@@ -285,6 +294,13 @@ class Monitor:
             slot[0].set()
         if self._on_verdict is not None:
             self._on_verdict(verdict)
+
+
+def _about(verdict: Verdict, frame: Optional[int]) -> bool:
+    """Whether a reply to a query answers its proposal: the same frame, or a refusal naming no frame (of a payload
+    whose frame id the monitor could not read: cut, too large). A verdict naming no frame is no approval of a
+    proposal whose frame is known."""
+    return verdict.frame_id == frame or (verdict.frame_id is None and (frame is None or verdict.error is not None))
 
 
 def _numpy_value(value):

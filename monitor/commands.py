@@ -111,7 +111,8 @@ def register(subparsers) -> None:
     _zenoh_arguments(status, listen_default=None, connect_default=DEFAULT_ENDPOINT)
     status.add_argument("--id", dest="monitor_id", default="*", help="monitor id (default: all that answer)")
     status.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for answers (default: 2)")
-    status.add_argument("--json", action="store_true", help="print the raw JSON status")
+    status.add_argument("--json", action="store_true",
+                        help="print each monitor's status as one JSON object per line (JSON Lines)")
     status.set_defaults(func=cmd_status)
 
     router = subparsers.add_parser(
@@ -305,7 +306,7 @@ def cmd_status(args) -> int:
                     print(f"discern status: warning: more than one monitor answers as {status.monitor_id}: give each "
                           "its own --id", file=sys.stderr, flush=True)
                 ids.add(status.monitor_id)
-                print(status.model_dump_json(indent=2) if args.json else _status_text(status), flush=True)
+                print(status.model_dump_json() if args.json else _status_text(status), flush=True)
             if not answered:
                 time.sleep(0.1)
     finally:

@@ -55,8 +55,8 @@ class MonitorStatus(BaseModel):
     deadline_misses: int = 0
     internal_errors: int = 0
     late_decisions: int = Field(0, description="decisions that finished after their fail-safe was sent")
-    unsent: int = Field(0, description="verdicts counted above that could not be sent (the querier gone, the session "
-                                       "closing): logged, but no planner got them")
+    unsent: int = Field(0, description="verdicts counted above that zenoh refused to send (the session closing): "
+                                       "logged, but no planner got them; zenoh does not report a querier gone")
     vehicles: int = Field(0, description="vehicles heard from within their window (and budget): those it keeps state for")
     latency_ms: LatencySummary = Field(default_factory=LatencySummary)
     log_files: list[str] = Field(default_factory=list)

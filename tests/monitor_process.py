@@ -119,12 +119,7 @@ def status(ep: str, monitor_id: str = "*") -> list[dict]:
         timeout=60,
     )
     assert out.returncode == 0, out.stderr
-    decoder, text, found = json.JSONDecoder(), out.stdout.strip(), []
-    while text:
-        obj, end = decoder.raw_decode(text)
-        found.append(obj)
-        text = text[end:].strip()
-    return found
+    return [json.loads(line) for line in out.stdout.splitlines()]  # JSON Lines: one monitor's status a line
 
 
 def wait_until(predicate, timeout: float = 10.0, step: float = 0.05):

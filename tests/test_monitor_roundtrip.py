@@ -228,6 +228,8 @@ def test_a_scene_nested_past_the_json_encoders_depth_gets_a_local_failsafe_not_a
      "the monitor's reply is about vehicle 'someone_else' frame 0, not this proposal (vehicle 'misrouted' frame 0)"),
     ({"vehicle": "misrouted", "frame_id": 999},
      "the monitor's reply is about vehicle 'misrouted' frame 999, not this proposal (vehicle 'misrouted' frame 0)"),
+    ({"vehicle": "misrouted", "frame_id": None},  # an approval naming no frame is no answer to a known frame
+     "the monitor's reply is about vehicle 'misrouted' frame None, not this proposal (vehicle 'misrouted' frame 0)"),
 ])
 def test_a_reply_that_is_no_verdict_on_this_proposal_is_not_acted_on_and_says_why(reply, reason):
     """An approval of another vehicle's or frame's proposal once came back as this one's; a garbled one lost its reason."""
@@ -249,6 +251,25 @@ def test_a_reply_that_is_no_verdict_on_this_proposal_is_not_acted_on_and_says_wh
         impostor.close()
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
     assert verdict.frame_id == 0 and verdict.error.startswith(reason)
+
+
+def test_over_publish_subscribe_an_unreadable_verdict_is_the_reason_a_wait_gets_no_verdict():
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+
+    ep = endpoint(free_port())
+    impostor = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
+    try:
+        impostor.declare_subscriber("discern/garbled/proposal",
+                                    lambda sample: impostor.put("discern/garbled/verdict", b'{"version": 7}'))
+        with Monitor("garbled", connect=[ep], timeout=0.5, style="pubsub") as client:
+            assert client.wait_for_monitor()
+            verdict = client.check(highway_scene(0, 2), "cruise")
+    finally:
+        impostor.close()
+    assert verdict.failsafe and verdict.rules == ["monitor.no_answer"] and verdict.frame_id == 0
+    assert verdict.error.startswith("unreadable verdict from the monitor: version: Input should be 1")
 
 
 def test_a_monitor_that_answers_after_the_clients_timeout_reads_as_no_verdict_in_time():
