@@ -36,6 +36,9 @@ STATUS_PERIOD_MIN_S, STATUS_PERIOD_MAX_S = 0.1, 3600.0
 # A vehicle's state lives a window past its last proposal: a window of hours would keep every vehicle ever seen.
 # A minute is 3,000 frames at 50 Hz, far past what any sanity rule reads (a flashing light: a few seconds).
 WINDOW_MAX_S = 60.0
+# A flashing light is seen on, off and on again (its slowest cycle lasts 1.2 s, MUTCD 4D.19); a shorter window judges
+# every flash, glint and one-frame sign reading afresh.
+WINDOW_MIN_S = 1.5
 LOG_FLUSH_MIN_S, LOG_FLUSH_MAX_S = 0.05, 60.0
 LOG_ROTATE_MIN_S = 1.0
 LOG_ROTATE_MIN_BYTES = 64 * 1024
@@ -239,7 +242,7 @@ class MonitorConfig:
         if not valid_id(self.monitor_id):
             raise ValueError(f"monitor id {self.monitor_id!r} must match {ID_RULE}")
         check_number("--budget-ms", self.budget_ms, 0, BUDGET_MAX_MS, unit=" ms", above=True)
-        check_number("--window-s", self.window_s, 0, WINDOW_MAX_S, unit=" s", above=True)
+        check_number("--window-s", self.window_s, WINDOW_MIN_S, WINDOW_MAX_S, unit=" s")
         check_number("--status-period-s", self.status_period_s, STATUS_PERIOD_MIN_S, STATUS_PERIOD_MAX_S, unit=" s")
         if self.log is not None:
             self.log.validate()

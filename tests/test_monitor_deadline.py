@@ -235,8 +235,8 @@ def test_a_verdict_the_session_could_not_send_is_counted_as_unsent_not_only_as_d
 
 def test_a_frame_waiting_behind_a_long_decision_finds_its_vehicles_window():
     """The window was swept after the batch while the replay waited in the worker's pipe: it then started afresh."""
-    proc, ep = serve("--id", "stall", "--window-s", "0.5", "--budget-ms", "8000",
-                     "--test-only-decision-delay-ms", "2000")  # a batch longer than the window and its margin
+    proc, ep = serve("--id", "stall", "--window-s", "1.5", "--budget-ms", "8000",
+                     "--test-only-decision-delay-ms", "3000")  # a batch longer than the window and its margin
     session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
     try:
         first = ask(session, "stalled", proposal("stalled", highway_scene(1, 2)))
