@@ -14,6 +14,13 @@ from .catalog import PLACEHOLDER, Catalog, CompiledRule, PredTemplate
 from .terms import CMP_TEXT, Env, Literal, Term, Unbound, Undefined, evaluate, term_vars
 
 
+# `[words|other words]` in a template: alternatives, the first whose values are all known; the last where they
+# are not, or where the template's closing speed is negative. "the ego closes in on car 1" cannot carry a speed that is unknown or
+# negative: "the speed of car 1 is known", "car 1 pulls away from the ego".
+_CHOICE = re.compile(r"\[([^\[\]]*)\]")
+_ALTERNATIVE = re.compile(r"\|(?![^(]*\))")  # a `|` between alternatives, not one inside a placeholder
+
+
 @functools.lru_cache(maxsize=None)
 def _template_parts(template: str) -> tuple[str, ...]:
     """A template cut at its placeholders, once: text, then (parameter, format, unknown words, text) per placeholder."""
@@ -97,6 +104,8 @@ class Phrasebook:
                 return self.catalog.words[sym.name]
             return _words(sym)
         n = sym.number
+        if n and round(n / 100, digits) == 0:  # 4 cm/s is "0.04 m/s", not "0.0 m/s"
+            digits = 2
         if fmt in _SIGNED:
             if n == 0:
                 return _SIGNED[fmt][0]
@@ -108,9 +117,8 @@ class Phrasebook:
             return f"{n / 100:.{digits}f} m/s"
         if fmt == "decel":
             return f"{n / 100:.{digits}f} m/s²"
-        if fmt == "closing":
-            shown = f"{n / 100:.{digits}f} m/s"
-            return shown if n >= 0 else f"{shown} (the gap grows by {-n / 100:.{digits}f} m/s)"
+        if fmt == "closing":  # its sign is in the words around it: a template's `[closes in|pulls away]`
+            return f"{abs(n) / 100:.{digits}f} m/s"
         if fmt == "limit":
             return f"{n / 100:.{digits}f} m/s" + self._in_sign_unit(n)
         if fmt == "ms":
@@ -153,14 +161,18 @@ class Phrasebook:
 
     def _filled(self, template: PredTemplate, args: list[Optional[Symbol]]) -> str:
         values = dict(zip(template.params, args))
-        parts = _template_parts(template.template)
+        chosen = template.template
+        if "[" in chosen:
+            receding = any(p.group(2) == "closing" and _negative(values.get(p.group(1))) for p in PLACEHOLDER.finditer(chosen))
+            chosen = _CHOICE.sub(lambda found: _alternative(found.group(1), values, receding), chosen)
+        parts = _template_parts(chosen)
         words = [parts[0]]
         for i in range(1, len(parts), 4):  # (placeholder's parameter, its format, its unknown words, the text after)
             value, unknown = values.get(parts[i]), parts[i + 2]
             words.append(unknown if value is None and unknown is not None else self.value(value, parts[i + 1], parts[i]))
             words.append(parts[i + 3])
         text = _LOOSE_SPACE.sub("", "".join(words))
-        return _ARTICLE.sub(_article, text) if "a @(" in template.template else text
+        return _ARTICLE.sub(_article, text) if "a @(" in chosen else text
 
     def atom(self, sym: Symbol, rule: Optional[str] = None) -> str:
         """`rule`: the id of the rule that derived it, whose own words for it (`%! reads`) come first."""
@@ -257,15 +269,32 @@ class Phrasebook:
         if n == 0:
             return said if op == _EQ else f"{said} (it stays the same)"
         verb = "shrinks" if n > 0 else "grows"
+        by = self.value(value, "closing", "")  # its size: the words say which way
         if said == f"the gap {verb}":  # the words already say which way: "the gap shrinks by 5.0 m/s"
-            return f"{said} by {abs(n) / 100:.1f} m/s"
-        return f"{said} (it {verb} by {abs(n) / 100:.1f} m/s)"
+            return f"{said} by {by}"
+        return f"{said} (it {verb} by {by})"
 
     def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'Y < 0' as '4.0 m behind is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind'."""
         op, value = _nonzero_side(terms, values, op)
         shown = f"{value.number / 100:.1f} m" if value.number == 0 else self.value(value, fmt, "")
         return f"{shown} {_AXES[fmt][op]} the ego"
+
+
+def _alternative(choice: str, values: dict[str, Optional[Symbol]], receding: bool) -> str:
+    """The alternative of a template's `[...|...]` that its values can fill (`_CHOICE`); `receding`: whether the
+    template's closing speed is negative, which only the last alternative may say."""
+    alternatives = _ALTERNATIVE.split(choice)
+    if receding:
+        return alternatives[-1]
+    for words in alternatives[:-1]:
+        if all(values.get(p.group(1)) is not None for p in PLACEHOLDER.finditer(words)):
+            return words
+    return alternatives[-1]
+
+
+def _negative(value: Optional[Symbol]) -> bool:
+    return value is not None and value.type == SymbolType.Number and value.number < 0
 
 
 def _nonzero_side(terms: list[Term], values: list[Symbol], op: int) -> tuple[int, Symbol]:

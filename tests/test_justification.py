@@ -526,7 +526,7 @@ def test_signed_speeds_are_said_with_their_direction(reasoner):
     assert "car 1 moves at 12.0 m/s against the ego's heading and 0.0 m/s sideways" in text
     pulling_away = scene(speed=10, lane=2, lanes=2, objects=[obj("car", -3.5, 5, lane=1, vy=15)])
     text = reasoner.decide(pulling_away, "change_lane_left", explain=True).justification.text
-    assert "the ego closes in on car 1 at -5.0 m/s (the gap grows by 5.0 m/s)" in text
+    assert "car 1 pulls away from the ego at 5.0 m/s" in text
     assert "moves at -" not in text
 
 
@@ -671,7 +671,7 @@ def test_an_oncoming_car_of_unknown_speed_is_not_said_to_keep_pace_with_the_traf
 def test_a_thing_behind_that_cannot_move_is_said_to_stand_not_to_keep_pace(reasoner):
     sc = scene(speed=10, lane=1, lanes=2, objects=[obj("traffic_cone", 3.5, -4, lane=2)])
     text = reasoner.decide(sc, "change_lane_right", explain=True).justification.text
-    assert "traffic cone 1 behind cannot move by itself and stands: its closing speed is -10.0 m/s" in text
+    assert "traffic cone 1 behind cannot move by itself and stands: it falls back at 10.0 m/s" in text
     assert "keep pace" not in text
 
 

@@ -1,0 +1,24 @@
+"""Proof prose that reads true: each test names a wording a reviewer found false or unreadable."""
+
+import re
+
+from tests.scenes import obj, scene
+
+
+def _text(reasoner, sc, action):
+    return reasoner.decide(sc, action, explain=True).justification.text
+
+
+def test_an_object_pulling_away_is_not_said_to_be_closed_in_on_at_a_negative_speed(reasoner):
+    text = _text(reasoner, scene(speed=10, objects=[obj("bicycle", 0, 25, lane=1, vy=12)]), "accelerate")
+    assert "bicycle 1 pulls away from the ego at 2.0 m/s" in text
+    assert "with the gap growing by 1.5 m/s, braking comfortably takes 0.0 m" in text
+    assert not re.search(r"-\d+\.\d+ m/s|closes? in on bicycle 1 at", text)
+
+
+def test_a_speed_or_distance_of_a_few_centimetres_is_not_shown_as_zero(reasoner):
+    beside = scene(speed=8.0, lanes=2, objects=[obj("car", 3.5, -0.04, lane=2, vy=8.03)])
+    text = _text(reasoner, beside, "change_lane_right")
+    assert "car 1 closes in on the ego from behind at 0.03 m/s" in text and "the gap shrinks by 0.03 m/s" in text
+    assert "0.04 m behind" in text
+    assert not re.search(r"\b0\.0 m/s(?! sideways)|\b0\.0 m behind", text)  # the car moves straight ahead
