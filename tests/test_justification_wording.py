@@ -1,7 +1,9 @@
 """Proof prose that reads true: each test names a wording a reviewer found false or unreadable."""
 
 import re
+from pathlib import Path
 
+from discern.rules.scene import Scene
 from tests.scenes import obj, scene
 
 
@@ -22,3 +24,12 @@ def test_a_speed_or_distance_of_a_few_centimetres_is_not_shown_as_zero(reasoner)
     assert "car 1 closes in on the ego from behind at 0.03 m/s" in text and "the gap shrinks by 0.03 m/s" in text
     assert "0.04 m behind" in text
     assert not re.search(r"\b0\.0 m/s(?! sideways)|\b0\.0 m behind", text)  # the car moves straight ahead
+
+
+EXAMPLE = Scene.model_validate_json((Path(__file__).parent.parent / "docs/examples/scene.json").read_text(encoding="utf-8"))
+
+
+def test_a_doubt_denied_does_not_assert_the_facts_that_would_raise_it(reasoner):
+    text = _text(reasoner, EXAMPLE, "brake")
+    assert "there is no evidence that pedestrian 2 may be a phantom (reported by the camera alone while the radar runs)" in text
+    assert "only the camera reports it while the radar" not in text
