@@ -7,7 +7,7 @@ import re
 from typing import Optional
 
 from clingo import Symbol, SymbolType
-from clingo.ast import ComparisonOperator as _CMP
+from clingo.ast import BinaryOperator, ComparisonOperator as _CMP
 
 from .answer_set import AnswerSet
 from .catalog import PLACEHOLDER, Catalog, CompiledRule, PredTemplate
@@ -252,10 +252,20 @@ class Phrasebook:
                 return " ".join([shown[0]] + [w for op, value in zip(ops, shown[1:]) for w in (_AXES[fmt][op], value)])
         digits = _digits_to_tell_apart(numbers, fmt)
 
-        parts = [lit.source if values[0] is None else self.value(values[0], fmt, "", digits)]
-        for op, value in zip(ops, values[1:]):
-            parts += [CMP_TEXT.get(op, "?"), lit.source if value is None else self.value(value, fmt, "", digits)]
-        return " ".join(parts)
+        shown = [lit.source if value is None else self._side(term, value, fmt, digits, formats, env)
+                 for term, value in zip(terms, values)]
+        return " ".join([shown[0]] + [w for op, side in zip(ops, shown[1:]) for w in (CMP_TEXT.get(op, "?"), side)])
+
+    def _side(self, term: Term, value: Symbol, fmt: Optional[str], digits: int, formats: dict[str, str], env: Env) -> str:
+        """One side of a comparison. A limit plus an allowance (`R + S`, a reading's rounding slack) shows the
+        limit as its sign gives it and the allowance apart: '13.4 m/s (30 mph) + 0.05 m/s', not one sum
+        '13.5 m/s (30.1 mph)' that no sign shows."""
+        if fmt == "limit" and term[0] == "b" and term[1] in _PLUS_MINUS and term[2][0] == term[3][0] == "v":
+            limit, allowance = term[2][1], term[3][1]
+            if formats.get(limit) == "limit" and allowance not in formats and limit in env and allowance in env:
+                return (f"{self.value(env[limit], 'limit', '', digits)} {_PLUS_MINUS[term[1]]} "
+                        f"{env[allowance].number / 100:g} m/s")
+        return self.value(value, fmt, "", digits)
 
     def _motion_against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'VX < 0' as '15.0 m/s to the left is a move to the left', and 'C > 0' of a closing speed as 'the gap
@@ -324,6 +334,7 @@ _COMPARED = {"m": "m", "mps": "mps", "decel": "decel", "limit": "limit", "ms": "
 _LESS, _LESS_EQ, _MORE, _MORE_EQ = (int(o) for o in (_CMP.LessThan, _CMP.LessEqual, _CMP.GreaterThan,
                                                       _CMP.GreaterEqual))
 _EQ, _NOT_EQ = int(_CMP.Equal), int(_CMP.NotEqual)
+_PLUS_MINUS = {int(BinaryOperator.Plus): "+", int(BinaryOperator.Minus): "−"}
 _FLIPPED = {_LESS: _MORE, _LESS_EQ: _MORE_EQ, _MORE: _LESS, _MORE_EQ: _LESS_EQ, _EQ: _EQ, _NOT_EQ: _NOT_EQ}
 _MOTION = {  # a signed speed against 0 as words: which way it goes, or what the gap does
     "along": {_LESS: "is a move against the ego's heading", _LESS_EQ: "is no move along the ego's heading",

@@ -33,3 +33,9 @@ def test_a_doubt_denied_does_not_assert_the_facts_that_would_raise_it(reasoner):
     text = _text(reasoner, EXAMPLE, "brake")
     assert "there is no evidence that pedestrian 2 may be a phantom (reported by the camera alone while the radar runs)" in text
     assert "only the camera reports it while the radar" not in text
+
+
+def test_a_zone_limit_compared_with_a_reading_shows_the_signs_value_and_the_rounding_slack_apart(reasoner):
+    text = _text(reasoner, scene(speed=8, limit=15), "accelerate")
+    assert "needs that 15.0 m/s (33.6 mph) > 22.4 m/s (50 mph) + 0.05 m/s, which is false" in text
+    assert "50.1 mph" not in text and "35.1 mph" not in text
