@@ -234,7 +234,7 @@ class Phrasebook:
             fmt = "mps"  # between two speeds a side or a gap reads worse than plain numbers
         if fmt in _AXES and len(numbers) == len(values):
             if len(terms) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
-                return self._against_zero(terms, values, ops[0], fmt)
+                return self._against_zero(terms, values, ops[0], fmt, self._owner(rule, terms, env, fmt))
             # A variable that is no position on this axis (a distance parameter) has no side: "15.0 m ahead"
             # would be false of it, so such a comparison reads as signed numbers, "-1.0 m < 15.0 m".
             off_axis = any(t[0] == "v" and formats.get(t[1]) != fmt for t in terms)
@@ -284,12 +284,36 @@ class Phrasebook:
             return f"{said} by {by}"
         return f"{said} (it {verb} by {by})"
 
-    def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
-        """'Y < 0' as '4.0 m behind is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind'."""
+    def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str, owner: Optional[str]) -> str:
+        """'Y < 0' as 'car 1, 4.0 m behind, is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind';
+        `owner`: whose position it is, without which '6.0 m ahead is behind the ego' says nothing of anything."""
         op, value = _nonzero_side(terms, values, op)
+        if owner is not None:
+            return f"{owner}, {self.value(value, fmt, '')}, {_AXES[fmt][op]} the ego"
         shown = f"{value.number / 100:.1f} m" if value.number == 0 else self.value(value, fmt, "")
         return f"{shown} {_AXES[fmt][op]} the ego"
 
+    def _owner(self, rule: CompiledRule, terms: list[Term], env: Env, fmt: str) -> Optional[str]:
+        """The object whose position a comparison's variable is: the object of the body atom (obj_pos) that
+        gives that variable as a position on this axis."""
+        variables = {t[1] for t in terms if t[0] == "v"}
+        for lit in rule.body:
+            if not lit.is_atom or lit.negated or lit.atom[0] != "f":
+                continue
+            template = self.catalog.templates.get((lit.atom[1], len(lit.atom[2])))
+            if template is None:
+                continue
+            by_param = {m.group(1): m.group(2) for m in PLACEHOLDER.finditer(template.template)}
+            args = dict(zip(template.params, lit.atom[2]))
+            if not any(by_param.get(p) == fmt and a[0] == "v" and a[1] in variables for p, a in args.items()):
+                continue
+            for param, arg in args.items():
+                if by_param.get(param) == "obj":
+                    try:
+                        return self.value(evaluate(arg, env), "obj", "")
+                    except Unbound:
+                        return None
+        return None
 
 def _alternative(choice: str, values: dict[str, Optional[Symbol]], receding: bool) -> str:
     """The alternative of a template's `[...|...]` that its values can fill (`_CHOICE`); `receding`: whether the

@@ -140,7 +140,7 @@ def test_a_reason_that_comes_up_again_is_argued_once_and_then_pointed_back_to(re
 def test_a_failed_comparison_says_whose_numbers_it_compares(reasoner):
     verdict = reasoner.decide(scene(speed=15, objects=[obj("pedestrian", 0, 12, lane=1)]), "brake", explain=True)
     lines = verdict.justification.text.splitlines()
-    failed = next(i for i, line in enumerate(lines) if "rule def.tailgater needs that 12.0 m ahead is behind the ego, which is false, because" in line)
+    failed = next(i for i, line in enumerate(lines) if "rule def.tailgater needs that pedestrian 1, 12.0 m ahead, is behind the ego, which is false, because" in line)
     assert "pedestrian 1 is 12.0 m ahead and in line with the ego" in lines[failed + 1]
 
 
@@ -318,7 +318,7 @@ def test_an_atom_a_rule_computes_in_its_head_is_proved_by_that_rule_not_shown_as
     assert proof.rule == "def.closing_known"
     assert [child.text for child in proof.children] == [
         "car 1 moves at 5.0 m/s along the ego's heading and 0.0 m/s sideways",
-        "car 1 is 16.0 m ahead and in line with the ego", "16.0 m ahead is not behind the ego", "the ego drives at 15.0 m/s"]
+        "car 1 is 16.0 m ahead and in line with the ego", "car 1, 16.0 m ahead, is not behind the ego", "the ego drives at 15.0 m/s"]
     assert prover.why(Function("left_lane", [Number(1)])).rule == "def.adjacent_lanes"
 
 
@@ -534,7 +534,7 @@ def test_a_position_compared_with_the_ego_is_said_as_a_side_not_a_negative_dista
     text = reasoner.decide(scene(speed=10, objects=[obj("car", 0, -4, lane=1, vy=10)]), "brake",
                            explain=True).justification.text
     assert "car 1 is 4.0 m behind and in line with the ego" in text
-    assert "4.0 m behind is behind the ego" in text
+    assert "car 1, 4.0 m behind, is behind the ego" in text
     assert not re.search(r"-\d+\.\d m\b", text)
 
 

@@ -39,3 +39,12 @@ def test_a_zone_limit_compared_with_a_reading_shows_the_signs_value_and_the_roun
     text = _text(reasoner, scene(speed=8, limit=15), "accelerate")
     assert "needs that 15.0 m/s (33.6 mph) > 22.4 m/s (50 mph) + 0.05 m/s, which is false" in text
     assert "50.1 mph" not in text and "35.1 mph" not in text
+
+
+def test_a_position_compared_with_the_ego_names_the_object_it_is_the_position_of(reasoner):
+    text = _text(reasoner, EXAMPLE, "brake")
+    assert "rule def.tailgater needs that pedestrian 2, 6.0 m ahead, is behind the ego, which is false" in text
+    assert "- pedestrian 2, 6.0 m ahead, is not behind the ego" in text
+    assert not re.search(r"- \d+\.\d m (ahead|behind) is", text)
+    level = _text(reasoner, scene(speed=10, lanes=2, objects=[obj("car", 3.5, 0, lane=2, vy=10)]), "change_lane_right")
+    assert "car 1, level with the ego, is not behind the ego" in level and "0.0 m is" not in level
