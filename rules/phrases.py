@@ -7,7 +7,7 @@ import re
 from typing import Optional
 
 from clingo import Symbol, SymbolType
-from clingo.ast import BinaryOperator, ComparisonOperator as _CMP
+from clingo.ast import BinaryOperator, ComparisonOperator as _CMP, UnaryOperator
 
 from .answer_set import AnswerSet
 from .catalog import PLACEHOLDER, Catalog, CompiledRule, PredTemplate
@@ -265,6 +265,14 @@ class Phrasebook:
             if formats.get(limit) == "limit" and allowance not in formats and limit in env and allowance in env:
                 return (f"{self.value(env[limit], 'limit', '', digits)} {_PLUS_MINUS[term[1]]} "
                         f"{env[allowance].number / 100:g} m/s")
+        if fmt == "m" and value.type == SymbolType.Number and value.number > 0:
+            # A distance that is a position says along which axis: "4.0 m ahead < 15.0 m" and "4.0 m to the
+            # side < 15.0 m", not the same "4.0 m < 15.0 m" twice under one conclusion.
+            axis = formats.get(term[2][1]) if term[0] == "u" and term[2][0] == "v" else None
+            if term[0] == "v" and formats.get(term[1]) in _AXES:
+                return self.value(value, formats[term[1]], "", digits)
+            if term[0] == "u" and term[1] == int(UnaryOperator.Absolute) and axis in _AXES:
+                return f"{self.value(value, 'm', '', digits)} {_ABSOLUTE[axis]}"
         return self.value(value, fmt, "", digits)
 
     def _motion_against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
@@ -358,6 +366,7 @@ _COMPARED = {"m": "m", "mps": "mps", "decel": "decel", "limit": "limit", "ms": "
 _LESS, _LESS_EQ, _MORE, _MORE_EQ = (int(o) for o in (_CMP.LessThan, _CMP.LessEqual, _CMP.GreaterThan,
                                                       _CMP.GreaterEqual))
 _EQ, _NOT_EQ = int(_CMP.Equal), int(_CMP.NotEqual)
+_ABSOLUTE = {"ahead": "ahead or behind", "right": "to the side"}  # |Y|, |X|: a distance off the ego either way
 _PLUS_MINUS = {int(BinaryOperator.Plus): "+", int(BinaryOperator.Minus): "−"}
 _FLIPPED = {_LESS: _MORE, _LESS_EQ: _MORE_EQ, _MORE: _LESS, _MORE_EQ: _LESS_EQ, _EQ: _EQ, _NOT_EQ: _NOT_EQ}
 _MOTION = {  # a signed speed against 0 as words: which way it goes, or what the gap does

@@ -28,7 +28,7 @@ def test_veto_names_the_vetoing_rules_and_the_numbers(reasoner):
     assert verdict.decision.value == "override" and verdict.action.value == "brake"
     assert {"acc.lane_not_clear", "acc.hazard", "brake.obstacle_ahead"} <= set(verdict.rules)
     text = verdict.justification.text
-    assert "pedestrian 1 is 6.0 m ahead" in text and "6.0 m < 10.0 m" in text
+    assert "pedestrian 1 is 6.0 m ahead" in text and "6.0 m ahead < 10.0 m" in text
     assert "accelerate is forbidden, because  [acc.hazard]" in text
 
 
@@ -581,7 +581,7 @@ def test_a_position_compared_with_a_distance_setting_gives_the_setting_no_side(r
                objects=[obj("bicycle", 2.5, 4, lane=1, kind="shoulder", vy=5)])
     text = reasoner.decide(sc, "turn_right", explain=True).justification.text
     assert "tr.kerb_side_user" in text
-    assert "4.0 m < 15.0 m" in text and "-4.0 m" not in text and "15.0 m ahead" not in text
+    assert "4.0 m ahead or behind < 15.0 m" in text and "-4.0 m" not in text and "15.0 m ahead" not in text
 
 
 def test_a_signed_speed_against_zero_reads_in_words_not_with_a_minus_sign(reasoner):

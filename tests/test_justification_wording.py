@@ -48,3 +48,12 @@ def test_a_position_compared_with_the_ego_names_the_object_it_is_the_position_of
     assert not re.search(r"- \d+\.\d m (ahead|behind) is", text)
     level = _text(reasoner, scene(speed=10, lanes=2, objects=[obj("car", 3.5, 0, lane=2, vy=10)]), "change_lane_right")
     assert "car 1, level with the ego, is not behind the ego" in level and "0.0 m is" not in level
+
+
+def test_two_distances_of_one_object_compared_alike_say_which_is_which(reasoner):
+    turning = scene(speed=5, intent="enter_right_lane", other_lanes=("cross_right",),
+                    intersection={"type": "four_way", "stage": "at"},
+                    objects=[obj("pedestrian", 4, 4, lane=1, kind="cross_right")])
+    text = _text(reasoner, turning, "turn_right")
+    assert "- 4.0 m ahead < 15.0 m\n" in text and "- 4.0 m to the side < 15.0 m\n" in text
+    assert "- 4.0 m < 15.0 m\n" not in text
