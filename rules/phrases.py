@@ -151,8 +151,9 @@ class Phrasebook:
     def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
         if name in ("param", "window_param") and len(args) == 2 and args[0] is not None and args[1] is not None:
             setting = args[0].name
-            label, unit, scale = _SETTINGS.get(setting, (setting.replace("_dist", "_distance").replace("_", " "), *_DISTANCE_UNIT))
-            return f"the {label} is {args[1].number / scale:g} {unit}".rstrip()
+            label, unit, scale = _setting(setting)
+            n = args[1].number
+            return f"the {label} is {n / scale:.{_setting_digits(n, scale)}f} {unit}".rstrip()
         template = self.catalog.templates.get((name, len(args)))
         if template is None:
             inner = ", ".join("_" if a is None else str(a) for a in args)
@@ -194,7 +195,7 @@ class Phrasebook:
                 continue
             if term[1] in ("param", "window_param") and len(term[2]) == 2 and term[2][0][0] == "s":
                 setting, value = term[2][0][1].name, term[2][1]  # a setting's unit: turn_gap_ms is a time
-                unit = _SETTINGS[setting][1] if setting in _SETTINGS else _DISTANCE_UNIT[0]
+                unit = _setting(setting)[1]
                 fmt = _SETTING_FORMATS.get(unit)
                 if value[0] == "v" and fmt is not None:
                     formats.setdefault(value[1], fmt)
@@ -251,8 +252,9 @@ class Phrasebook:
                          for t, v in zip(terms, values)]
                 return " ".join([shown[0]] + [w for op, value in zip(ops, shown[1:]) for w in (_AXES[fmt][op], value)])
         digits = _digits_to_tell_apart(numbers, fmt)
-
-        shown = [lit.source if value is None else self._side(term, value, fmt, digits, formats, env)
+        settings = _setting_scales(rule)
+        shown = [lit.source if value is None else self._side(term, value, fmt, max(digits, _setting_digits(
+                     value.number, settings[term[1]]) if term[0] == "v" and term[1] in settings else digits), formats, env)
                  for term, value in zip(terms, values)]
         return " ".join([shown[0]] + [w for op, side in zip(ops, shown[1:]) for w in (CMP_TEXT.get(op, "?"), side)])
 
@@ -322,6 +324,27 @@ class Phrasebook:
                     except Unbound:
                         return None
         return None
+
+def _setting(name: str) -> tuple[str, str, int]:
+    """A setting's words, unit and scale (`_SETTINGS`)."""
+    return _SETTINGS.get(name, (name.replace("_dist", "_distance").replace("_", " "), *_DISTANCE_UNIT))
+
+
+def _setting_digits(n: int, scale: int) -> int:
+    """Decimals that show a setting exactly, at least one: '10.0 m', '8.94 m/s'. The setting's line and the
+    comparisons that use it show it alike, not '8.94 m/s' above '12.0 m/s > 8.9 m/s'."""
+    digits = 1
+    while scale > 10 ** digits and n % (scale // 10 ** digits):
+        digits += 1
+    return digits if scale > 1 else 0
+
+
+def _setting_scales(rule: CompiledRule) -> dict[str, int]:
+    """The rule's variables that are settings (`param(turn_speed, T)`), with each one's scale."""
+    return {term[2][1][1]: _setting(term[2][0][1].name)[2] for term in (lit.atom for lit in rule.body if lit.is_atom)
+            if term[0] == "f" and term[1] in ("param", "window_param") and len(term[2]) == 2
+            and term[2][0][0] == "s" and term[2][1][0] == "v"}
+
 
 def _alternative(choice: str, values: dict[str, Optional[Symbol]], receding: bool) -> str:
     """The alternative of a template's `[...|...]` that its values can fill (`_CHOICE`); `receding`: whether the

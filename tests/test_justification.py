@@ -641,7 +641,7 @@ def test_a_reading_of_a_few_hundredths_of_a_second_is_not_zero_seconds(reasoner)
 def test_settings_read_by_their_meaning_not_their_parameter_names(reasoner):
     text = reasoner.decide(scene(speed=10, objects=[obj("car", 0, 12, lane=1, vy=0)]), "cruise",
                               explain=True).justification.text
-    assert "the reaction time is 1 s" in text and "the firm braking deceleration is 6 m/s²" in text
+    assert "the reaction time is 1.0 s" in text and "the firm braking deceleration is 6.0 m/s²" in text
     assert "the reaction is" not in text and "the decel is" not in text
 
 

@@ -57,3 +57,10 @@ def test_two_distances_of_one_object_compared_alike_say_which_is_which(reasoner)
     text = _text(reasoner, turning, "turn_right")
     assert "- 4.0 m ahead < 15.0 m\n" in text and "- 4.0 m to the side < 15.0 m\n" in text
     assert "- 4.0 m < 15.0 m\n" not in text
+
+
+def test_a_setting_reads_with_the_precision_of_the_comparisons_that_use_it(reasoner):
+    text = _text(reasoner, EXAMPLE, "turn_left")
+    assert "the fastest turning speed is 8.94 m/s" in text and "12.0 m/s > 8.94 m/s" in text
+    assert "the minimum gap is 10.0 m" in text and "24.0 m ≥ 10.0 m" in text
+    assert "the reaction time is 1.0 s" in text
