@@ -14,9 +14,9 @@ from .catalog import PLACEHOLDER, Catalog, CompiledRule, PredTemplate
 from .terms import CMP_TEXT, Env, Literal, Term, Unbound, Undefined, evaluate, term_vars
 
 
-# `[words|other words]` in a template: alternatives, the first whose values are all known; the last where they
-# are not, or where the template's closing speed is negative. "the ego closes in on car 1" cannot carry a speed that is unknown or
-# negative: "the speed of car 1 is known", "car 1 pulls away from the ego".
+# `[words|other words]` in a template: alternatives. In a template with a closing speed, the first, or the last
+# where the speed is negative ("car 1 pulls away from the ego at 2.0 m/s"); in any other, the first whose values
+# are all known, else the last ("the speed of car 1 is known", not "car 1 moves at some speed and some speed").
 _CHOICE = re.compile(r"\[([^\[\]]*)\]")
 _ALTERNATIVE = re.compile(r"\|(?![^(]*\))")  # a `|` between alternatives, not one inside a placeholder
 
@@ -164,7 +164,8 @@ class Phrasebook:
         values = dict(zip(template.params, args))
         chosen = template.template
         if "[" in chosen:
-            receding = any(p.group(2) == "closing" and _negative(values.get(p.group(1))) for p in PLACEHOLDER.finditer(chosen))
+            closing = [values.get(p.group(1)) for p in PLACEHOLDER.finditer(chosen) if p.group(2) == "closing"]
+            receding = any(_negative(value) for value in closing) if closing else None
             chosen = _CHOICE.sub(lambda found: _alternative(found.group(1), values, receding), chosen)
         parts = _template_parts(chosen)
         words = [parts[0]]
@@ -346,12 +347,12 @@ def _setting_scales(rule: CompiledRule) -> dict[str, int]:
             and term[2][0][0] == "s" and term[2][1][0] == "v"}
 
 
-def _alternative(choice: str, values: dict[str, Optional[Symbol]], receding: bool) -> str:
-    """The alternative of a template's `[...|...]` that its values can fill (`_CHOICE`); `receding`: whether the
-    template's closing speed is negative, which only the last alternative may say."""
+def _alternative(choice: str, values: dict[str, Optional[Symbol]], receding: Optional[bool]) -> str:
+    """The alternative of a template's `[...|...]` that its values can fill (`_CHOICE`). `receding`: in a
+    template with a closing speed, whether it is negative; the choice is then by its sign alone."""
     alternatives = _ALTERNATIVE.split(choice)
-    if receding:
-        return alternatives[-1]
+    if receding is not None:
+        return alternatives[-1] if receding else alternatives[0]
     for words in alternatives[:-1]:
         if all(values.get(p.group(1)) is not None for p in PLACEHOLDER.finditer(words)):
             return words

@@ -3,7 +3,10 @@
 import re
 from pathlib import Path
 
-from discern.rules.scene import Scene
+from clingo import Function, Number
+
+from discern.rules.phrases import Phrasebook
+from discern.rules.scene import Action, Scene
 from tests.scenes import obj, scene
 
 
@@ -64,3 +67,23 @@ def test_a_setting_reads_with_the_precision_of_the_comparisons_that_use_it(reaso
     assert "the fastest turning speed is 8.94 m/s" in text and "12.0 m/s > 8.94 m/s" in text
     assert "the minimum gap is 10.0 m" in text and "24.0 m ≥ 10.0 m" in text
     assert "the reaction time is 1.0 s" in text
+
+
+def test_values_no_fact_gives_are_not_filled_with_placeholder_words(reasoner):
+    said = "\n".join([_text(reasoner, EXAMPLE, "brake"),
+                      _text(reasoner, scene(speed=10, objects=[obj("bicycle", 0, 25, lane=1)]), "accelerate")])
+    assert "perception gives the size of pedestrian 2" in said and "the speed of bicycle 1 is known" in said
+    assert not re.search(r"some (distance|speed) by some|some speed and some speed|the one side|last enough|"
+                         r"seen in the lane\b|the some \w", said)
+    for name, args, expected in [
+            ("gives_way_from", [None], "the ego gives way to cross traffic coming from the left or the right"),
+            ("light_flashing_frames", [Function("red"), None], "the traffic light was reported flashing red in enough recent frames"),
+            ("remembered_lane", [Number(7), None, None], "object 7 was last seen in a lane"),
+            ("ran_beside", [Number(7), None], "while object 7 was seen, a range sensor reported"),
+            ("closing_speed", [None, None], "the ego closes in on some object at some speed")]:
+        assert Phrasebook(reasoner.catalog, _empty(reasoner)).sentence(name, args).startswith(expected)
+
+
+def _empty(reasoner):
+    """An answer set with no objects: each sentence's values are only those given."""
+    return reasoner.solve(scene(speed=10), Action.cruise).answer
