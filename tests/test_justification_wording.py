@@ -87,3 +87,11 @@ def test_values_no_fact_gives_are_not_filled_with_placeholder_words(reasoner):
 def _empty(reasoner):
     """An answer set with no objects: each sentence's values are only those given."""
     return reasoner.solve(scene(speed=10), Action.cruise).answer
+
+
+def test_sensor_sides_evidence_and_remembered_classes_read_as_sentences(reasoner):
+    book = Phrasebook(reasoner.catalog, _empty(reasoner))
+    assert book.sentence("right_side", [Function("rear_right")]) == "the rear-right sensor faces right"
+    assert (book.sentence("weak_stop_evidence", [Function("a_stop_line_and_no_traffic_lights")])
+            == "a stop line and no traffic lights can show a stop sign only weakly")
+    assert book.sentence("remembered_object", [Number(4), Function("car")]) == "object 4 was last seen as a car"
