@@ -95,3 +95,19 @@ def test_sensor_sides_evidence_and_remembered_classes_read_as_sentences(reasoner
     assert (book.sentence("weak_stop_evidence", [Function("a_stop_line_and_no_traffic_lights")])
             == "a stop line and no traffic lights can show a stop sign only weakly")
     assert book.sentence("remembered_object", [Number(4), Function("car")]) == "object 4 was last seen as a car"
+
+
+def test_a_blocked_steps_literal_and_holds_agree_with_the_model(reasoner):
+    """A blocked step showed `not not_on_road(2, _)` as false, `confirmed(2)` (which holds) as false, a rule id as
+    its literal: `holds` says whether `literal` is true, on every step."""
+    verdict = reasoner.decide(EXAMPLE, "accelerate", explain=True)
+    nodes, pending = [], list(verdict.justification.tree)
+    while pending:
+        node = pending.pop()
+        nodes.append(node)
+        pending.extend(node.children)
+    blocked = [n for n in nodes if n.kind == "blocked"]
+    assert {(n.literal, n.holds) for n in blocked} >= {("confirmed(2)", True), ("not_on_road(2, _)", False),
+                                                       ("outranked(brake)", False)}
+    assert not [n for n in nodes if n.literal.startswith("not ") and not n.holds]
+    assert not [n for n in blocked if re.fullmatch(r"[a-z]+\.[a-z_.]+", n.literal)]  # a rule id is no literal
