@@ -72,7 +72,7 @@ def test_a_setting_reads_with_the_precision_of_the_comparisons_that_use_it(reaso
 def test_values_no_fact_gives_are_not_filled_with_placeholder_words(reasoner):
     said = "\n".join([_text(reasoner, EXAMPLE, "brake"),
                       _text(reasoner, scene(speed=10, objects=[obj("bicycle", 0, 25, lane=1)]), "accelerate")])
-    assert "perception gives the size of pedestrian 2" in said and "the speed of bicycle 1 is known" in said
+    assert "perception measures the length and width of pedestrian 2" in said and "the speed of bicycle 1 is known" in said
     assert not re.search(r"some (distance|speed) by some|some speed and some speed|the one side|last enough|"
                          r"seen in the lane\b|the some \w", said)
     for name, args, expected in [
