@@ -184,7 +184,8 @@ class Prover:
         negative_left = self.negative_depth if negative_left is None else negative_left
         name, args = self._pattern(term, env)
         shown = ", ".join("_" if a is None else str(a) for a in args)
-        literal = f"not {name}({shown})" if args else f"not {name}"
+        goal = f"{name}({shown})" if args else name
+        literal = f"not {goal}"
         text = "there is no evidence that " + self.phrases.sentence(name, args)
         rules = self.catalog.by_head.get((name, len(args)), [])
         if not rules:
@@ -192,7 +193,7 @@ class Prover:
         children: list[JustificationNode] = []
         if negative_left > 0 and depth < self.max_depth and name not in self.catalog.static:
             for rule in rules:
-                blocked = self._blocked(rule, args, depth + 1, negative_left - 1)
+                blocked = self._blocked(rule, goal, args, depth + 1, negative_left - 1)
                 if blocked is not None and blocked not in children:  # one id's two bodies may miss the same fact
                     children.append(blocked)
         return JustificationNode(literal=literal, holds=True, text=text, kind="negation", children=children)
@@ -208,8 +209,10 @@ class Prover:
                 args.append(None)
         return term[1], args
 
-    def _blocked(self, rule: CompiledRule, args: list[Optional[Symbol]], depth: int,
+    def _blocked(self, rule: CompiledRule, goal: str, args: list[Optional[Symbol]], depth: int,
                  negative_left: int) -> Optional[JustificationNode]:
+        """Why `rule` does not derive `goal` (its text, `_` for what any value would do): the node, a blocked
+        one, is about that goal, which does not hold; its reasons, each about a literal of the rule's body."""
         env: Optional[Env] = {}
         head_args = rule.head[2] if rule.head[0] == "f" else ()
         for sub, value in zip(head_args, args):
@@ -246,8 +249,8 @@ class Prover:
             more = len(worst) - self.alternatives
             text = (f"and {more} other ways it could apply, each failing as well" if more > 1
                     else "and 1 other way it could apply, failing as well")
-            reasons.append(JustificationNode(literal=rule.info.id, holds=False, kind="blocked", text=text))
-        return JustificationNode(literal=rule.info.id, holds=False, text=f"rule {rule.info.id} does not apply",
+            reasons.append(JustificationNode(literal=goal, holds=False, kind="blocked", text=text))
+        return JustificationNode(literal=goal, holds=False, text=f"rule {rule.info.id} does not apply",
                                  rule=rule.info.id, kind="blocked", children=reasons)
 
     def _failure_node(self, rule: CompiledRule, failure: _Failure, depth: int, negative_left: int) -> JustificationNode:
@@ -259,10 +262,12 @@ class Prover:
         if failure.witness is None:  # a positive literal with nothing to match
             child = self.why_not(lit.atom, failure.env, depth, negative_left)
             child.text = "that " + child.text.removeprefix("there is no evidence that ") + ", and there is no evidence of it"
+            child.literal = child.literal.removeprefix("not ")  # the atom the rule needs, which does not hold
             child.holds = False
             child.kind = "blocked"
             return child
-        node = JustificationNode(literal=str(failure.witness), holds=False, text=self.phrases.atom(failure.witness),
+        # The atom that holds where the rule needs its absence: the node says it ("ruled out, because X").
+        node = JustificationNode(literal=str(failure.witness), holds=True, text=self.phrases.atom(failure.witness),
                                  kind="blocked")
         if negative_left > 0:
             proof = self.why(failure.witness, depth)

@@ -7,11 +7,18 @@ import re
 from typing import Optional
 
 from clingo import Symbol, SymbolType
-from clingo.ast import ComparisonOperator as _CMP
+from clingo.ast import BinaryOperator, ComparisonOperator as _CMP, UnaryOperator
 
 from .answer_set import AnswerSet
 from .catalog import PLACEHOLDER, Catalog, CompiledRule, PredTemplate
 from .terms import CMP_TEXT, Env, Literal, Term, Unbound, Undefined, evaluate, term_vars
+
+
+# `[words|other words]` in a template: alternatives. In a template with a closing speed, the first, or the last
+# where the speed is negative ("car 1 pulls away from the ego at 2.0 m/s"); in any other, the first whose values
+# are all known, else the last ("the speed of car 1 is known", not "car 1 moves at some speed and some speed").
+_CHOICE = re.compile(r"\[([^\[\]]*)\]")
+_ALTERNATIVE = re.compile(r"\|(?![^(]*\))")  # a `|` between alternatives, not one inside a placeholder
 
 
 @functools.lru_cache(maxsize=None)
@@ -97,6 +104,8 @@ class Phrasebook:
                 return self.catalog.words[sym.name]
             return _words(sym)
         n = sym.number
+        if n and round(n / 100, digits) == 0:  # 4 cm/s is "0.04 m/s", not "0.0 m/s"
+            digits = 2
         if fmt in _SIGNED:
             if n == 0:
                 return _SIGNED[fmt][0]
@@ -108,9 +117,8 @@ class Phrasebook:
             return f"{n / 100:.{digits}f} m/s"
         if fmt == "decel":
             return f"{n / 100:.{digits}f} m/s²"
-        if fmt == "closing":
-            shown = f"{n / 100:.{digits}f} m/s"
-            return shown if n >= 0 else f"{shown} (the gap grows by {-n / 100:.{digits}f} m/s)"
+        if fmt == "closing":  # its sign is in the words around it: a template's `[closes in|pulls away]`
+            return f"{abs(n) / 100:.{digits}f} m/s"
         if fmt == "limit":
             return f"{n / 100:.{digits}f} m/s" + self._in_sign_unit(n)
         if fmt == "ms":
@@ -143,8 +151,9 @@ class Phrasebook:
     def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
         if name in ("param", "window_param") and len(args) == 2 and args[0] is not None and args[1] is not None:
             setting = args[0].name
-            label, unit, scale = _SETTINGS.get(setting, (setting.replace("_dist", "_distance").replace("_", " "), *_DISTANCE_UNIT))
-            return f"the {label} is {args[1].number / scale:g} {unit}".rstrip()
+            label, unit, scale = _setting(setting)
+            n = args[1].number
+            return f"the {label} is {n / scale:.{_setting_digits(n, scale)}f} {unit}".rstrip()
         template = self.catalog.templates.get((name, len(args)))
         if template is None:
             inner = ", ".join("_" if a is None else str(a) for a in args)
@@ -153,14 +162,19 @@ class Phrasebook:
 
     def _filled(self, template: PredTemplate, args: list[Optional[Symbol]]) -> str:
         values = dict(zip(template.params, args))
-        parts = _template_parts(template.template)
+        chosen = template.template
+        if "[" in chosen:
+            closing = [values.get(p.group(1)) for p in PLACEHOLDER.finditer(chosen) if p.group(2) == "closing"]
+            receding = any(_negative(value) for value in closing) if closing else None
+            chosen = _CHOICE.sub(lambda found: _alternative(found.group(1), values, receding), chosen)
+        parts = _template_parts(chosen)
         words = [parts[0]]
         for i in range(1, len(parts), 4):  # (placeholder's parameter, its format, its unknown words, the text after)
             value, unknown = values.get(parts[i]), parts[i + 2]
             words.append(unknown if value is None and unknown is not None else self.value(value, parts[i + 1], parts[i]))
             words.append(parts[i + 3])
         text = _LOOSE_SPACE.sub("", "".join(words))
-        return _ARTICLE.sub(_article, text) if "a @(" in template.template else text
+        return _ARTICLE.sub(_article, text) if "a @(" in chosen else text
 
     def atom(self, sym: Symbol, rule: Optional[str] = None) -> str:
         """`rule`: the id of the rule that derived it, whose own words for it (`%! reads`) come first."""
@@ -182,7 +196,7 @@ class Phrasebook:
                 continue
             if term[1] in ("param", "window_param") and len(term[2]) == 2 and term[2][0][0] == "s":
                 setting, value = term[2][0][1].name, term[2][1]  # a setting's unit: turn_gap_ms is a time
-                unit = _SETTINGS[setting][1] if setting in _SETTINGS else _DISTANCE_UNIT[0]
+                unit = _setting(setting)[1]
                 fmt = _SETTING_FORMATS.get(unit)
                 if value[0] == "v" and fmt is not None:
                     formats.setdefault(value[1], fmt)
@@ -222,7 +236,7 @@ class Phrasebook:
             fmt = "mps"  # between two speeds a side or a gap reads worse than plain numbers
         if fmt in _AXES and len(numbers) == len(values):
             if len(terms) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
-                return self._against_zero(terms, values, ops[0], fmt)
+                return self._against_zero(terms, values, ops[0], fmt, self._owner(rule, terms, env, fmt))
             # A variable that is no position on this axis (a distance parameter) has no side: "15.0 m ahead"
             # would be false of it, so such a comparison reads as signed numbers, "-1.0 m < 15.0 m".
             off_axis = any(t[0] == "v" and formats.get(t[1]) != fmt for t in terms)
@@ -239,11 +253,30 @@ class Phrasebook:
                          for t, v in zip(terms, values)]
                 return " ".join([shown[0]] + [w for op, value in zip(ops, shown[1:]) for w in (_AXES[fmt][op], value)])
         digits = _digits_to_tell_apart(numbers, fmt)
+        settings = _setting_scales(rule)
+        shown = [lit.source if value is None else self._side(term, value, fmt, max(digits, _setting_digits(
+                     value.number, settings[term[1]]) if term[0] == "v" and term[1] in settings else digits), formats, env)
+                 for term, value in zip(terms, values)]
+        return " ".join([shown[0]] + [w for op, side in zip(ops, shown[1:]) for w in (CMP_TEXT.get(op, "?"), side)])
 
-        parts = [lit.source if values[0] is None else self.value(values[0], fmt, "", digits)]
-        for op, value in zip(ops, values[1:]):
-            parts += [CMP_TEXT.get(op, "?"), lit.source if value is None else self.value(value, fmt, "", digits)]
-        return " ".join(parts)
+    def _side(self, term: Term, value: Symbol, fmt: Optional[str], digits: int, formats: dict[str, str], env: Env) -> str:
+        """One side of a comparison. A limit plus an allowance (`R + S`, a reading's rounding slack) shows the
+        limit as its sign gives it and the allowance apart: '13.4 m/s (30 mph) + 0.05 m/s', not one sum
+        '13.5 m/s (30.1 mph)' that no sign shows."""
+        if fmt == "limit" and term[0] == "b" and term[1] in _PLUS_MINUS and term[2][0] == term[3][0] == "v":
+            limit, allowance = term[2][1], term[3][1]
+            if formats.get(limit) == "limit" and allowance not in formats and limit in env and allowance in env:
+                return (f"{self.value(env[limit], 'limit', '', digits)} {_PLUS_MINUS[term[1]]} "
+                        f"{env[allowance].number / 100:g} m/s")
+        if fmt == "m" and value.type == SymbolType.Number and value.number > 0:
+            # A distance that is a position says along which axis: "4.0 m ahead < 15.0 m" and "4.0 m to the
+            # side < 15.0 m", not the same "4.0 m < 15.0 m" twice under one conclusion.
+            axis = formats.get(term[2][1]) if term[0] == "u" and term[2][0] == "v" else None
+            if term[0] == "v" and formats.get(term[1]) in _AXES:
+                return self.value(value, formats[term[1]], "", digits)
+            if term[0] == "u" and term[1] == int(UnaryOperator.Absolute) and axis in _AXES:
+                return f"{self.value(value, 'm', '', digits)} {_ABSOLUTE[axis]}"
+        return self.value(value, fmt, "", digits)
 
     def _motion_against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'VX < 0' as '15.0 m/s to the left is a move to the left', and 'C > 0' of a closing speed as 'the gap
@@ -257,15 +290,77 @@ class Phrasebook:
         if n == 0:
             return said if op == _EQ else f"{said} (it stays the same)"
         verb = "shrinks" if n > 0 else "grows"
+        by = self.value(value, "closing", "")  # its size: the words say which way
         if said == f"the gap {verb}":  # the words already say which way: "the gap shrinks by 5.0 m/s"
-            return f"{said} by {abs(n) / 100:.1f} m/s"
-        return f"{said} (it {verb} by {abs(n) / 100:.1f} m/s)"
+            return f"{said} by {by}"
+        return f"{said} (it {verb} by {by})"
 
-    def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
-        """'Y < 0' as '4.0 m behind is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind'."""
+    def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str, owner: Optional[str]) -> str:
+        """'Y < 0' as 'car 1, 4.0 m behind, is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind';
+        `owner`: whose position it is, without which '6.0 m ahead is behind the ego' says nothing of anything."""
         op, value = _nonzero_side(terms, values, op)
+        if owner is not None:
+            return f"{owner}, {self.value(value, fmt, '')}, {_AXES[fmt][op]} the ego"
         shown = f"{value.number / 100:.1f} m" if value.number == 0 else self.value(value, fmt, "")
         return f"{shown} {_AXES[fmt][op]} the ego"
+
+    def _owner(self, rule: CompiledRule, terms: list[Term], env: Env, fmt: str) -> Optional[str]:
+        """The object whose position a comparison's variable is: the object of the body atom (obj_pos) that
+        gives that variable as a position on this axis."""
+        variables = {t[1] for t in terms if t[0] == "v"}
+        for lit in rule.body:
+            if not lit.is_atom or lit.negated or lit.atom[0] != "f":
+                continue
+            template = self.catalog.templates.get((lit.atom[1], len(lit.atom[2])))
+            if template is None:
+                continue
+            by_param = {m.group(1): m.group(2) for m in PLACEHOLDER.finditer(template.template)}
+            args = dict(zip(template.params, lit.atom[2]))
+            if not any(by_param.get(p) == fmt and a[0] == "v" and a[1] in variables for p, a in args.items()):
+                continue
+            for param, arg in args.items():
+                if by_param.get(param) == "obj":
+                    try:
+                        return self.value(evaluate(arg, env), "obj", "")
+                    except Unbound:
+                        return None
+        return None
+
+def _setting(name: str) -> tuple[str, str, int]:
+    """A setting's words, unit and scale (`_SETTINGS`)."""
+    return _SETTINGS.get(name, (name.replace("_dist", "_distance").replace("_", " "), *_DISTANCE_UNIT))
+
+
+def _setting_digits(n: int, scale: int) -> int:
+    """Decimals that show a setting exactly, at least one: '10.0 m', '8.94 m/s'. The setting's line and the
+    comparisons that use it show it alike, not '8.94 m/s' above '12.0 m/s > 8.9 m/s'."""
+    digits = 1
+    while scale > 10 ** digits and n % (scale // 10 ** digits):
+        digits += 1
+    return digits if scale > 1 else 0
+
+
+def _setting_scales(rule: CompiledRule) -> dict[str, int]:
+    """The rule's variables that are settings (`param(turn_speed, T)`), with each one's scale."""
+    return {term[2][1][1]: _setting(term[2][0][1].name)[2] for term in (lit.atom for lit in rule.body if lit.is_atom)
+            if term[0] == "f" and term[1] in ("param", "window_param") and len(term[2]) == 2
+            and term[2][0][0] == "s" and term[2][1][0] == "v"}
+
+
+def _alternative(choice: str, values: dict[str, Optional[Symbol]], receding: Optional[bool]) -> str:
+    """The alternative of a template's `[...|...]` that its values can fill (`_CHOICE`). `receding`: in a
+    template with a closing speed, whether it is negative; the choice is then by its sign alone."""
+    alternatives = _ALTERNATIVE.split(choice)
+    if receding is not None:
+        return alternatives[-1] if receding else alternatives[0]
+    for words in alternatives[:-1]:
+        if all(values.get(p.group(1)) is not None for p in PLACEHOLDER.finditer(words)):
+            return words
+    return alternatives[-1]
+
+
+def _negative(value: Optional[Symbol]) -> bool:
+    return value is not None and value.type == SymbolType.Number and value.number < 0
 
 
 def _nonzero_side(terms: list[Term], values: list[Symbol], op: int) -> tuple[int, Symbol]:
@@ -295,6 +390,8 @@ _COMPARED = {"m": "m", "mps": "mps", "decel": "decel", "limit": "limit", "ms": "
 _LESS, _LESS_EQ, _MORE, _MORE_EQ = (int(o) for o in (_CMP.LessThan, _CMP.LessEqual, _CMP.GreaterThan,
                                                       _CMP.GreaterEqual))
 _EQ, _NOT_EQ = int(_CMP.Equal), int(_CMP.NotEqual)
+_ABSOLUTE = {"ahead": "ahead or behind", "right": "to the side"}  # |Y|, |X|: a distance off the ego either way
+_PLUS_MINUS = {int(BinaryOperator.Plus): "+", int(BinaryOperator.Minus): "−"}
 _FLIPPED = {_LESS: _MORE, _LESS_EQ: _MORE_EQ, _MORE: _LESS, _MORE_EQ: _LESS_EQ, _EQ: _EQ, _NOT_EQ: _NOT_EQ}
 _MOTION = {  # a signed speed against 0 as words: which way it goes, or what the gap does
     "along": {_LESS: "is a move against the ego's heading", _LESS_EQ: "is no move along the ego's heading",

@@ -101,7 +101,7 @@ def tree_html(nodes: list[JustificationNode], open_depth: Optional[int] = None) 
 
 
 def _html_node(node: JustificationNode, shown: _Shown, open_depth: Optional[int], depth: int) -> str:
-    cls = "holds" if node.holds else "fails"
+    cls = "holds" if node.holds and node.kind != "blocked" else "fails"  # why a rule did not apply: grey
     rule = f'<span class="rule">{html.escape(node.rule)}</span>' if node.rule and node.kind != "blocked" else ""
     again = shown.again(node)
     text = html.escape(_line(node, again).split("  [")[0])

@@ -21,8 +21,11 @@ class JustificationNode(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    literal: str
-    holds: bool
+    literal: str = Field(description="the atom or comparison this step is about, in clingo syntax with `_` for any "
+                         "value; `not a(...)` where the step says there is no evidence of a(...)")
+    holds: bool = Field(description="whether `literal` is true in this frame's model, on every kind of step: a "
+                        "blocked step's literal is the goal its rule does not derive or the body literal that fails "
+                        "(false), or the atom that rules the rule out (true)")
     text: str
     rule: Optional[str] = None
     kind: Literal["derived", "fact", "builtin", "absent", "blocked", "negation", "loop"] = "derived"

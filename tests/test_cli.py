@@ -240,7 +240,7 @@ def test_check_param_sets_a_reasoning_parameter_and_names_a_bad_one(tmp_path, ca
     assert capsys.readouterr().out.startswith("approve cruise")
     assert main(["check", path, "--proposed", "cruise", "--param", "decel=4"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("override cruise with brake") and "the firm braking deceleration is 4 m/s²" in out
+    assert out.startswith("override cruise with brake") and "the firm braking deceleration is 4.0 m/s²" in out
     assert main(["check", path, "--proposed", "cruise", "--param", "decel=0", "--param", "brakes=1"]) == 2
     err = capsys.readouterr().err
     assert "--param decel needs a number from 0.01 to 100, got '0'" in err and "unknown --param 'brakes'" in err

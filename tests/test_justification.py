@@ -28,7 +28,7 @@ def test_veto_names_the_vetoing_rules_and_the_numbers(reasoner):
     assert verdict.decision.value == "override" and verdict.action.value == "brake"
     assert {"acc.lane_not_clear", "acc.hazard", "brake.obstacle_ahead"} <= set(verdict.rules)
     text = verdict.justification.text
-    assert "pedestrian 1 is 6.0 m ahead" in text and "6.0 m < 10.0 m" in text
+    assert "pedestrian 1 is 6.0 m ahead" in text and "6.0 m ahead < 10.0 m" in text
     assert "accelerate is forbidden, because  [acc.hazard]" in text
 
 
@@ -140,7 +140,7 @@ def test_a_reason_that_comes_up_again_is_argued_once_and_then_pointed_back_to(re
 def test_a_failed_comparison_says_whose_numbers_it_compares(reasoner):
     verdict = reasoner.decide(scene(speed=15, objects=[obj("pedestrian", 0, 12, lane=1)]), "brake", explain=True)
     lines = verdict.justification.text.splitlines()
-    failed = next(i for i, line in enumerate(lines) if "rule def.tailgater needs that 12.0 m ahead is behind the ego, which is false, because" in line)
+    failed = next(i for i, line in enumerate(lines) if "rule def.tailgater needs that pedestrian 1, 12.0 m ahead, is behind the ego, which is false, because" in line)
     assert "pedestrian 1 is 12.0 m ahead and in line with the ego" in lines[failed + 1]
 
 
@@ -318,7 +318,7 @@ def test_an_atom_a_rule_computes_in_its_head_is_proved_by_that_rule_not_shown_as
     assert proof.rule == "def.closing_known"
     assert [child.text for child in proof.children] == [
         "car 1 moves at 5.0 m/s along the ego's heading and 0.0 m/s sideways",
-        "car 1 is 16.0 m ahead and in line with the ego", "16.0 m ahead is not behind the ego", "the ego drives at 15.0 m/s"]
+        "car 1 is 16.0 m ahead and in line with the ego", "car 1, 16.0 m ahead, is not behind the ego", "the ego drives at 15.0 m/s"]
     assert prover.why(Function("left_lane", [Number(1)])).rule == "def.adjacent_lanes"
 
 
@@ -526,7 +526,7 @@ def test_signed_speeds_are_said_with_their_direction(reasoner):
     assert "car 1 moves at 12.0 m/s against the ego's heading and 0.0 m/s sideways" in text
     pulling_away = scene(speed=10, lane=2, lanes=2, objects=[obj("car", -3.5, 5, lane=1, vy=15)])
     text = reasoner.decide(pulling_away, "change_lane_left", explain=True).justification.text
-    assert "the ego closes in on car 1 at -5.0 m/s (the gap grows by 5.0 m/s)" in text
+    assert "car 1 pulls away from the ego at 5.0 m/s" in text
     assert "moves at -" not in text
 
 
@@ -534,7 +534,7 @@ def test_a_position_compared_with_the_ego_is_said_as_a_side_not_a_negative_dista
     text = reasoner.decide(scene(speed=10, objects=[obj("car", 0, -4, lane=1, vy=10)]), "brake",
                            explain=True).justification.text
     assert "car 1 is 4.0 m behind and in line with the ego" in text
-    assert "4.0 m behind is behind the ego" in text
+    assert "car 1, 4.0 m behind, is behind the ego" in text
     assert not re.search(r"-\d+\.\d m\b", text)
 
 
@@ -581,7 +581,7 @@ def test_a_position_compared_with_a_distance_setting_gives_the_setting_no_side(r
                objects=[obj("bicycle", 2.5, 4, lane=1, kind="shoulder", vy=5)])
     text = reasoner.decide(sc, "turn_right", explain=True).justification.text
     assert "tr.kerb_side_user" in text
-    assert "4.0 m < 15.0 m" in text and "-4.0 m" not in text and "15.0 m ahead" not in text
+    assert "4.0 m ahead or behind < 15.0 m" in text and "-4.0 m" not in text and "15.0 m ahead" not in text
 
 
 def test_a_signed_speed_against_zero_reads_in_words_not_with_a_minus_sign(reasoner):
@@ -641,7 +641,7 @@ def test_a_reading_of_a_few_hundredths_of_a_second_is_not_zero_seconds(reasoner)
 def test_settings_read_by_their_meaning_not_their_parameter_names(reasoner):
     text = reasoner.decide(scene(speed=10, objects=[obj("car", 0, 12, lane=1, vy=0)]), "cruise",
                               explain=True).justification.text
-    assert "the reaction time is 1 s" in text and "the firm braking deceleration is 6 m/s²" in text
+    assert "the reaction time is 1.0 s" in text and "the firm braking deceleration is 6.0 m/s²" in text
     assert "the reaction is" not in text and "the decel is" not in text
 
 
@@ -671,7 +671,7 @@ def test_an_oncoming_car_of_unknown_speed_is_not_said_to_keep_pace_with_the_traf
 def test_a_thing_behind_that_cannot_move_is_said_to_stand_not_to_keep_pace(reasoner):
     sc = scene(speed=10, lane=1, lanes=2, objects=[obj("traffic_cone", 3.5, -4, lane=2)])
     text = reasoner.decide(sc, "change_lane_right", explain=True).justification.text
-    assert "traffic cone 1 behind cannot move by itself and stands: its closing speed is -10.0 m/s" in text
+    assert "traffic cone 1 behind cannot move by itself and stands: it falls back at 10.0 m/s" in text
     assert "keep pace" not in text
 
 
