@@ -191,6 +191,10 @@ def _examples() -> list[Example]:
     lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)])
     radar_lead = obj(2, "car", -3.5, 40.0, 1, vy=20.0)
 
+    def undertake(offside_speed: float) -> Scene:
+        return scene(speed=30.0, lane=1, lanes=3, zone="highway", limit=31.3,
+                     objects=[obj(1, "car", 3.5, 15.0, 2, vy=offside_speed)])
+
     def zebra(divided: bool) -> Scene:
         return scene(speed=10.0, limit=13.4, other_lanes=("oncoming", "cross_right"), divided_road=divided,
                      objects=[obj(1, "pedestrian", 4.5, 12.0, 1, kind="cross_right", vy=0.0)])
@@ -246,6 +250,10 @@ def _examples() -> list[Example]:
                 "In a city the camera reads a 5 mph sign in one frame; the ego drives 10 m/s.",
                 (scene(speed=10.0, limit=None, signs=[limit_sign(5)]),), Action.cruise,
                 (scene(speed=10.0, limit=None, signs=[limit_sign(15)]),)),
+        Example("san.limit.school_sign_on_highway",
+                "At 30 m/s on a 70 mph highway a school-zone sign is read (the near miss: on a rural road).",
+                (scene(speed=30.0, zone="highway", limit=31.3, signs=[{"kind": "school_zone"}]),), Action.cruise,
+                (scene(speed=24.0, zone="road", limit=24.6, signs=[{"kind": "school_zone"}]),)),
         Example("san.limit.zero", "In a city the camera reads a limit of 0 in every frame for a second; the ego drives 10 m/s.",
                 tuple(scene(frame=i + 1, timestamp=0.1 * i, speed=10.0, limit=None, signs=[limit_sign(0)])
                       for i in range(10)), Action.cruise,
@@ -468,6 +476,10 @@ def _examples() -> list[Example]:
         Example("jur.uk.lane_preference", "A roadblock in the middle lane of three (UK).",
                 (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), Action.cruise,
                 (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), "uk", "us"),
+        Example("jur.uk.no_overtaking_on_the_left",
+                "On a UK motorway at 30 m/s in the left lane, a car at 22 m/s is 15 m ahead in the lane on the right "
+                "(the near miss: it keeps the ego's pace).",
+                (undertake(22.0),), Action.accelerate, (undertake(30.0),), "uk"),
         Example("jur.uk.zebra_whole_crossing",
                 "A pedestrian stands on a zebra crossing 12 m ahead, on the far half of an undivided UK road (the "
                 "near miss: a central refuge divides the road).",

@@ -49,7 +49,7 @@ class WindowConfig:
     """How much history the sanity layer uses, and how much it asks of it."""
 
     seconds: float = 2.0  # frames older than this are out of the window
-    max_frames: int = 40  # frames without timestamps, whose age cannot be told: at most this many of them
+    max_frames: int = 40  # frames without timestamps, whose age cannot be told: at most this many, and no more than fill `seconds`
     confirm_frames: int = 2  # frames in a row a reading needs before it is believed
     confirm_s: float = 0.2  # and for how long: at 50 Hz two frames are 40 ms, a flicker
     track_frames: int = 2  # frames a lost object must have been tracked to be kept
@@ -258,8 +258,10 @@ class WindowProvider:
         run.pop()  # the scene itself
         kept: list[Scene] = []
         timed = scene.timestamp > 0
+        # frames without timestamps last untimed_frame_s each: as many as fill `seconds`, and no more than max_frames
+        untimed = min(self.config.max_frames, max(1, round(self.config.seconds / self.config.untimed_frame_s)))
         for past in reversed(run):
-            if scene.timestamp - past.timestamp > self.config.seconds or (not timed and len(kept) >= self.config.max_frames):
+            if scene.timestamp - past.timestamp > self.config.seconds or (not timed and len(kept) >= untimed):
                 break
             kept.append(past)
         kept.reverse()
@@ -771,7 +773,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     kept: set[int] = set()
     legs = _legs([*window, scene])
     for oid, (seen, obj) in last.items():
-        age = max(scene.timestamp - window[seen].timestamp, 0.0)
+        age = max(clock.ms[-1] - clock.ms[seen], 0) / 1000  # frames without timestamps: untimed_frame_s apart
         placed = _track(obj, legs[seen:], bodies)
         if placed is None:
             continue  # the ego would have hit it: it did not keep that course, and where it is is not known

@@ -232,9 +232,10 @@ def test_scenarios_run_on_an_empty_directory_is_an_error(tmp_path, capsys):
 
 
 def test_check_param_sets_a_reasoning_parameter_and_names_a_bad_one(tmp_path, capsys):
-    """A car at 2 m/s 30 m ahead, closed in on at 13 m/s: outside the stopping gap at 6 m/s² (27.1 m), inside it at 4
-    (34.1 m). A moving car, since one standing is slowed for early, at the comfortable rate, whatever the firm one."""
-    path = write(tmp_path, json.loads(scene(speed=15, limit=20, objects=[obj("car", 0, 30, lane=1, vy=2.0)])
+    """A car at 2 m/s 38 m ahead, closed in on at 13 m/s: outside the following gap at 6 m/s² (15 m of headway and
+    (15² - 2²) / 12 = 18.4 m more to stop than the car), inside it at 4 (15 + 27.6 m). A moving car, since one
+    standing is slowed for early, at the comfortable rate, whatever the firm one."""
+    path = write(tmp_path, json.loads(scene(speed=15, limit=20, objects=[obj("car", 0, 38, lane=1, vy=2.0)])
                                       .model_dump_json(by_alias=True)))
     assert main(["check", path, "--proposed", "cruise"]) == 0
     assert capsys.readouterr().out.startswith("approve cruise")

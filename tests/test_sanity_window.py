@@ -106,6 +106,17 @@ def test_window_caps_the_number_of_frames_without_timestamps():
     assert len(provider.window(frames[-1], frames[:-1])) == 3
 
 
+def test_frames_without_timestamps_fill_the_windows_seconds_and_age_by_the_untimed_frame_interval():
+    """2 s of untimed frames at 0.1 s each are 20 frames, not max_frames' 40; a car lost 3 frames ago was last seen
+    0.3 s ago (it read 0.0 s)."""
+    frames = [at(0.0, frame=i + 1) for i in range(30)]
+    assert len(PROVIDER.window(frames[-1], frames[:-1])) == 20
+    car = obj(3, "car", -3.5, 0.0, 1, vy=10.0)
+    seen = [at(0.0, frame=i + 1, lanes=2, lane=2, objects=[car]) for i in range(5)]
+    lost = [at(0.0, frame=6 + i, lanes=2, lane=2) for i in range(3)]
+    assert "remembered(3,300)." in facts(seen + lost)
+
+
 def test_window_keeps_every_timed_frame_of_its_seconds_however_fast_they_come():
     frames = [at(1.0 + i / 50) for i in range(101)]  # 2 s at 50 Hz
     assert len(PROVIDER.window(frames[-1], frames[:-1])) == 100
