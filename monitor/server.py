@@ -26,7 +26,7 @@ import itertools
 import logging
 import threading
 import time
-from collections import deque
+from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -123,6 +123,7 @@ class MonitorServer:
         # No proposal is still open this long after a vehicle's last one, and its window has lapsed.
         self._expiry_s = config.window_s + self._budget_s + EXPIRY_MARGIN_S
         self._declared: list = []
+        self._read_here: OrderedDict[int, None] = OrderedDict()  # answered at the deadline after a read here (_shadow_deadline)
         self.pool = DecisionPool(
             config.workers,
             WorkerSettings(config.window_s, config.shadow, config.jurisdiction,
@@ -331,6 +332,8 @@ class MonitorServer:
 
     def _read_late(self, outcome: Outcome) -> None:
         """The worker's word on a payload whose answer went before it was read (at the deadline, at shutdown)."""
+        if self._read_here.pop(outcome.rid, 0) is None:  # read by the monitor itself: counted and logged then
+            return
         if outcome.error_kind is not None and not outcome.decoded:  # bad input all the same, as the log records it
             self.counters.input_refused(outcome.error_kind)
         if self.answers is not None:
@@ -374,11 +377,36 @@ class MonitorServer:
                     self._wake.wait(min(delay, HOLD_S / 2))
                 continue
             pending.popleft()
+            reason = f"no decision within the {self.config.budget_ms:g} ms budget"
+            if self.config.shadow:
+                self._shadow_deadline(req, reason)
             # Perhaps not read yet: the monitor's process never parses a payload (see _AnswerLog), so a malformed one
             # is named in the log's rejected record once its worker reads it, not here.
-            reason = f"no decision within the {self.config.budget_ms:g} ms budget"
-            if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
+            elif self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
                 self.counters.count("deadline_misses")
+
+    def _shadow_deadline(self, req: Request, reason: str) -> None:
+        """A shadow monitor's fail-safe at the deadline keeps the proposed action, so it reads the payload here first
+        (as _AnswerLog.expire does, up to READ_HERE_BYTES): one that fails the schema has no action to keep and is
+        refused by name, as its worker would; one too large to read here brakes. The worker's later word is ignored."""
+        self._read_here[req.rid] = None
+        if len(self._read_here) > EXPIRED_KEPT:  # a worker that died with them never answers
+            self._read_here.popitem(last=False)
+        if req.payload is None or len(req.payload) > READ_HERE_BYTES:
+            answer = self._failsafe(req, reason, RULE_DEADLINE, frame_id=peek_frame(req.payload)[0], read=True,
+                                    not_proposal=_not_proposal(req))
+        else:
+            try:
+                proposal = decode_proposal(req.payload, req.vehicle)
+            except InputError as exc:
+                answer = self._refuse(req, str(exc), exc.kind)
+            else:
+                answer = self._failsafe(req, reason, RULE_DEADLINE, frame_id=proposal.scene.frame_id,
+                                        action=proposal.action.value, read=True)
+        if not self._answer(req, answer):
+            self._read_here.pop(req.rid, None)
+        elif answer.error_kind is None:
+            self.counters.count("deadline_misses")
 
     def _forget_silent(self, now: float) -> None:
         """Drop the state of the vehicles silent for `_expiry_s`: a vehicle coming back is a new episode anyway."""
