@@ -20,6 +20,10 @@ restarted monitor from overwriting a file of the same second, and an audit from
 reading its files as the continuation of the previous run's; the index counts
 the run's files from 0000.
 
+Each vehicle has channels of its own in a file, and a file holds at most MAX_CHANNELS (about
+32,000 vehicles): a record that would need one more starts the next file, so no record is lost
+to a fleet that large.
+
 With `keep_bytes` set, each new file makes room: the oldest files named with the
 monitor's id (earlier runs' first, then this run's by index; never the file being
 written) are deleted until its files take at most that, so that they pass it by
@@ -55,6 +59,7 @@ from .channels import CHANNEL_KINDS, MESSAGE_ENCODING, SCHEMA_ENCODING, schema_b
 log = logging.getLogger(__name__)
 
 MAX_QUEUED = 100_000
+MAX_CHANNELS = 65_535  # MCAP channel ids are 16-bit, from 1; schemas, one per kind of record, never come near
 CHUNK_BYTES = 512 * 1024
 RUN_CHARS = 8  # of the run id in file names: 32 random bits, unique among one monitor id's runs
 # discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap (files of older versions: no run); groups monitor, run, index
@@ -190,6 +195,9 @@ class McapLogWriter:
         data = payload if isinstance(payload, bytes) else payload.model_dump_json(by_alias=True).encode()
         channel = self._channels.get(topic)
         if channel is None:
+            if len(self._channels) >= MAX_CHANNELS:  # the file's channel ids are used up: the next file's
+                self._finish_file()
+                self._open_file()
             channel = self._register(topic, kind)
         self._writer.add_message(channel, log_time=log_time_ns, data=data, publish_time=log_time_ns)
         self.records += 1
