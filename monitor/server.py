@@ -53,6 +53,7 @@ log = logging.getLogger(__name__)
 
 JSON = zenoh.Encoding.APPLICATION_JSON
 EXCERPT_BYTES = 512
+UTF8_BOM = b"\xef\xbb\xbf"
 READ_HERE_BYTES = 256 * 1024  # a held payload up to this size is read by the monitor itself (a 200-object one: about 60 KB)
 EXPIRED_KEPT = 10_000  # answers logged unread whose worker's late word is still expected
 HOLD_S = 0.5  # longest a sent answer waits for its worker's word before it is logged: with the log's flush, a kill -9 loses about a second
@@ -230,7 +231,9 @@ class MonitorServer:
         size = len(payload) if payload is not None else 0
         limit = self.config.max_payload_bytes
         # Copied over the limit too, for its first bytes (zenoh offers no cheaper way at them); never parsed.
-        raw = payload.to_bytes() if size else b""
+        # A byte-order mark before the JSON is ignored, as RFC 8259 allows and `discern check` reads a file: it goes
+        # before the workers read the payload and the log keeps it, where JSON readers (Foxglove's) would refuse it.
+        raw = payload.to_bytes().removeprefix(UTF8_BOM) if size else b""
         data = raw if 0 < size <= limit else None
         vehicle = keys.vehicle_of(key)
         wild = keys.is_wild(key)

@@ -289,3 +289,12 @@ def test_failsafe_picks_the_most_cautious_permitted_action():
     assert most_cautious([Action.accelerate]) is Action.accelerate
     assert most_cautious([]) is Action.brake
     assert CAUTION_ORDER[0] is Action.brake and len(set(CAUTION_ORDER)) == len(Action)
+
+
+def test_a_proposal_with_a_byte_order_mark_is_judged_as_discern_check_reads_the_file_and_logged_without_it(
+        session, log_dir):
+    """RFC 8259 lets a reader ignore the mark; `discern check` does, and a file that checks is a message it takes."""
+    verdict = ask(session, "discern/bom/check", b"\xef\xbb\xbf" + json.dumps(proposal("bom", frame=3)).encode())
+    assert not verdict.failsafe and verdict.frame_id == 3
+    logged = wait_until(lambda: [r for r in read_log(log_dir) if r.vehicle == "bom" and r.kind == "proposal"])
+    assert logged[0].proposal.scene.frame_id == 3
