@@ -18,7 +18,7 @@ from typing import Iterable, Optional
 
 from pydantic import BaseModel, ValidationError
 
-from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, MAX_ID_LENGTH, Action, Proposal, describe_errors, valid_id
+from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, MAX_FRAME_ID, MAX_ID_LENGTH, Action, Proposal, describe_errors, valid_id
 from discern.rules.verdict import Decision, Justification, Verdict
 
 
@@ -98,26 +98,60 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     return proposal
 
 
-# A whole JSON integer, ended by what may follow a value: a number cut off (an oversized payload's head) is none.
-_FRAME_ID = re.compile(rb'"frame_id"\s*:\s*(\d{1,18})(?=\s*[,}])')
-_ACTION = re.compile(rb'"action"\s*:\s*"([a-z_]{1,32})"')
+# A key (group 2: its colon), a string, or a bracket: enough of JSON to tell where in the document a key is.
+_TOKEN = re.compile(rb'"((?:[^"\\]|\\.)*)"(\s*:)?|[{}\[\]]')
+# A number ended by what may follow a value: one cut off (an oversized payload's head) is none.
+_NUMBER = re.compile(rb'\s*(-?\d{1,20}(?:\.\d{1,20})?(?:[eE][+-]?\d{1,3})?)(?=\s*[,}])')
+_WORD = re.compile(rb'\s*"([a-z_]{1,32})"')
+PEEK_TOKENS = 4096  # of a payload looked at: a valid proposal names its frame early; a hostile one costs ~1 ms
 
 
 def peek_frame(payload: Optional[bytes]) -> tuple[Optional[int], Optional[Action]]:
-    """Frame id and action of a proposal not parsed yet, best effort and in microseconds.
+    """Frame id (`scene.frame_id`) and action of a proposal not parsed yet, best effort and in about a millisecond.
 
     Only labels a fail-safe or a refusal of a payload not parsed (or not a proposal), so the
-    planner can match it to its frame; a full parse there would only deepen the backlog.
+    planner can match it to its frame; a full parse there would only deepen the backlog. Only the
+    fields where the schema has them count: a `frame_id` nested elsewhere labels nothing.
     """
-    if not payload:
-        return None, None
-    frame = _FRAME_ID.search(payload)
-    action = _ACTION.search(payload)
+    frame = action = None
+    inside: list[Optional[bytes]] = []  # the key of each open object or array (None: an array's item, the top)
+    key = None
+    for n, token in enumerate(_TOKEN.finditer(payload or b"")):
+        if n == PEEK_TOKENS or (frame is not None and action is not None):
+            break
+        if token.group(2):
+            key = token.group(1)
+            if key == b"action" and len(inside) == 1:
+                word = _WORD.match(payload, token.end())
+                action = _action(word.group(1)) if word else None
+            elif key == b"frame_id" and inside == [None, b"scene"]:
+                number = _NUMBER.match(payload, token.end())
+                frame = _frame_id(number.group(1)) if number else None
+        elif token.group(0) in (b"{", b"["):
+            inside.append(key)
+            key = None
+        elif token.group(0) in (b"}", b"]"):
+            if inside:
+                inside.pop()
+            key = None
+    return frame, action
+
+
+def _action(word: bytes) -> Optional[Action]:
     try:
-        proposed = Action(action.group(1).decode()) if action else None
+        return Action(word.decode())
     except ValueError:
-        proposed = None
-    return (int(frame.group(1)) if frame else None), proposed
+        return None
+
+
+def _frame_id(text: bytes) -> Optional[int]:
+    """As the scene model reads it: a whole number, 8.0 too (rules.scene.WholeNumber), within its bounds."""
+    value = float(text) if any(c in text for c in b".eE") else int(text)
+    if isinstance(value, float):
+        if not value.is_integer():
+            return None
+        value = int(value)
+    return value if 0 <= value <= MAX_FRAME_ID else None
 
 
 def most_cautious(permitted: Iterable[Action]) -> Action:

@@ -298,3 +298,19 @@ def test_a_proposal_with_a_byte_order_mark_is_judged_as_discern_check_reads_the_
     assert not verdict.failsafe and verdict.frame_id == 3
     logged = wait_until(lambda: [r for r in read_log(log_dir) if r.vehicle == "bom" and r.kind == "proposal"])
     assert logged[0].proposal.scene.frame_id == 3
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_a_refusal_is_labelled_with_the_scenes_frame_id_not_one_nested_elsewhere_and_a_whole_float_counts(
+        session, monitor, style):
+    stray = ask(session, "discern/stray_frame/check",
+                json.dumps({"zz": {"frame_id": 99}, **proposal("stray_frame", frame=5)}).encode())
+    assert stray.rules == ["monitor.bad_input"] and stray.frame_id == 5 and "zz" in stray.error
+    good = json.loads(highway_scene(1, 3).model_dump_json(by_alias=True))
+    with Monitor(f"stray_{style}", connect=[monitor[0]], timeout=5, style=style) as client:
+        assert client.wait_for_monitor(timeout=5)
+        wait_until(lambda: False, timeout=0.3)  # let the verdict subscription reach the monitor
+        nested = client.check({"zz": {"frame_id": 99}} | good | {"frame_id": 6}, "cruise")
+        whole = client.check(good | {"frame_id": 8.0, "zz": 1}, "cruise")
+    assert nested.frame_id == 6 and nested.latency_ms is not None and "zz" in nested.error  # the monitor's refusal
+    assert whole.frame_id == 8 and whole.latency_ms is not None and "zz" in whole.error

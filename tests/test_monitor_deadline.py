@@ -28,7 +28,7 @@ from tests.monitor_process import DiscernProcess, endpoint, free_port, serve, st
 
 BUDGET_MS = 50
 DELAY_MS = 400  # test-only hook: every decision sleeps this long first
-MALFORMED = b'{"action": "cruise", "frame_id": 7, "scene": '
+MALFORMED = b'{"action": "cruise", "scene": {"frame_id": 7, '
 
 
 @pytest.fixture(scope="module")
