@@ -656,3 +656,11 @@ def test_check_refuses_a_file_past_the_monitors_payload_limit_without_reading_it
     path = write(tmp_path, good_dict())
     assert main(["check", path, "--proposed", "brake", "--max-payload-bytes", "100"]) == 2
     assert "larger than 100 bytes" in capsys.readouterr().err
+
+
+def test_check_refuses_a_scene_note_with_a_terminal_escape_or_past_its_length_instead_of_printing_it(tmp_path, capsys):
+    for note, problem in (("\x1b]0;owned\x07", "String should match pattern"),
+                          ("x" * 1001, "String should have at most 1000 characters")):
+        assert main(["check", write(tmp_path, good_dict() | {"notes": [note]}), "--proposed", "cruise"]) == 2
+        captured = capsys.readouterr()
+        assert f"notes.0: {problem}" in captured.err and "\x1b" not in captured.err + captured.out

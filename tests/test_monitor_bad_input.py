@@ -115,6 +115,14 @@ BAD = {
         lambda v: json.dumps(proposal(v) | {"explain": "yes"}).encode(), "explain: Input should be a valid boolean",
         "schema",
     ),
+    "control_character_in_a_note": (
+        lambda v: with_scene(v, ("notes",), ["\x1b[2J\x1b]0;owned\x07"]), "scene.notes.0: String should match pattern",
+        "schema",
+    ),
+    "long_note": (
+        lambda v: with_scene(v, ("notes",), ["x" * 1001]), "scene.notes.0: String should have at most 1000 characters",
+        "schema",
+    ),
     "explain_as_number": (
         lambda v: json.dumps(proposal(v) | {"explain": 1}).encode(), "explain: Input should be a valid boolean (got 1)",
         "schema",
