@@ -73,6 +73,52 @@ def invalid_vehicle(vehicle: str) -> str:
     return f"vehicle {shown} in the key is not a valid vehicle id ({ID_RULE})"
 
 
+def invalid_proposal(exc: ValidationError, payload: bytes) -> InputError:
+    """Why a payload is no proposal, as the monitor refuses it (and the client, checking before it sends)."""
+    first = exc.errors(include_url=False, include_input=False)[0] if exc.error_count() == 1 else None
+    if first is not None and first["type"] == "json_invalid":  # malformed JSON is one error, never more
+        return InputError(f"malformed JSON: {_json_problem(first['msg'].removeprefix('Invalid JSON: '), payload)}",
+                          "json")
+    return InputError(f"schema violation: {describe_validation_error(exc)}", "schema")
+
+
+_AT = re.compile(r" at line (\d+) column (\d+)$")
+_SURROGATE = re.compile(rb"\\u[dD][89a-fA-F][0-9a-fA-F]{2}")
+_PATH_TOKEN = re.compile(rb'"((?:[^"\\]|\\.)*)"(\s*:)?|[{}\[\],]')
+
+
+def _json_problem(message: str, payload: bytes) -> str:
+    """The decoder's message, and for a bad value the field that holds it: a number past any bound, a lone
+    surrogate (half of a UTF-16 pair, no character, which the decoder calls an unexpected end of hex escape)."""
+    at = _AT.search(message)
+    if at is None or not ("number" in message or "escape" in message):
+        return message
+    line, column = int(at[1]), int(at[2])
+    offset = sum(len(text) + 1 for text in payload.split(b"\n", line - 1)[:line - 1]) + column - 1
+    if "hex escape" in message:
+        lone = [m for m in _SURROGATE.finditer(payload, max(0, offset - 12), offset + 1)]
+        if lone:
+            message = f"lone surrogate {lone[-1].group().decode()} in a string, no character{at.group()}"
+    where = _field_at(payload, offset)
+    return f"{where}: {message}" if where else message
+
+
+def _field_at(payload: bytes, offset: int) -> str:
+    """The field path (`scene.notes.0`) of the value at `offset` in a JSON document."""
+    path: list = []  # per open container: its current key, or its current index
+    for token in _PATH_TOKEN.finditer(payload, 0, offset):
+        text = token.group(0)
+        if token.group(2) and path:
+            path[-1] = token.group(1).decode("utf-8", "replace")[:64]
+        elif text in (b"{", b"["):
+            path.append(0 if text == b"[" else "")
+        elif text in (b"}", b"]") and path:
+            path.pop()
+        elif text == b"," and path and isinstance(path[-1], int):
+            path[-1] += 1
+    return ".".join(str(part) for part in path if part != "")
+
+
 def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     """Validate a proposal that arrived on ``discern/<key_vehicle>/...``.
 
@@ -84,10 +130,7 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     try:
         proposal = Proposal.model_validate_json(payload, **JSON_AS_SCHEMA)
     except ValidationError as exc:
-        first = exc.errors(include_url=False, include_input=False)[0] if exc.error_count() == 1 else None
-        if first is not None and first["type"] == "json_invalid":  # malformed JSON is one error, never more
-            raise InputError(f"malformed JSON: {first['msg'].removeprefix('Invalid JSON: ')}", "json") from None
-        raise InputError(f"schema violation: {describe_validation_error(exc)}", "schema") from None
+        raise invalid_proposal(exc, payload) from None
     if "vehicle" not in proposal.model_fields_set:
         proposal.vehicle = key_vehicle
     elif proposal.vehicle != key_vehicle:

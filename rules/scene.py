@@ -403,6 +403,8 @@ _BRIEF.maxstring = _BRIEF.maxother = _BRIEF.maxlong = MAX_VALUE_SHOWN
 
 
 def _shown(value: object) -> str:
+    if type(value) is int and value.bit_length() > 4096:  # Python will not write it out (over 4,300 digits)
+        return f"an integer of about {int(value.bit_length() * 0.30103) + 1} digits"
     return _BRIEF.repr(value)[:MAX_VALUE_SHOWN]
 
 

@@ -322,3 +322,18 @@ def test_a_refusal_is_labelled_with_the_scenes_frame_id_not_one_nested_elsewhere
         whole = client.check(good | {"frame_id": 8.0, "zz": 1}, "cruise")
     assert nested.frame_id == 6 and nested.latency_ms is not None and "zz" in nested.error  # the monitor's refusal
     assert whole.frame_id == 8 and whole.latency_ms is not None and "zz" in whole.error
+
+
+def test_a_huge_integer_or_a_lone_surrogate_is_refused_naming_its_field_and_the_problem(session, monitor):
+    huge = json.dumps(proposal("huge")).replace('"frame_id": 1', '"frame_id": 1' + "0" * 5000).encode()
+    refused = ask(session, "discern/huge/check", huge)
+    assert refused.error.startswith("malformed JSON: scene.frame_id: number out of range at line 1 column ")
+    good = json.loads(highway_scene(1, 3).model_dump_json(by_alias=True))
+    with Monitor("huge_client", connect=[monitor[0]], timeout=5) as client:
+        assert client.wait_for_monitor(timeout=5)
+        unsent = client.check(good | {"frame_id": 10**5000}, "brake")
+        lone = client.check(good | {"notes": ["fine", "\ud800"]}, "brake")
+    assert unsent.error.startswith("schema violation: scene.frame_id: Input should be less than or equal to "
+                                   "9223372036854775807 (got an integer of about 5001 digits); not sent: ")
+    assert lone.error.startswith("malformed JSON: scene.notes.1: lone surrogate \\ud800 in a string, no character at")
+    assert lone.latency_ms is not None  # sent as it is, and refused by the monitor
