@@ -19,7 +19,8 @@ from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
 
-from .config import path_text
+from .config import MAX_PAYLOAD_BYTES, path_text
+from .protocol import MAX_ERRORS_NAMED
 
 # Parts that add subcommands through a `register(subparsers)` function.
 PARTS: list[str] = [
@@ -34,12 +35,21 @@ class UserError(Exception):
     """A mistake in what the user gave us: reported in one line, no traceback."""
 
 
-def _read_json(path: str) -> tuple[str, dict]:
-    """The file's text, to validate as the schema reads JSON, and its object, to tell what kind of file it is."""
+def _read_json(path: str, limit: int) -> tuple[str, dict]:
+    """The file's text, to validate as the schema reads JSON, and its object, to tell what kind of file it is.
+
+    At most `limit` bytes, the monitor's payload limit: more is no message it takes, and /dev/zero has no end.
+    """
     try:
-        text = Path(path).read_text(encoding="utf-8-sig")  # a byte-order mark, as some Windows editors write, is no error
+        with open(path, "rb") as stream:
+            data = stream.read(limit + 1)
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror}") from None
+    if len(data) > limit:
+        raise UserError(f"{path}: larger than {limit} bytes, the monitor's limit for a proposal "
+                        "(--max-payload-bytes)")
+    try:
+        text = data.decode("utf-8-sig")  # a byte-order mark, as some Windows editors write, is no error
     except UnicodeDecodeError as exc:
         raise UserError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     try:
@@ -77,7 +87,7 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
 def cmd_check(args: argparse.Namespace) -> int:
     if Path(args.scene).suffix == ".pl":
         raise UserError(f"{args.scene}: AV-CSR frames, not a scene: run them with `discern scenarios run {args.scene}`")
-    text, data = _read_json(args.scene)
+    text, data = _read_json(args.scene, args.max_payload_bytes)
     try:
         if "frames" in data and "scene" not in data:
             raise UserError(f"{args.scene}: a scenario file, not a scene: `discern scenarios run {args.scene}` "
@@ -93,7 +103,7 @@ def cmd_check(args: argparse.Namespace) -> int:
                 raise UserError(f"{args.scene}: a bare scene needs --proposed ACTION")
             scene, action, vehicle = Scene.model_validate_json(text, **JSON_AS_SCHEMA), Action(args.proposed), "ego"
     except ValidationError as exc:
-        raise UserError(f"{args.scene}: invalid {kind}:\n{describe_errors(exc)}") from None
+        raise UserError(f"{args.scene}: invalid {kind}:\n{describe_errors(exc, limit=MAX_ERRORS_NAMED)}") from None
     verdict = _reasoner(args).decide(scene, action, explain=True, shadow=args.shadow, vehicle=vehicle)
     if args.explain == "json":
         output = render_json(verdict)
@@ -110,8 +120,19 @@ def cmd_check(args: argparse.Namespace) -> int:
             raise UserError(f"--out {args.out}: cannot write: {exc.strerror or exc}") from None
         print(f"{verdict.justification.summary}\nwritten to {args.out}")
     else:
-        print(output)
+        _print(output)
     return 0
+
+
+def _print(text: str) -> None:
+    """Print and flush, so that a full disk (`> /dev/full`) is one error line, not a traceback at exit."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        raise
+    except OSError as exc:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # what is left in the buffer goes nowhere
+        raise UserError(f"cannot write the output: {exc.strerror or exc}") from None
 
 
 def cmd_catalog(args: argparse.Namespace) -> int:
@@ -261,6 +282,8 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
     check.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                        help="set a reasoning parameter (discern.rules.facts.Params), e.g. --param decel=4; repeatable")
+    check.add_argument("--max-payload-bytes", type=int, default=MAX_PAYLOAD_BYTES,
+                       help=f"larger files are refused, as the monitor refuses larger proposals (default: {MAX_PAYLOAD_BYTES})")
     check.set_defaults(func=cmd_check)
 
     catalog = sub.add_parser("catalog", help="list the rules with their English and sources")

@@ -35,6 +35,7 @@ from .protocol import (
     describe_validation_error,
     encode,
     failsafe_verdict,
+    invalid_proposal,
     peek_frame,
 )
 
@@ -209,7 +210,7 @@ class Monitor:
         try:
             return Proposal.model_validate_json(text, **JSON_AS_SCHEMA), text.encode(), None
         except ValidationError as exc:
-            return None, text.encode(), f"schema violation: {describe_validation_error(exc)}"
+            return None, text.encode(), str(invalid_proposal(exc, text.encode()))
 
     def _query(self, payload: bytes, timeout: float, frame: Optional[int]) -> Union[Verdict, str]:
         """The first verdict on this proposal, whose frame is `frame` (None: unreadable), else why none came.

@@ -25,6 +25,7 @@ from .config import (
     LOG_FLUSH_MIN_S,
     LOG_ROTATE_MIN_BYTES,
     LOG_ROTATE_MIN_S,
+    MAX_PAYLOAD_BYTES,
     MIB,
     STATUS_PERIOD_MAX_S,
     STATUS_PERIOD_MIN_S,
@@ -56,7 +57,7 @@ def register(subparsers) -> None:
         help=f"decision budget, above 0 and at most {BUDGET_MAX_MS:g}; later = fail-safe (default: 50)",
     )
     serve.add_argument("--window-s", type=float, default=2.0, help="per-vehicle history window (default: 2)")
-    serve.add_argument("--max-payload-bytes", type=int, default=1024 * 1024, help="larger proposals are refused")
+    serve.add_argument("--max-payload-bytes", type=int, default=MAX_PAYLOAD_BYTES, help="larger proposals are refused")
     serve.add_argument("--workers", type=int, default=1, help="decision worker processes (default: 1)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
     serve.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")

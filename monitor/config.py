@@ -213,6 +213,9 @@ class LogSettings:
         return self
 
 
+MAX_PAYLOAD_BYTES = 1024 * 1024  # --max-payload-bytes by default, for the monitor and for `discern check`
+
+
 @dataclass
 class MonitorConfig:
     monitor_id: str = field(default_factory=default_monitor_id)
@@ -220,7 +223,7 @@ class MonitorConfig:
     vehicles: str = "*"  # key-chunk filter: shard the fleet across monitors
     budget_ms: float = 50.0
     window_s: float = 2.0
-    max_payload_bytes: int = 1024 * 1024
+    max_payload_bytes: int = MAX_PAYLOAD_BYTES
     workers: int = 1  # decision processes; each vehicle sticks to one
     shadow: bool = False
     jurisdiction: str = "us"

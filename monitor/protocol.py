@@ -18,7 +18,7 @@ from typing import Iterable, Optional
 
 from pydantic import BaseModel, ValidationError
 
-from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, MAX_ID_LENGTH, Action, Proposal, describe_errors, valid_id
+from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, MAX_FRAME_ID, MAX_ID_LENGTH, Action, Proposal, describe_errors, valid_id
 from discern.rules.verdict import Decision, Justification, Verdict
 
 
@@ -73,6 +73,52 @@ def invalid_vehicle(vehicle: str) -> str:
     return f"vehicle {shown} in the key is not a valid vehicle id ({ID_RULE})"
 
 
+def invalid_proposal(exc: ValidationError, payload: bytes) -> InputError:
+    """Why a payload is no proposal, as the monitor refuses it (and the client, checking before it sends)."""
+    first = exc.errors(include_url=False, include_input=False)[0] if exc.error_count() == 1 else None
+    if first is not None and first["type"] == "json_invalid":  # malformed JSON is one error, never more
+        return InputError(f"malformed JSON: {_json_problem(first['msg'].removeprefix('Invalid JSON: '), payload)}",
+                          "json")
+    return InputError(f"schema violation: {describe_validation_error(exc)}", "schema")
+
+
+_AT = re.compile(r" at line (\d+) column (\d+)$")
+_SURROGATE = re.compile(rb"\\u[dD][89a-fA-F][0-9a-fA-F]{2}")
+_PATH_TOKEN = re.compile(rb'"((?:[^"\\]|\\.)*)"(\s*:)?|[{}\[\],]')
+
+
+def _json_problem(message: str, payload: bytes) -> str:
+    """The decoder's message, and for a bad value the field that holds it: a number past any bound, a lone
+    surrogate (half of a UTF-16 pair, no character, which the decoder calls an unexpected end of hex escape)."""
+    at = _AT.search(message)
+    if at is None or not ("number" in message or "escape" in message):
+        return message
+    line, column = int(at[1]), int(at[2])
+    offset = sum(len(text) + 1 for text in payload.split(b"\n", line - 1)[:line - 1]) + column - 1
+    if "hex escape" in message:
+        lone = [m for m in _SURROGATE.finditer(payload, max(0, offset - 12), offset + 1)]
+        if lone:
+            message = f"lone surrogate {lone[-1].group().decode()} in a string, no character{at.group()}"
+    where = _field_at(payload, offset)
+    return f"{where}: {message}" if where else message
+
+
+def _field_at(payload: bytes, offset: int) -> str:
+    """The field path (`scene.notes.0`) of the value at `offset` in a JSON document."""
+    path: list = []  # per open container: its current key, or its current index
+    for token in _PATH_TOKEN.finditer(payload, 0, offset):
+        text = token.group(0)
+        if token.group(2) and path:
+            path[-1] = token.group(1).decode("utf-8", "replace")[:64]
+        elif text in (b"{", b"["):
+            path.append(0 if text == b"[" else "")
+        elif text in (b"}", b"]") and path:
+            path.pop()
+        elif text == b"," and path and isinstance(path[-1], int):
+            path[-1] += 1
+    return ".".join(str(part) for part in path if part != "")
+
+
 def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     """Validate a proposal that arrived on ``discern/<key_vehicle>/...``.
 
@@ -84,10 +130,7 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     try:
         proposal = Proposal.model_validate_json(payload, **JSON_AS_SCHEMA)
     except ValidationError as exc:
-        first = exc.errors(include_url=False, include_input=False)[0] if exc.error_count() == 1 else None
-        if first is not None and first["type"] == "json_invalid":  # malformed JSON is one error, never more
-            raise InputError(f"malformed JSON: {first['msg'].removeprefix('Invalid JSON: ')}", "json") from None
-        raise InputError(f"schema violation: {describe_validation_error(exc)}", "schema") from None
+        raise invalid_proposal(exc, payload) from None
     if "vehicle" not in proposal.model_fields_set:
         proposal.vehicle = key_vehicle
     elif proposal.vehicle != key_vehicle:
@@ -98,26 +141,60 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     return proposal
 
 
-# A whole JSON integer, ended by what may follow a value: a number cut off (an oversized payload's head) is none.
-_FRAME_ID = re.compile(rb'"frame_id"\s*:\s*(\d{1,18})(?=\s*[,}])')
-_ACTION = re.compile(rb'"action"\s*:\s*"([a-z_]{1,32})"')
+# A key (group 2: its colon), a string, or a bracket: enough of JSON to tell where in the document a key is.
+_TOKEN = re.compile(rb'"((?:[^"\\]|\\.)*)"(\s*:)?|[{}\[\]]')
+# A number ended by what may follow a value: one cut off (an oversized payload's head) is none.
+_NUMBER = re.compile(rb'\s*(-?\d{1,20}(?:\.\d{1,20})?(?:[eE][+-]?\d{1,3})?)(?=\s*[,}])')
+_WORD = re.compile(rb'\s*"([a-z_]{1,32})"')
+PEEK_TOKENS = 4096  # of a payload looked at: a valid proposal names its frame early; a hostile one costs ~1 ms
 
 
 def peek_frame(payload: Optional[bytes]) -> tuple[Optional[int], Optional[Action]]:
-    """Frame id and action of a proposal not parsed yet, best effort and in microseconds.
+    """Frame id (`scene.frame_id`) and action of a proposal not parsed yet, best effort and in about a millisecond.
 
     Only labels a fail-safe or a refusal of a payload not parsed (or not a proposal), so the
-    planner can match it to its frame; a full parse there would only deepen the backlog.
+    planner can match it to its frame; a full parse there would only deepen the backlog. Only the
+    fields where the schema has them count: a `frame_id` nested elsewhere labels nothing.
     """
-    if not payload:
-        return None, None
-    frame = _FRAME_ID.search(payload)
-    action = _ACTION.search(payload)
+    frame = action = None
+    inside: list[Optional[bytes]] = []  # the key of each open object or array (None: an array's item, the top)
+    key = None
+    for n, token in enumerate(_TOKEN.finditer(payload or b"")):
+        if n == PEEK_TOKENS or (frame is not None and action is not None):
+            break
+        if token.group(2):
+            key = token.group(1)
+            if key == b"action" and len(inside) == 1:
+                word = _WORD.match(payload, token.end())
+                action = _action(word.group(1)) if word else None
+            elif key == b"frame_id" and inside == [None, b"scene"]:
+                number = _NUMBER.match(payload, token.end())
+                frame = _frame_id(number.group(1)) if number else None
+        elif token.group(0) in (b"{", b"["):
+            inside.append(key)
+            key = None
+        elif token.group(0) in (b"}", b"]"):
+            if inside:
+                inside.pop()
+            key = None
+    return frame, action
+
+
+def _action(word: bytes) -> Optional[Action]:
     try:
-        proposed = Action(action.group(1).decode()) if action else None
+        return Action(word.decode())
     except ValueError:
-        proposed = None
-    return (int(frame.group(1)) if frame else None), proposed
+        return None
+
+
+def _frame_id(text: bytes) -> Optional[int]:
+    """As the scene model reads it: a whole number, 8.0 too (rules.scene.WholeNumber), within its bounds."""
+    value = float(text) if any(c in text for c in b".eE") else int(text)
+    if isinstance(value, float):
+        if not value.is_integer():
+            return None
+        value = int(value)
+    return value if 0 <= value <= MAX_FRAME_ID else None
 
 
 def most_cautious(permitted: Iterable[Action]) -> Action:

@@ -26,7 +26,7 @@ import itertools
 import logging
 import threading
 import time
-from collections import deque
+from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -53,9 +53,14 @@ log = logging.getLogger(__name__)
 
 JSON = zenoh.Encoding.APPLICATION_JSON
 EXCERPT_BYTES = 512
+UTF8_BOM = b"\xef\xbb\xbf"
 READ_HERE_BYTES = 256 * 1024  # a held payload up to this size is read by the monitor itself (a 200-object one: about 60 KB)
 EXPIRED_KEPT = 10_000  # answers logged unread whose worker's late word is still expected
-HOLD_S = 0.5  # longest a sent answer waits for its worker's word before it is logged: with the log's flush, a kill -9 loses about a second
+# Longest a sent answer waits for its worker's word before it is logged, and how often that is checked. A held answer,
+# once placed, is flushed within the writer's SOON_S (0.1 s): a kill -9 loses at most about 0.7 s of held answers,
+# the log's flush period (0.5 s by default) of the others.
+HOLD_S = 0.5
+HOLD_CHECK_S = 0.1
 
 
 @dataclass(eq=False)
@@ -123,6 +128,7 @@ class MonitorServer:
         # No proposal is still open this long after a vehicle's last one, and its window has lapsed.
         self._expiry_s = config.window_s + self._budget_s + EXPIRY_MARGIN_S
         self._declared: list = []
+        self._read_here: OrderedDict[int, None] = OrderedDict()  # answered at the deadline after a read here (_shadow_deadline)
         self.pool = DecisionPool(
             config.workers,
             WorkerSettings(config.window_s, config.shadow, config.jurisdiction,
@@ -229,7 +235,9 @@ class MonitorServer:
         size = len(payload) if payload is not None else 0
         limit = self.config.max_payload_bytes
         # Copied over the limit too, for its first bytes (zenoh offers no cheaper way at them); never parsed.
-        raw = payload.to_bytes() if size else b""
+        # A byte-order mark before the JSON is ignored, as RFC 8259 allows and `discern check` reads a file: it goes
+        # before the workers read the payload and the log keeps it, where JSON readers (Foxglove's) would refuse it.
+        raw = payload.to_bytes().removeprefix(UTF8_BOM) if size else b""
         data = raw if 0 < size <= limit else None
         vehicle = keys.vehicle_of(key)
         wild = keys.is_wild(key)
@@ -331,6 +339,8 @@ class MonitorServer:
 
     def _read_late(self, outcome: Outcome) -> None:
         """The worker's word on a payload whose answer went before it was read (at the deadline, at shutdown)."""
+        if self._read_here.pop(outcome.rid, 0) is None:  # read by the monitor itself: counted and logged then
+            return
         if outcome.error_kind is not None and not outcome.decoded:  # bad input all the same, as the log records it
             self.counters.input_refused(outcome.error_kind)
         if self.answers is not None:
@@ -346,21 +356,21 @@ class MonitorServer:
         """Send refusals, and at its deadline a fail-safe for every request still open; forget silent vehicles."""
         pending = self._pending
         next_sweep = time.monotonic() + EXPIRY_SWEEP_S
-        next_hold_check = time.monotonic() + HOLD_S / 2
+        next_hold_check = time.monotonic() + HOLD_CHECK_S
         while not self._stopping.is_set():
             if time.monotonic() >= next_sweep:
                 self._forget_silent(time.monotonic())
                 next_sweep = time.monotonic() + EXPIRY_SWEEP_S
             if self.answers is not None and time.monotonic() >= next_hold_check:
                 self.answers.expire(time.time_ns() - int(HOLD_S * 1e9))
-                next_hold_check = time.monotonic() + HOLD_S / 2
+                next_hold_check = time.monotonic() + HOLD_CHECK_S
             while self._refusals:
                 req, reason, kind = self._refusals.popleft()
                 self._answer(req, self._refuse(req, reason, kind))
             if not pending:
                 self._wake.clear()
                 if not pending and not self._refusals:
-                    self._wake.wait(HOLD_S / 2)
+                    self._wake.wait(HOLD_CHECK_S)
                 continue
             req = pending[0]
             if req.answered:
@@ -371,14 +381,39 @@ class MonitorServer:
                 # Later requests have later deadlines; a refusal or stop() wakes us early.
                 self._wake.clear()
                 if not self._refusals:
-                    self._wake.wait(min(delay, HOLD_S / 2))
+                    self._wake.wait(min(delay, HOLD_CHECK_S))
                 continue
             pending.popleft()
+            reason = f"no decision within the {self.config.budget_ms:g} ms budget"
+            if self.config.shadow:
+                self._shadow_deadline(req, reason)
             # Perhaps not read yet: the monitor's process never parses a payload (see _AnswerLog), so a malformed one
             # is named in the log's rejected record once its worker reads it, not here.
-            reason = f"no decision within the {self.config.budget_ms:g} ms budget"
-            if self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
+            elif self._answer(req, self._failsafe(req, reason, RULE_DEADLINE)):
                 self.counters.count("deadline_misses")
+
+    def _shadow_deadline(self, req: Request, reason: str) -> None:
+        """A shadow monitor's fail-safe at the deadline keeps the proposed action, so it reads the payload here first
+        (as _AnswerLog.expire does, up to READ_HERE_BYTES): one that fails the schema has no action to keep and is
+        refused by name, as its worker would; one too large to read here brakes. The worker's later word is ignored."""
+        self._read_here[req.rid] = None
+        if len(self._read_here) > EXPIRED_KEPT:  # a worker that died with them never answers
+            self._read_here.popitem(last=False)
+        if req.payload is None or len(req.payload) > READ_HERE_BYTES:
+            answer = self._failsafe(req, reason, RULE_DEADLINE, frame_id=peek_frame(req.payload)[0], read=True,
+                                    not_proposal=_not_proposal(req))
+        else:
+            try:
+                proposal = decode_proposal(req.payload, req.vehicle)
+            except InputError as exc:
+                answer = self._refuse(req, str(exc), exc.kind)
+            else:
+                answer = self._failsafe(req, reason, RULE_DEADLINE, frame_id=proposal.scene.frame_id,
+                                        action=proposal.action.value, read=True)
+        if not self._answer(req, answer):
+            self._read_here.pop(req.rid, None)
+        elif answer.error_kind is None:
+            self.counters.count("deadline_misses")
 
     def _forget_silent(self, now: float) -> None:
         """Drop the state of the vehicles silent for `_expiry_s`: a vehicle coming back is a new episode anyway."""
@@ -533,22 +568,28 @@ class _AnswerLog:
                 req, answer, sent_ns = waiting
                 self._place(req, answer, not_proposal, sent_ns)
             self._hand_over()
+            if waiting is not None:
+                self.writer.flush_soon()  # held, so late already
 
     def expire(self, older_than_ns: int) -> None:
         """Log the answers sent before `older_than_ns` whose payloads are still unread: a worker stalled for seconds
         would otherwise keep every fail-safe it caused out of the log until it woke. Such a payload is read here, as
         its worker would (rare, and bounded by READ_HERE_BYTES); a larger one is logged as not read in time."""
         with self._lock:
+            held = False
             while self._unread:
                 rid, (req, answer, sent_ns) = next(iter(self._unread.items()))
                 if sent_ns >= older_than_ns:
                     break
                 del self._unread[rid]
                 self._place(req, answer, _not_proposal(req), sent_ns)
+                held = True
                 self._logged_unread[rid] = None
                 if len(self._logged_unread) > EXPIRED_KEPT:  # a worker that died with them never answers
                     del self._logged_unread[next(iter(self._logged_unread))]
             self._hand_over()
+            if held:
+                self.writer.flush_soon()  # held, so late already
 
     def flush(self, why: str) -> None:
         """Log the answers whose payloads no worker will read, as refused for `why`."""

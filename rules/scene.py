@@ -177,6 +177,9 @@ MetresPerSecond = Annotated[float, Field(ge=-MAX_SPEED_MS, le=MAX_SPEED_MS, allo
 MetresPerSecondSquared = Annotated[float, Field(allow_inf_nan=False)]
 # Any printable text: the solver's strings end at a NUL, so control characters could make two ids one.
 PathId = Annotated[str, Field(min_length=1, pattern=r"^[^\x00-\x1f\x7f]*$")]  # "" would read as no path at all
+MAX_NOTE_LENGTH = 1_000
+# Printed as they are (`discern check`, the audit): no control characters, C1's too (a terminal's escapes), and short.
+Note = Annotated[str, Field(max_length=MAX_NOTE_LENGTH, pattern=r"^[^\x00-\x1f\x7f-\x9f]*$")]
 
 
 class Strict(BaseModel):
@@ -313,7 +316,7 @@ class Scene(Strict):
     intersection: Optional[Intersection] = None
     sensors: list[RangeReading] = Field(default_factory=list, max_length=MAX_ITEMS)
     path_crossings: list[PathCrossing] = Field(default_factory=list, max_length=MAX_ITEMS)
-    notes: list[str] = Field(default_factory=list, max_length=MAX_ITEMS, description="warnings from the adapter or validation")
+    notes: list[Note] = Field(default_factory=list, max_length=MAX_ITEMS, description="warnings from the adapter or validation")
 
     @field_validator("objects")
     @classmethod
@@ -400,6 +403,8 @@ _BRIEF.maxstring = _BRIEF.maxother = _BRIEF.maxlong = MAX_VALUE_SHOWN
 
 
 def _shown(value: object) -> str:
+    if type(value) is int and value.bit_length() > 4096:  # Python will not write it out (over 4,300 digits)
+        return f"an integer of about {int(value.bit_length() * 0.30103) + 1} digits"
     return _BRIEF.repr(value)[:MAX_VALUE_SHOWN]
 
 

@@ -471,3 +471,17 @@ def test_with_no_log_named_it_reads_where_discern_serve_logs_by_default(capsys, 
     shutil.copy(logs["slow"], tmp_path / "discern-log")
     code, out, _ = audit(capsys, "-q")
     assert code == 0 and out == audit(capsys, "discern-log", "-q")[1] and "frames: 3 (" in out
+
+
+@pytest.mark.parametrize("until", ["1800000000", "1.8e9", "1.800000000e9", "+1800000000", "1_800_000_000"])
+def test_until_in_epoch_seconds_however_written_runs_to_the_end_of_its_last_digits_unit(capsys, tmp_path, until):
+    writer = McapLogWriter(LogSettings(directory=tmp_path / "log"), "until")
+    reasoner = Reasoner()
+    second = 1_800_000_000 * 10**9
+    for f, at in enumerate((second + 10**8, second + 2 * 10**9, second + 3600 * 10**9)):  # 0.1 s, 2 s, 1 h after
+        p = Proposal(vehicle="car_a", action="cruise", scene=highway_scene(f, 2))
+        writer.write(vehicle_topic("car_a", "proposal"), "proposal", p, log_time_ns=at)
+        writer.write(vehicle_topic("car_a", "verdict"), "verdict", reasoner.decide(p.scene, p.action), log_time_ns=at)
+    writer.close()
+    frames = export(capsys, tmp_path, str(tmp_path / "log"), "--until", until)["frames"]
+    assert frames == (3 if until == "1.8e9" else 1)  # 1.8e9 is written to 10^8 s, some three years

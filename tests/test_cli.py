@@ -632,3 +632,36 @@ def test_a_scenario_frame_that_raises_fails_with_a_message_and_a_nonzero_exit(tm
     out = capsys.readouterr().out
     assert "FAIL" in out and "deciding the frame raised OverflowError: cannot convert float infinity to integer" in out
     assert "Traceback" not in out and "0 passed" in out
+
+
+def test_check_names_the_first_five_problems_of_a_file_and_counts_the_rest_as_the_monitor_does(tmp_path, capsys):
+    data = {**good_dict(), **{f"unknown_{i}": i for i in range(20_000)}}
+    assert main(["check", write(tmp_path, data), "--proposed", "cruise"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 7 and lines[1].startswith("unknown_0: ") and lines[-1] == "... and 19995 more"
+
+
+def test_check_into_a_full_disk_is_one_error_line_and_a_nonzero_exit():
+    with open("/dev/full", "w") as full:
+        result = subprocess.run([sys.executable, "-m", "discern.monitor.cli", "check",
+                                 str(ROOT / "docs" / "examples" / "scene.json"), "--proposed", "brake"],
+                                stdout=full, stderr=subprocess.PIPE, text=True, timeout=60)
+    assert result.returncode == 2
+    assert result.stderr == "discern: error: cannot write the output: No space left on device\n"
+
+
+def test_check_refuses_a_file_past_the_monitors_payload_limit_without_reading_it_all(tmp_path, capsys):
+    assert main(["check", "/dev/zero", "--proposed", "brake"]) == 2
+    assert capsys.readouterr().err == ("discern: error: /dev/zero: larger than 1048576 bytes, the monitor's limit "
+                                       "for a proposal (--max-payload-bytes)\n")
+    path = write(tmp_path, good_dict())
+    assert main(["check", path, "--proposed", "brake", "--max-payload-bytes", "100"]) == 2
+    assert "larger than 100 bytes" in capsys.readouterr().err
+
+
+def test_check_refuses_a_scene_note_with_a_terminal_escape_or_past_its_length_instead_of_printing_it(tmp_path, capsys):
+    for note, problem in (("\x1b]0;owned\x07", "String should match pattern"),
+                          ("x" * 1001, "String should have at most 1000 characters")):
+        assert main(["check", write(tmp_path, good_dict() | {"notes": [note]}), "--proposed", "cruise"]) == 2
+        captured = capsys.readouterr()
+        assert f"notes.0: {problem}" in captured.err and "\x1b" not in captured.err + captured.out

@@ -536,3 +536,33 @@ def test_a_file_cut_short_is_said_so_in_plain_words_wherever_the_cut_falls(tmp_p
         reasons.add(f.stopped_by)
     assert "cut short inside a record at byte 8" in reasons  # `head -c 10`: the magic and a piece of the header
     assert "cut short inside its opening magic, at byte 4" in reasons
+
+
+
+def test_a_file_out_of_channel_ids_rotates_and_no_new_vehicles_record_is_lost(tmp_path):
+    """MCAP channel ids are 16-bit and each vehicle has channels of its own: the 65,536th channel starts a new file."""
+    writer = McapLogWriter(LogSettings(directory=tmp_path), "fleet")
+    record = RejectedInput(vehicle="v", key="k", size=1, error="e", excerpt="x").model_dump_json().encode()
+    for v in range(65_536):
+        writer.write(vehicle_topic(f"car_{v}", "rejected"), "rejected", record)
+    writer.close()
+    assert writer.dropped == 0 and writer.records == 65_536 and len(writer.files) == 2
+    report = RecoveryReport()
+    [last] = read_log(writer.files[-1], report)
+    assert last.vehicle == "car_65535" and report.files[0].state == "complete"
+
+
+def test_a_closed_file_whose_footer_points_to_no_readable_summary_is_damaged_and_its_records_still_read(tmp_path):
+    proposals = write_session(tmp_path / "log")
+    [path] = (tmp_path / "log").glob("*.mcap")
+    data = bytearray(path.read_bytes())
+    at = len(data) - 8 - 20  # the footer's summary_start: before its summary_offset_start, CRC and the closing magic
+    data[at:at + 8] = (int.from_bytes(data[at:at + 8], "little") ^ 0x5A5A5A).to_bytes(8, "little")
+    path.write_bytes(bytes(data))
+    with open(path, "rb") as stream, pytest.raises(Exception):
+        make_reader(stream).get_summary()  # the standard reader cannot read it
+    report = RecoveryReport()
+    assert [r.proposal for r in read_log(path, report) if r.kind == "proposal"] == proposals
+    [f] = report.files
+    assert f.state == "damaged" and f.records == 13
+    assert "the footer at byte " in report.summary() and "that cannot be read" in report.summary()

@@ -115,6 +115,14 @@ BAD = {
         lambda v: json.dumps(proposal(v) | {"explain": "yes"}).encode(), "explain: Input should be a valid boolean",
         "schema",
     ),
+    "control_character_in_a_note": (
+        lambda v: with_scene(v, ("notes",), ["\x1b[2J\x1b]0;owned\x07"]), "scene.notes.0: String should match pattern",
+        "schema",
+    ),
+    "long_note": (
+        lambda v: with_scene(v, ("notes",), ["x" * 1001]), "scene.notes.0: String should have at most 1000 characters",
+        "schema",
+    ),
     "explain_as_number": (
         lambda v: json.dumps(proposal(v) | {"explain": 1}).encode(), "explain: Input should be a valid boolean (got 1)",
         "schema",
@@ -289,3 +297,43 @@ def test_failsafe_picks_the_most_cautious_permitted_action():
     assert most_cautious([Action.accelerate]) is Action.accelerate
     assert most_cautious([]) is Action.brake
     assert CAUTION_ORDER[0] is Action.brake and len(set(CAUTION_ORDER)) == len(Action)
+
+
+def test_a_proposal_with_a_byte_order_mark_is_judged_as_discern_check_reads_the_file_and_logged_without_it(
+        session, log_dir):
+    """RFC 8259 lets a reader ignore the mark; `discern check` does, and a file that checks is a message it takes."""
+    verdict = ask(session, "discern/bom/check", b"\xef\xbb\xbf" + json.dumps(proposal("bom", frame=3)).encode())
+    assert not verdict.failsafe and verdict.frame_id == 3
+    logged = wait_until(lambda: [r for r in read_log(log_dir) if r.vehicle == "bom" and r.kind == "proposal"])
+    assert logged[0].proposal.scene.frame_id == 3
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_a_refusal_is_labelled_with_the_scenes_frame_id_not_one_nested_elsewhere_and_a_whole_float_counts(
+        session, monitor, style):
+    stray = ask(session, "discern/stray_frame/check",
+                json.dumps({"zz": {"frame_id": 99}, **proposal("stray_frame", frame=5)}).encode())
+    assert stray.rules == ["monitor.bad_input"] and stray.frame_id == 5 and "zz" in stray.error
+    good = json.loads(highway_scene(1, 3).model_dump_json(by_alias=True))
+    with Monitor(f"stray_{style}", connect=[monitor[0]], timeout=5, style=style) as client:
+        assert client.wait_for_monitor(timeout=5)
+        wait_until(lambda: False, timeout=0.3)  # let the verdict subscription reach the monitor
+        nested = client.check({"zz": {"frame_id": 99}} | good | {"frame_id": 6}, "cruise")
+        whole = client.check(good | {"frame_id": 8.0, "zz": 1}, "cruise")
+    assert nested.frame_id == 6 and nested.latency_ms is not None and "zz" in nested.error  # the monitor's refusal
+    assert whole.frame_id == 8 and whole.latency_ms is not None and "zz" in whole.error
+
+
+def test_a_huge_integer_or_a_lone_surrogate_is_refused_naming_its_field_and_the_problem(session, monitor):
+    huge = json.dumps(proposal("huge")).replace('"frame_id": 1', '"frame_id": 1' + "0" * 5000).encode()
+    refused = ask(session, "discern/huge/check", huge)
+    assert refused.error.startswith("malformed JSON: scene.frame_id: number out of range at line 1 column ")
+    good = json.loads(highway_scene(1, 3).model_dump_json(by_alias=True))
+    with Monitor("huge_client", connect=[monitor[0]], timeout=5) as client:
+        assert client.wait_for_monitor(timeout=5)
+        unsent = client.check(good | {"frame_id": 10**5000}, "brake")
+        lone = client.check(good | {"notes": ["fine", "\ud800"]}, "brake")
+    assert unsent.error.startswith("schema violation: scene.frame_id: Input should be less than or equal to "
+                                   "9223372036854775807 (got an integer of about 5001 digits); not sent: ")
+    assert lone.error.startswith("malformed JSON: scene.notes.1: lone surrogate \\ud800 in a string, no character at")
+    assert lone.latency_ms is not None  # sent as it is, and refused by the monitor

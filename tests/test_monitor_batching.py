@@ -337,7 +337,7 @@ def test_a_shed_payload_that_is_no_proposal_is_refused_by_name_not_answered_as_l
     nan = payload("busy", highway_scene(7, 3), "accelerate").replace(b'"speed":25.0', b'"speed":NaN', 1)
     assert b"NaN" in nan
     backlog = deque([
-        Job(0, "busy", b'{"action": "cruise", "frame_id": 6, "scene": {', now - 0.09, now + 0.01),  # 10 ms left
+        Job(0, "busy", b'{"action": "cruise", "scene": {"frame_id": 6, ', now - 0.09, now + 0.01),  # 10 ms left
         Job(1, "busy", nan, now - 0.09, now + 0.01),
     ])
     malformed, schema = judge.next_batch(backlog)

@@ -28,7 +28,7 @@ from tests.monitor_process import DiscernProcess, endpoint, free_port, serve, st
 
 BUDGET_MS = 50
 DELAY_MS = 400  # test-only hook: every decision sleeps this long first
-MALFORMED = b'{"action": "cruise", "frame_id": 7, "scene": '
+MALFORMED = b'{"action": "cruise", "scene": {"frame_id": 7, '
 
 
 @pytest.fixture(scope="module")
@@ -309,3 +309,44 @@ def test_a_sigterm_while_the_monitor_starts_stops_it_cleanly():
     time.sleep(1.0)  # its decision workers are loading the rules
     code = proc.stop_group()
     assert code == 0 and "Traceback" not in proc.output, proc.output
+
+
+def test_a_shadow_failsafe_at_the_deadline_for_a_payload_failing_the_schema_brakes_and_is_refused_by_name(tmp_path,
+                                                                                                        capsys):
+    """A payload that fails the schema has no proposed action to keep, even when its answer went at the deadline."""
+    proc, ep = serve("--id", "shadow_nan", "--shadow", "--budget-ms", str(BUDGET_MS),
+                     "--test-only-decision-delay-ms", "300", "--log-dir", str(tmp_path))
+    nan = proposal("nan", highway_scene(0, 4), "accelerate").replace(b'"speed":', b'"speed":NaN,"x":', 1)
+    session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
+    try:
+        busy = ask(session, "busy", proposal("busy", highway_scene(0, 4), "accelerate"))
+        refused = answer(ask(session, "nan", nan))
+        kept = answer(busy)
+        assert wait_until(lambda: status(ep, "shadow_nan")[0]["errors"] == 1)
+        time.sleep(0.5)  # the worker's own word on it, once it reads it, counts nothing more
+        [counts] = status(ep, "shadow_nan")
+    finally:
+        session.close()
+        assert proc.stop() == 0, proc.output
+    assert kept.decision is Decision.veto and kept.action is Action.accelerate and kept.rules == [RULE_DEADLINE]
+    assert refused.decision is Decision.override and refused.action is Action.brake and refused.proposed is None
+    assert refused.rules == ["monitor.bad_input"] and refused.frame_id == 0
+    assert refused.error.startswith("schema violation: scene.ego.speed: Input should be a finite number")
+    assert counts["errors"] == 1 and counts["errors_by_kind"] == {"schema": 1}
+    code, out, err = audit(capsys, str(tmp_path), "--workers", "1", "--vehicle", "nan")
+    assert "? -> brake" in out and "monitor.bad_input" in out and "monitor.deadline" not in out
+
+
+def test_the_audit_shows_no_proposed_action_for_a_deadline_failsafe_whose_payload_was_refused(
+        slow_monitor, slow_log, capsys):
+    session = zenoh.open(ZenohSettings(listen=[], connect=[slow_monitor]).to_zenoh())
+    try:
+        busy = ask(session, "busy", proposal("busy", highway_scene(0, 4)))
+        garbled = answer(ask(session, "garbled_audit", b'{"action": "accelerate", "frame_id": 9, "scene": '))
+        answer(busy)
+    finally:
+        session.close()
+    assert garbled.rules == [RULE_DEADLINE] and garbled.proposed is Action.accelerate  # a glance, not a reading
+    wait_until(lambda: any(r.kind == "verdict" for r in read_log(slow_log) if r.vehicle == "garbled_audit"))
+    code, out, err = audit(capsys, str(slow_log), "--workers", "1", "--vehicle", "garbled_audit")
+    assert "? -> brake" in out and "accelerate" not in out, out

@@ -246,7 +246,8 @@ class Tally:
                         verdict.timestamp if verdict.timestamp is not None or scene is None else scene.timestamp
                     ),
                     kind=kind,
-                    proposed=verdict.proposed.value if verdict.proposed else None,
+                    # a fail-safe sent before its payload was read names what a glance found: refused, it proposed nothing
+                    proposed=verdict.proposed.value if verdict.proposed and (scene or not verdict.failsafe) else None,
                     executed=verdict.action.value,
                     recommended=verdict.recommended.value if verdict.recommended else None,
                     rules=list(verdict.rules),

@@ -38,12 +38,15 @@ def parse_time(text: str, option: str = "time", through: bool = False) -> int:
 
 
 def _unit_ns(value: str) -> int:
-    """The unit a time is written to, in ns: 1 for epoch nanoseconds; for epoch seconds, their last decimal; in ISO
-    8601, that of its last field (a day, week, hour, minute, second or decimal of a second, however written)."""
+    """The unit a time is written to, in ns: 1 for epoch nanoseconds; for epoch seconds, that of their last digit,
+    however written (`1795816272`, `+1_795_816_272`, `1.795816272e9`: a second; `1.5e9`: 10^8 s); in ISO 8601, that
+    of its last field (a day, week, hour, minute, second or decimal of a second, however written)."""
     if value.isdigit() and MIN_EPOCH_NS <= int(value) <= MAX_EPOCH_NS:
         return 1
-    if _EPOCH_SECONDS.fullmatch(value):
-        return 10 ** (9 - min(len(value.partition(".")[2]), 9))
+    try:
+        return 10 ** max(0, 9 + Decimal(value).as_tuple().exponent)
+    except InvalidOperation:
+        pass
     date, separator, clock = value.replace(" ", "T", 1).partition("T")
     if not separator:  # a date alone: the whole day, or the whole week of a week date without its day
         return (7 if _WEEK.fullmatch(date) else 1) * 86_400 * 10**9
@@ -56,7 +59,6 @@ def _unit_ns(value: str) -> int:
     return {2: 3600, 4: 60}.get(len(whole), 1) * 10**9
 
 
-_EPOCH_SECONDS = re.compile(r"\d+(\.\d*)?")
 _WEEK = re.compile(r"\d{4}-?W\d{2}")
 _ZONE = re.compile(r"([Zz]|[+-]\d{2}(:?\d{2}(:?\d{2}(\.\d+)?)?)?)$")
 _CLOCK = re.compile(r"([\d:]+)(?:[.,](\d+))?")

@@ -59,11 +59,12 @@ class DamagedRecord:
     offset: int  # where it starts in the file
     length: int  # bytes skipped
     reason: str
-    kind: str = "chunk"  # chunk | record | bytes (up to the next indexed chunk) | messages (where, unknown)
+    # chunk | record | bytes (up to the next indexed chunk) | messages (where, unknown) | summary (nothing skipped)
+    kind: str = "chunk"
     messages: Optional[int] = None  # messages a damaged chunk held, from its message index; None when unknown
 
     def describe(self) -> str:
-        if self.kind == "messages":  # missed somewhere unknown: only the summary's count tells
+        if self.kind in ("messages", "summary"):  # missed somewhere unknown, or nothing missed: the reason says
             return self.reason
         if self.kind == "bytes":
             return f"bytes {self.offset}-{self.offset + self.length} skipped: {self.reason}"
@@ -410,7 +411,13 @@ def _read_file(
                 recovery.recovered_bytes = read_before if recovery.records else 0
                 break
             if isinstance(record, Footer):
-                lost += _unread(summary, chunks_read, messages, recovery, fd) if summary.get() is not None else 0
+                if summary.get() is not None:
+                    lost += _unread(summary, chunks_read, messages, recovery, fd)
+                elif record.summary_start:  # it points at a summary no reader can read: no standard reader opens it
+                    recovery.damaged.append(DamagedRecord(
+                        start, end - start, f"the footer at byte {start} points to a summary at byte "
+                        f"{record.summary_start} that cannot be read ({summary.error}); every record was read without "
+                        "it", "summary"))
                 rest = os.pread(fd, len(MAGIC) + 1, end)
                 if rest == MAGIC:
                     recovery.complete = True
@@ -520,6 +527,7 @@ class _Summary:
         self.path = path
         self._summary = None
         self._read = False
+        self.error: Optional[str] = None  # why it could not be read
 
     def get(self):
         if not self._read:
@@ -527,8 +535,9 @@ class _Summary:
             try:
                 with open(self.path, "rb") as f:
                     self._summary = make_reader(f).get_summary()
-            except Exception:  # cut short, or its summary is damaged as well
+            except Exception as exc:  # cut short, or its summary is damaged as well
                 self._summary = None
+                self.error = _describe(exc)
         return self._summary
 
     def chunk_offsets(self) -> list[int]:

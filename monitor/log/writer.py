@@ -20,6 +20,10 @@ restarted monitor from overwriting a file of the same second, and an audit from
 reading its files as the continuation of the previous run's; the index counts
 the run's files from 0000.
 
+Each vehicle has channels of its own in a file, and a file holds at most MAX_CHANNELS (about
+32,000 vehicles): a record that would need one more starts the next file, so no record is lost
+to a fleet that large.
+
 With `keep_bytes` set, each new file makes room: the oldest files named with the
 monitor's id (earlier runs' first, then this run's by index; never the file being
 written) are deleted until its files take at most that, so that they pass it by
@@ -55,11 +59,14 @@ from .channels import CHANNEL_KINDS, MESSAGE_ENCODING, SCHEMA_ENCODING, schema_b
 log = logging.getLogger(__name__)
 
 MAX_QUEUED = 100_000
+SOON_S = 0.1  # a flush asked for (flush_soon) comes at most this long after the one before: chunks stay whole
+MAX_CHANNELS = 65_535  # MCAP channel ids are 16-bit, from 1; schemas, one per kind of record, never come near
 CHUNK_BYTES = 512 * 1024
 RUN_CHARS = 8  # of the run id in file names: 32 random bits, unique among one monitor id's runs
 # discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap (files of older versions: no run); groups monitor, run, index
 LOG_NAME = re.compile(r"^discern-(.+)-\d{8}T\d{6}-(?:([0-9a-f]{8})-)?(\d{4,})\.mcap$")
 _STOP = object()
+_SOON = object()
 
 Payload = Union[bytes, BaseModel]
 
@@ -116,6 +123,11 @@ class McapLogWriter:
             return
         self._queue.put((topic, kind, payload, log_time_ns or time.time_ns()))
 
+    def flush_soon(self) -> None:
+        """Flush what was written so far within about SOON_S, not at the next `flush_seconds`: for records written
+        late (a held answer), so that a kill -9 still loses only about the last second of answers."""
+        self._queue.put(_SOON)
+
     def close(self) -> None:
         if self._thread.is_alive():
             self._queue.put(_STOP)
@@ -125,7 +137,8 @@ class McapLogWriter:
 
     def _run(self) -> None:
         flush_every = self.settings.flush_seconds
-        next_flush = time.monotonic() + flush_every
+        flushed = time.monotonic()
+        next_flush = flushed + flush_every
         while True:
             timeout = max(0.0, next_flush - time.monotonic())
             try:
@@ -136,14 +149,16 @@ class McapLogWriter:
                 self._on_disk(self._check_file)
                 self._on_disk(self._finish_file)
                 return
-            if item is not None:
+            if item is _SOON:
+                next_flush = min(next_flush, flushed + SOON_S)
+            elif item is not None:
                 if self._writer is None:
                     self.dropped += 1
                 else:
                     self._on_disk(lambda: self._add_one(item))
             now = time.monotonic()
             if now >= next_flush:
-                next_flush = now + flush_every
+                flushed, next_flush = now, now + flush_every
                 if self._writer is not None:
                     self._on_disk(lambda: self._flush_and_maybe_rotate(now))
                 if self._writer is None:  # lost to a disk error, now or earlier: try a new file
@@ -190,6 +205,9 @@ class McapLogWriter:
         data = payload if isinstance(payload, bytes) else payload.model_dump_json(by_alias=True).encode()
         channel = self._channels.get(topic)
         if channel is None:
+            if len(self._channels) >= MAX_CHANNELS:  # the file's channel ids are used up: the next file's
+                self._finish_file()
+                self._open_file()
             channel = self._register(topic, kind)
         self._writer.add_message(channel, log_time=log_time_ns, data=data, publish_time=log_time_ns)
         self.records += 1
