@@ -78,15 +78,18 @@ def stopped_at_the_minor_road(intent: str, *objects):
                  intersection={"type": "t_intersect", "road": "minor", "stage": "at", "distance": 0})
 
 
-def test_at_a_stop_sign_cross_traffic_of_unknown_speed_is_taken_to_come_at_the_limit():
-    # 25 m to the side at 15.6 m/s is 1.6 s away, well inside the 5 s turn gap (UVC 11-403(b))
+def test_at_a_stop_sign_cross_traffic_of_unknown_speed_is_taken_to_come_at_the_zones_highest_limit():
+    # 25 m to the side at 22.4 m/s (50 mph, the most a US city posts) is 1.1 s away, well inside the 5 s turn gap
+    # (UVC 11-403(b)); the side road's own 35 mph says nothing of the main road's
     for x, kind in ((-25, "cross_left"), (25, "cross_right")):
         coming = stopped_at_the_minor_road("enter_left_lane", obj("car", x, 4, lane=1, kind=kind))
         verdict = decide(coming, "turn_left")
         assert verdict.decision.value == "override" and "tl.yield_cross_traffic" in verdict.rules
         assert decide(coming, "accelerate").action.value == "brake"
-    # 90 m off it would take 5.8 s: the way is clear
-    far = stopped_at_the_minor_road("enter_left_lane", obj("car", -90, 4, lane=1, kind="cross_left"))
+    # 90 m off it would take 4.0 s at 50 mph: still inside the gap; 120 m off, 5.4 s: the way is clear
+    near = stopped_at_the_minor_road("enter_left_lane", obj("car", -90, 4, lane=1, kind="cross_left"))
+    assert decide(near, "turn_left").decision.value == "override"
+    far = stopped_at_the_minor_road("enter_left_lane", obj("car", -120, 4, lane=1, kind="cross_left"))
     assert decide(far, "turn_left").decision.value == "approve"
     # at a green light the cross road has red: a car of unknown speed there is not assumed to come
     green = scene(speed=0, limit=15.6, light="green", other_lanes=CROSS,

@@ -25,8 +25,6 @@ MIRROR_CASES = {
     "swerve around a roadblock": (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]), "cruise"),
     "overtake a slower truck": (scene(speed=20.0, zone="highway", limit=29.0, lanes=2, lane=2,
                                       objects=[obj(1, "truck", 0.0, 30.0, 2, vy=15.0)]), "cruise"),
-    "lane change away from the passing side": (scene(speed=20.0, zone="highway", limit=29.0, lanes=3, lane=2,
-                                                     objects=[obj(1, "truck", 0.0, 30.0, 2, vy=15.0)]), "change_lane_right"),
     "lane change into a taken lane": (scene(lanes=2, lane=2, objects=[obj(1, "car", -3.5, 2.0, 1)]), "change_lane_left"),
     "merge when the lane ends": (with_lane_end(scene(lanes=3, lane=2), lane=2, metres=80.0), "cruise"),
     "turn across oncoming traffic": (scene(speed=3.0, limit=11.0, intent="enter_left_lane", intersection=AT,
@@ -119,3 +117,12 @@ def test_reasoner_for_builds_each_jurisdiction_once():
 def test_default_reasoner_is_us_and_lists_the_pack_rules():
     ids = {r.id for r in Reasoner().catalog.rules}
     assert {"jur.us", "jur.right_hand_traffic", "jur.us.right_on_red"} <= ids and "jur.uk" not in ids
+
+
+def test_moving_to_the_kerb_side_lane_past_a_slower_truck_is_allowed_in_the_us_and_not_in_the_uk():
+    """US law lets a driver pass on the right on a road of several lanes (UVC 11-304); the Highway Code forbids moving
+    to a lane on the left to overtake (rule 268): the mirrored scene is not the mirrored decision."""
+    sc = scene(speed=20.0, zone="highway", limit=29.0, lanes=3, lane=2, objects=[obj(1, "truck", 0.0, 30.0, 2, vy=15.0)])
+    assert US.decide(sc, "change_lane_right").decision.value == "approve"
+    uk = UK.decide(mirror_scene(sc), "change_lane_left")
+    assert uk.decision.value == "override" and "jur.uk.no_overtaking_on_the_left" in uk.rules
