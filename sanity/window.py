@@ -748,8 +748,6 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     present = now.objects
     unconfirmed = now.ids.difference(oid for oid, _ in now.confirmed)
     last: dict[int, tuple[int, DetectedObject]] = {}  # lost objects: the index of the frame last seen in, as seen
-    first: dict[int, int] = {}
-    frames: dict[int, int] = {}
     lights: dict[int, list[int]] = {}  # the frames (their indices) in which each object showed emergency lights
     earlier: dict[int, set[Source]] = {}
     echoed: dict[int, set[Source]] = {}  # lost objects: the confirming sources that reported them in the window
@@ -758,8 +756,6 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     for index, (past, summary) in enumerate(zip(window, summaries)):
         for oid in sorted(summary.ids - now.ids):
             last[oid] = (index, summary.objects[oid])
-            first.setdefault(oid, index)
-            frames[oid] = frames.get(oid, 0) + 1
             seen_in.setdefault(oid, []).append(index)
         for oid, confirming in summary.confirmed:
             if oid in unconfirmed:
@@ -778,7 +774,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         if placed is None:
             continue  # the ego would have hit it: it did not keep that course, and where it is is not known
         x, y = placed
-        tracked = max(frames[oid], obj.track_age or 0)
+        tracked = max(len(seen_in[oid]), obj.track_age or 0)
         side = _side_of(x, y, bodies.half_lane)
         reach = math.hypot(x, y) + config.sensor_margin
         facing = [r for r in scene.sensors if r.side is side]  # every range reading confirms (RangeSensor)
@@ -789,7 +785,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         out.append(f"remembered({oid},{int(round(age * 1000))}).remembered_object({oid},{obj.cls.value}).")
         out.append(f"remembered_pos({oid},{cm(x)},{cm(y)}).track_frames({oid},{tracked}).")
         # from its first frame in the window to its last, or as many frames as its tracker has followed it
-        out.append(f"track_time({oid},{max(clock.lasted(first[oid], seen), (obj.track_age or 0) * clock.frame_ms)}).")
+        out.append(f"track_time({oid},{max(clock.lasted(seen_in[oid][0], seen), (obj.track_age or 0) * clock.frame_ms)}).")
         if obj.lane is not None and obj.lane.kind is not LaneKind.current:
             # the ego's road's lanes: placed by its tracked offset (the rules), as a car cutting in moves across
             out.append(f"remembered_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")
