@@ -32,6 +32,10 @@ from .scene import Action, Scene
 from .verdict import Decision, Justification, JustificationNode, Verdict
 
 VETO_DEPTH = 4  # levels of a veto's proof when no explanation was asked for
+# A rule that forbids the proposal for several reasons (three hazards) shows each: the first ones proved, the next
+# ones named with the rules they rest on, and a count of the rest (a 200-object frame may hold dozens).
+REASONS_PROVED = 3
+REASONS_NAMED = 8
 
 RANK = [
     Action.turn_left,
@@ -230,12 +234,18 @@ class Reasoner:
                 tree.extend(prover.node_for(rule, env, applicable) for rule, env in prover.derivations(applicable))
         else:
             forbidden = _atom("forbidden", proposed)
-            for rule, env in prover.derivations(forbidden):
-                node = prover.node_for(rule, env, forbidden)
-                tree.append(node)
-                if node.rule not in vetoing:
-                    vetoing.append(node.rule)
-                rules.extend(r for r in rule_ids(node) if r not in rules)
+            for rule, envs in prover.instances(forbidden):
+                if rule.info.id not in vetoing:  # one id, two bodies (acc.lane_not_clear)
+                    vetoing.append(rule.info.id)
+                for k, env in enumerate(envs[:REASONS_NAMED]):
+                    node = prover.node_for(rule, env, forbidden, 0 if k < REASONS_PROVED else prover.max_depth - 1)
+                    tree.append(node)
+                    rules.extend(r for r in rule_ids(node) if r not in rules)
+                if len(envs) > REASONS_NAMED:
+                    more = len(envs) - REASONS_NAMED
+                    tree.append(JustificationNode(
+                        literal=str(forbidden), holds=True, rule=rule.info.id,
+                        text=f"and {more} more instance{'s' if more > 1 else ''} of rule {rule.info.id}"))
             rules = vetoing + [r for r in rules if r not in vetoing]
         if decision is Decision.override and solved.replacement is not None:
             tree.append(prover.why(_atom("replacement", solved.replacement)))

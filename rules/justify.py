@@ -90,6 +90,27 @@ class Prover:
                 yield rule, solution
                 break
 
+    def instances(self, sym: Symbol) -> Iterator[tuple[CompiledRule, list[Env]]]:
+        """Each catalog rule deriving `sym` with every instance of it whose body holds, not only the first.
+
+        A veto names all its reasons: three hazards forbid cruising three times over, and a proof of the first
+        alone would hide the red light behind the pedestrian.
+        """
+        _, name, args = self.answer.shape(sym)
+        for rule in self.catalog.rules_deriving(name, len(args), args[0] if args else None):
+            env = match(rule.head, sym, {}, self.answer.shape)
+            if env is None:
+                continue
+            found: list[Env] = []
+            shown: set[tuple] = set()
+            for solution in self._solve(list(rule.body), env, 0, None):
+                key = tuple(str(solution.get(id(lit))) for lit in rule.body if lit.is_atom and not lit.negated)
+                if key not in shown:  # instances that differ only in bound values no literal shows read alike
+                    shown.add(key)
+                    found.append(solution)
+            if found:
+                yield rule, found
+
     def deriving_rules(self, sym: Symbol) -> list[str]:
         """Ids of the rules with an instance that derives `sym`, an atom of the model, as `derivations` finds them.
 

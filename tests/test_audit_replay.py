@@ -17,8 +17,10 @@ from discern.monitor.audit.replay import ReplayCatalog, replay_logs
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings
 from discern.monitor.log import log_metadata
+from discern.monitor.log import writer as writer_module
 from discern.monitor.log.writer import McapLogWriter
 from discern.rules.catalog import catalog_digest, catalog_dirs, load_catalog
+from discern.rules.code_digest import reasoning_code_digest
 from discern.rules.engine import jurisdiction_pack
 from tests.audit_logs import (
     CLEAR_FRAMES,
@@ -473,6 +475,18 @@ def test_a_replay_decides_with_the_jurisdiction_and_window_the_monitor_logged(ca
     assert code == 0 and doc["changes"] == []
     code, doc, _ = replay(capsys, tmp_path, str(tmp_path / "uk"), "--workers", "1", "--jurisdiction", "us")
     assert code == 1 and len(doc["changes"]) == 5
+
+
+def test_a_replay_of_logs_other_reasoning_code_decided_says_so(capsys, tmp_path, monkeypatch):
+    """Same rules, other code (the facts a scene becomes, the window): its changes must not read as the rules'."""
+    McapLogWriter(LogSettings(directory=tmp_path / "now"), "m").close()
+    assert log_metadata(next((tmp_path / "now").iterdir()))["code"] == reasoning_code_digest()
+    code, _, err = audit(capsys, "--replay", str(tmp_path / "now"), "-q", "--workers", "1")
+    assert code == 0 and "warning" not in err
+    monkeypatch.setattr(writer_module, "reasoning_code_digest", lambda: "feedc0defeedc0de")
+    McapLogWriter(LogSettings(directory=tmp_path / "old"), "m").close()
+    code, _, err = audit(capsys, "--replay", str(tmp_path / "old"), str(tmp_path / "now"), "-q", "--workers", "1")
+    assert code == 0 and "warning: the logs were decided by reasoning code feedc0defeedc0de, not this version's" in err
 
 
 def test_recorded_settings_this_version_cannot_use_are_refused_naming_the_file(capsys, tmp_path):

@@ -9,6 +9,7 @@ from clingo import Function, Number, String, parse_term
 
 from bench.scenes import random_scene
 from discern.adapters.avcsr import read_dir
+from discern.rules import engine
 from discern.rules.engine import Reasoner, Request
 from discern.rules.fact_text import facts_of, facts_with_first
 from discern.rules import justify
@@ -30,6 +31,28 @@ def test_veto_names_the_vetoing_rules_and_the_numbers(reasoner):
     text = verdict.justification.text
     assert "pedestrian 1 is 6.0 m ahead" in text and "6.0 m ahead < 10.0 m" in text
     assert "accelerate is forbidden, because  [acc.hazard]" in text
+
+
+def test_a_veto_proves_every_hazard_that_forbids_the_proposal_not_only_the_first(reasoner):
+    """A safety assessor reading the veto must see the red light behind the pedestrian, with its rule named."""
+    objects = [obj("pedestrian", 0, 6, lane=1), obj("car", 0.2, 9, lane=1, vy=0.0)]
+    verdict = reasoner.decide(scene(speed=12, objects=objects, light="red"), "cruise")
+    text = verdict.justification.text
+    assert text.count("cruise is forbidden, because  [cruise.hazard]") == 3
+    for hazard in ("pedestrian 1 is in the way", "car 2 is in the way", "the traffic light is red"):
+        assert f"there is a hazard: {hazard}" in text
+    assert "brake.red_light" in verdict.rules and "brake.red_light" in verdict.justification.summary
+
+
+def test_a_veto_with_many_reasons_proves_the_first_names_the_next_and_counts_the_rest(reasoner):
+    objects = [obj("pedestrian", 0, 4 + 1.5 * k, lane=1) for k in range(12)]
+    verdict = reasoner.decide(scene(speed=12, objects=objects), "cruise")
+    hazards = [n for n in verdict.justification.tree if n.rule == "cruise.hazard"]
+    assert len(hazards) == engine.REASONS_NAMED + 1
+    proved, named = hazards[:engine.REASONS_PROVED], hazards[engine.REASONS_PROVED:engine.REASONS_NAMED]
+    assert all(child.children for node in proved for child in node.children)  # each hazard shown with its reasons
+    assert all(child.rule == "brake.obstacle_ahead" and not child.children for node in named for child in node.children)
+    assert hazards[-1].text == f"and {12 - engine.REASONS_NAMED} more instances of rule cruise.hazard"
 
 
 def test_a_verdict_names_apart_the_rules_that_forbid_the_proposal_from_those_their_proofs_use(reasoner):

@@ -15,6 +15,7 @@ from typing import Callable, Optional, Sequence
 from discern.monitor.config import DEFAULT_LOG_DIR, WINDOW_MAX_S, check_number, path_text
 from discern.monitor.log import log_files
 from discern.rules.catalog import CatalogError, catalog_digest, load_catalog
+from discern.rules.code_digest import reasoning_code_digest
 from discern.rules.engine import JURISDICTIONS, jurisdiction_pack
 from discern.rules.facts import Params
 
@@ -164,6 +165,11 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     if recorded.catalog is not None and recorded.catalog != shipped:
         print(f"discern audit: warning: the logs were decided by the rules catalog {recorded.catalog}, not this "
               f"version's ({shipped}): the changes reported include the catalog's own since then", file=sys.stderr)
+    other_code = [digest for digest in recorded.code if digest != reasoning_code_digest()]
+    if other_code:
+        print(f"discern audit: warning: the logs were decided by reasoning code {', '.join(other_code)}, not this "
+              f"version's ({reasoning_code_digest()}): the changes reported include the code's own since then",
+              file=sys.stderr)
     result = replay_logs(paths, catalog, filters, args.workers, window, args.compare_rules)
     nothing_read = _warn_unreadable(result.tally.recovery)
     sys.stdout.write(replay_report.render_text(result, listing=not args.quiet))

@@ -406,6 +406,7 @@ class RecordedSetup:
     jurisdiction: Optional[str] = None
     window_s: Optional[float] = None
     catalog: Optional[str] = None  # the digest of the rules that decided (rules.catalog.catalog_digest)
+    code: tuple[str, ...] = ()  # the digests of the reasoning code that decided (rules.code_digest), as recorded
 
 
 def recorded_setup(paths: Sequence[str]) -> RecordedSetup:
@@ -416,9 +417,12 @@ def recorded_setup(paths: Sequence[str]) -> RecordedSetup:
     the files when they disagree (each setup is its own replay) or a recorded value this version cannot use.
     """
     first: dict[tuple[str, str, str, str], str] = {}  # the setup as recorded -> the first file that has it
+    code: list[str] = []  # code may differ between files (a monitor updated): the replay says so, and goes on
     for path in log_files(paths):
         metadata = log_metadata(path)
         if metadata:
+            if metadata.get("code") and metadata["code"] not in code:
+                code.append(metadata["code"])
             setup = (metadata.get("params", "{}"), metadata.get("jurisdiction", ""), metadata.get("window_s", ""),
                      metadata.get("catalog", ""))
             first.setdefault(setup, str(path))
@@ -445,7 +449,7 @@ def recorded_setup(paths: Sequence[str]) -> RecordedSetup:
             check_number("window_s", window_s, 0, unit=" s", above=True)
     except ValueError:
         raise ValueError(f"{path}: unreadable recorded history window {window!r}") from None
-    return RecordedSetup(values, jurisdiction or None, window_s, catalog or None)
+    return RecordedSetup(values, jurisdiction or None, window_s, catalog or None, tuple(code))
 
 
 def replay_logs(

@@ -51,6 +51,7 @@ from typing import Mapping, Optional, Union
 from mcap.writer import CompressionType, Writer
 from pydantic import BaseModel
 
+from discern.rules.code_digest import reasoning_code_digest
 from discern.rules.scene import SCHEMA_VERSION
 
 from ..config import LogSettings
@@ -273,6 +274,7 @@ class McapLogWriter:
                     "pid": str(os.getpid()),
                     "run": self.run,
                     "params": json.dumps(self.params, sort_keys=True),
+                    "code": reasoning_code_digest(),
                     **self.setup,
                 },
             )
