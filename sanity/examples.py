@@ -163,7 +163,7 @@ def _examples() -> list[Example]:
     highway_40 = scene(frame=4, speed=31.0, zone="highway", limit=40 * MPH, signs=[limit_sign(40)], objects=truck_behind)
     stop_line = {"type": "unsignaled", "stage": "arriving", "distance": 30.0, "stop_line": True}
     at_stop = {"type": "four_way", "stage": "at", "distance": 0.0}
-    arriving = {"type": "four_way", "stage": "arriving", "distance": 25.0}
+    arriving = {"type": "four_way", "stage": "arriving", "distance": 12.0}  # within a comfortable stop (def.line_far_ahead)
     radar_car = obj(2, "car", -3.5, 40.0, 1, vy=15.0)
     phantom = obj(9, "car", 0.0, 16.0, 2, vy=5.0, sources=("camera",))
     real_ahead = obj(9, "car", 0.0, 16.0, 2, vy=5.0)

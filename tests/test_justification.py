@@ -518,7 +518,7 @@ def test_two_different_numbers_never_read_alike_in_a_comparison(reasoner):
 
 def test_a_turn_held_by_a_hazard_says_in_words_that_it_is_not_the_red_light(reasoner):
     sc = scene(speed=5, sign="stop", intent="enter_left_lane", other_lanes=("cross_left",),
-               intersection={"type": "four_way", "distance": 20.0})
+               intersection={"type": "four_way", "distance": 12.0})  # within a comfortable stop (def.line_far_ahead)
     verdict = reasoner.decide(sc, "turn_left", explain=True)
     assert "tl.hazard" in verdict.rules
     text = verdict.justification.text

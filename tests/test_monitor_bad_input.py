@@ -13,7 +13,7 @@ from discern.monitor.client import Monitor
 from discern.monitor.config import ZenohSettings
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import read_log
-from discern.monitor.protocol import CAUTION_ORDER, most_cautious
+from discern.monitor.protocol import CAUTION_ORDER, most_cautious, peek_frame
 from discern.monitor.server import EXCERPT_BYTES
 from discern.rules.scene import Action, Proposal
 from discern.rules.verdict import Decision, Verdict
@@ -322,6 +322,17 @@ def test_a_refusal_is_labelled_with_the_scenes_frame_id_not_one_nested_elsewhere
         whole = client.check(good | {"frame_id": 8.0, "zz": 1}, "cruise")
     assert nested.frame_id == 6 and nested.latency_ms is not None and "zz" in nested.error  # the monitor's refusal
     assert whole.frame_id == 8 and whole.latency_ms is not None and "zz" in whole.error
+
+
+@pytest.mark.timeout(60)  # a hang guard, not a speed target: the scan that tried each quote again took hours here
+@pytest.mark.parametrize("hostile", [b'{\\"version\\":1,' * 60_000, b'"' + b"\\" * 1_000_001, b'x"' * 500_000],
+                         ids=["json_escaped_twice", "backslashes", "quotes"])
+def test_labelling_a_payload_of_unclosed_or_escaped_quotes_reads_each_byte_once_and_finds_no_frame(hostile):
+    """The label is looked for by the decision worker and the watchdog alike: one vehicle's bad bytes must not hold
+    up every other vehicle's verdict (a 17 KB JSON-escaped proposal silenced a fleet for seconds)."""
+    assert peek_frame(hostile) == (None, None)
+    assert peek_frame(hostile + json.dumps(proposal("late", frame=5)).encode()) == (None, None)  # in the open string
+    assert peek_frame(json.dumps(proposal("ok", frame=5)).encode() + hostile)[0] == 5
 
 
 def test_a_huge_integer_or_a_lone_surrogate_is_refused_naming_its_field_and_the_problem(session, monitor):

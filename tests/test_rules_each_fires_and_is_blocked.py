@@ -43,6 +43,24 @@ CASES = {
     "def.follow_headway": (scene(objects=[obj("car", 0, 30, lane=1, vy=8)]), scene(objects=[obj("car", 3.5, 30, lane=2, vy=8)], lanes=2, lane=1)),
     "def.lead_speed": (scene(objects=[obj("car", 0, 30, lane=1, vy=8)]), scene(objects=[obj("car", 0, 30, lane=1)])),
     "def.step_follow_headway": (scene(objects=[obj("car", 0, 30, lane=1, vy=8)]), scene(objects=[obj("car", 3.5, 30, lane=2, vy=8)], lanes=2, lane=1)),
+    "def.heads_away": (
+        scene(speed=0, objects=[obj("pedestrian", 5.0, -8, lane=1, kind="shoulder", vy=-1.4)]),
+        scene(speed=0, objects=[obj("pedestrian", 5.0, -8, lane=1, kind="shoulder", vy=1.4)]),
+    ),
+    "def.clears_path": (
+        scene(other_lanes=("cross_left",), objects=[obj("car", 3.9, 8, lane=1, kind="cross_left", velocity={"x": 12.0, "y": 0.0})]),
+        scene(other_lanes=("cross_left",), objects=[obj("car", 3.0, 8, lane=1, kind="cross_left", velocity={"x": 0.3, "y": 0.0})]),
+    ),
+    "def.pulls_away_clear": (scene(speed=13, objects=[obj("car", 0, 6, lane=1, vy=18)]),
+                             scene(speed=13, objects=[obj("car", 0, 6, lane=1, vy=14)])),
+    "def.line_far_ahead": (
+        scene(sign="stop", intersection={"type": "four_way", "stage": "arriving", "distance": 250.0}),
+        scene(sign="stop", intersection={"type": "four_way", "stage": "arriving", "distance": 20.0}),
+    ),
+    "brake.pass_vulnerable_slowly": (
+        scene(speed=13, objects=[obj("bicycle", 1.9, 20, vy=5.0)]),
+        scene(speed=6, objects=[obj("bicycle", 1.9, 20, vy=5.0)]),
+    ),
     "brake.obstacle_ahead": (scene(objects=[ped_ahead]), scene(objects=[obj("plastic_bag", 0, 6, lane=1)])),
     "brake.red_light": (
         scene(light="red", intersection={"type": "signaled", "stage": "arriving"}),
