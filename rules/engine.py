@@ -251,6 +251,10 @@ class Reasoner:
             tree.append(prover.why(_atom("replacement", solved.replacement)))
         elif recommended is not None and (explain or not allowed):
             tree.append(prover.why(_atom("recommended", recommended)))
+        elif decision is Decision.override:  # the rules recommend nothing: say what the brake rests on
+            tree.append(JustificationNode(
+                literal="not recommended(_)", holds=True, kind="absent",
+                text="there is no evidence that any action is recommended: the monitor brakes, the most cautious action"))
 
         summary = _summary(decision, proposed, action, recommended, rules, len(vetoing))
         notes = solved.answer.of("noted", 1)

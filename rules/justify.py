@@ -264,7 +264,8 @@ class Prover:
                            else f"{subject} needs {reason.text}")
         if single:
             only = reasons[0]
-            only.rule = rule.info.id
+            if only.kind == "blocked":  # a need that fails, or a fact that rules it out: the rule that needed otherwise
+                only.rule = rule.info.id
             return only
         if len(worst) > self.alternatives:  # say that the list is cut, not that it is all
             more = len(worst) - self.alternatives
@@ -293,6 +294,8 @@ class Prover:
         if negative_left > 0:
             proof = self.why(failure.witness, depth)
             node.text, node.children, node.rule = proof.text, proof.children, proof.rule
+            if proof.rule is not None:  # an exception that holds, tagged with its rule as in s(CASP)
+                node.kind = proof.kind
         return node
 
     def _sources_of(self, rule: CompiledRule, comparison: Literal, env: Env) -> list[JustificationNode]:

@@ -108,6 +108,23 @@ def test_a_shadow_veto_proves_the_recommendation_for_nothing_replaces_the_propos
     assert "accelerate is the recommended action, because  [dec.preference]" in verdict.justification.text
 
 
+def test_an_override_with_nothing_recommended_says_that_the_brake_is_the_monitors_own_choice(tmp_path):
+    """An edited catalog may recommend nothing: the brake executed must not come without a word for it."""
+    edited = tmp_path / "catalog"
+    shutil.copytree(catalog_dirs()[0], edited)
+    decision = edited / "90_decision.lp"
+    text = decision.read_text()
+    rule = "recommended(A) :- suggested(A), not outranked(A).\n"
+    assert rule in text
+    decision.write_text(text.replace(rule, "recommended(A) :- suggested(A), not outranked(A), not suggested(A).\n"))
+    reasoner = Reasoner(catalog=load_driving_rules([edited], extra_files=[jurisdiction_pack("us")]))
+    verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
+    assert (verdict.decision.value, verdict.action.value, verdict.recommended) == ("override", "brake", None)
+    last = verdict.justification.tree[-1]
+    assert (last.literal, last.holds, last.kind) == ("not recommended(_)", True, "absent")
+    assert "no evidence that any action is recommended: the monitor brakes" in verdict.justification.text
+
+
 def test_a_catalog_written_before_replacements_overrides_with_the_recommended_action(tmp_path):
     """An edited copy of rules/catalog from before replacement/1 (given with --rules) decides as it did then."""
     older = tmp_path / "catalog"

@@ -55,6 +55,18 @@ def test_a_veto_with_many_reasons_proves_the_first_names_the_next_and_counts_the
     assert hazards[-1].text == f"and {12 - engine.REASONS_NAMED} more instances of rule cruise.hazard"
 
 
+def test_an_exception_that_rules_a_rule_out_is_tagged_with_its_own_rule():
+    """As in s(CASP): the step that blocks tr.red_light names the exception's rule, not only the rule it blocks."""
+    us = Reasoner(jurisdiction="us")
+    sc = scene(speed=0, lanes=1, light="red", intent="enter_right_lane",
+               intersection={"type": "signaled", "stage": "at", "distance": 0.0})
+    verdict = us.decide(sc, "turn_right", explain=True)
+    assert verdict.decision.value == "approve"
+    text = verdict.justification.text
+    assert ("rule tr.red_light is ruled out, because an exception applies: turning right on red is allowed, because  "
+            "[jur.us.right_on_red]") in text
+
+
 def test_a_verdict_names_apart_the_rules_that_forbid_the_proposal_from_those_their_proofs_use(reasoner):
     """An evaluation counting which rules vetoed must not credit a hazard's rule with a veto it only fed."""
     verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
