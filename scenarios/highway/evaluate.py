@@ -44,7 +44,7 @@ class EpisodeResult:
     time_s: float = 0.0
     vetoes: int = 0  # verdicts that did not approve the proposal
     overrides: int = 0  # ... and replaced it with another action
-    false_vetoes: int = 0
+    false_vetoes: int | None = 0  # None: not judged (--no-judge), which is not none found
     speeding_s: float = 0.0  # time with the ego above the true limit
     misread_s: float = 0.0  # time with the stack believing a misread sign
     decide_ms: list[float] = field(default_factory=list)
@@ -132,7 +132,8 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
         recorder=_recorder(setup) if variant == "discern" else None,
         vehicle=vehicle,
     )
-    result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed)
+    result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed,
+                           false_vetoes=0 if setup.judge_vetoes else None)
     period = policy_period(env)
     env.reset(seed=seed)
     done = False
@@ -199,6 +200,9 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
         decide = [ms for r in group for ms in r.decide_ms]
         vetoes = sum(r.vetoes for r in group)
         checked = variant != "planner"  # the planner alone vetoes nothing: its figures are missing, not 0 (NaN)
+        # without the judge (--no-judge) false vetoes were not looked for: not measured, not 0 (NaN)
+        judged = checked and all(r.false_vetoes is not None for r in group)
+        false_vetoes = sum(r.false_vetoes for r in group) if judged else NAN
         rows.append(
             {
                 "faults": faults,
@@ -211,9 +215,9 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
                 "mean_speed": (km * 1000.0 / hours) if hours else 0.0,
                 "vetoes_per_km": (vetoes / km if km else 0.0) if checked else NAN,
                 "overrides_per_km": (sum(r.overrides for r in group) / km if km else 0.0) if checked else NAN,
-                "false_vetoes": sum(r.false_vetoes for r in group),
-                "false_vetoes_per_km": (sum(r.false_vetoes for r in group) / km if km else 0.0) if checked else NAN,
-                "false_veto_share": (sum(r.false_vetoes for r in group) / vetoes if vetoes else 0.0) if checked else NAN,
+                "false_vetoes": false_vetoes,
+                "false_vetoes_per_km": (false_vetoes / km if km else 0.0) if judged else NAN,
+                "false_veto_share": (false_vetoes / vetoes if vetoes else 0.0) if judged else NAN,
                 "speeding_s": sum(r.speeding_s for r in group),
                 # by nearest rank, as the monitor's status, the audit and the benchmarks report them
                 "decide_ms_p50": percentile(sorted(decide), 50) if decide else NAN,
@@ -287,7 +291,9 @@ def write_csv(path: Path, rows: list[dict]) -> None:
         writer.writerows(rows)
 
 
-def plot(rows: list[dict], path: Path) -> None:
+def evaluation_figure(rows: list[dict]):
+    """The bar charts of evaluation.png; a figure a row does not have (NaN: the planner's vetoes, false vetoes not
+    judged) gets no bar, where a 0 would read as measured."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -305,17 +311,27 @@ def plot(rows: list[dict], path: Path) -> None:
     width = 0.8 / len(variants)
     colours = {"planner": "#b0b0b0", "discern": "#1f77b4", "rss": "#ff7f0e"}
     for ax, (key, title) in zip(axes, metrics):
+        measured = False
         for i, variant in enumerate(variants):
-            values = [
-                next((r[key] for r in rows if r["faults"] == f and r["variant"] == variant), 0.0) for f in fault_sets
-            ]
-            ax.bar(np.arange(len(fault_sets)) + i * width, values, width, label=variant, color=colours.get(variant))
+            bars = [(x + i * width, r[key]) for x, f in enumerate(fault_sets) for r in rows
+                    if r["faults"] == f and r["variant"] == variant and not math.isnan(r[key])]
+            measured |= bool(bars)
+            ax.bar([x for x, _ in bars], [v for _, v in bars], width, label=variant, color=colours.get(variant))
+        if not measured:
+            ax.text(0.5, 0.5, "not measured", transform=ax.transAxes, ha="center", va="center", color="#808080")
         ax.set_xticks(np.arange(len(fault_sets)) + width * (len(variants) - 1) / 2)
         ax.set_xticklabels([f"faults: {f}" for f in fault_sets], fontsize=8)
         ax.set_title(title)
         ax.grid(axis="y", alpha=0.3)
     axes[0].legend()
     fig.tight_layout()
+    return fig
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = evaluation_figure(rows)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)

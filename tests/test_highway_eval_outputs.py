@@ -1,0 +1,28 @@
+"""What `discern eval highway` leaves in its --out folder: real highway-env episodes, the real planner and reasoner."""
+
+import csv
+import math
+
+import pytest
+
+pytest.importorskip("highway_env")
+pytest.importorskip("torch")
+
+from discern.adapters.highway.perception import Faults
+from discern.scenarios.highway.evaluate import Setup, evaluate, evaluation_figure, report
+
+
+def test_without_the_judge_false_vetoes_read_not_measured_rather_than_zero(tmp_path):
+    """--no-judge once reported 0 false vetoes (and drew 0-high bars): a figure never measured read as a perfect one."""
+    results = evaluate(1, [Faults()], ["discern"], Setup(duration=3, judge_vetoes=False), progress=False)
+    assert results[0].vetoes > 0, "a veto to judge, or the test shows nothing"
+    rows, text = report(results, tmp_path)
+    summary = next(csv.DictReader((tmp_path / "summary.csv").open()))
+    assert [summary[key] for key in ("false_vetoes", "false_vetoes_per_km", "false_veto_share")] == ["nan"] * 3
+    assert next(csv.DictReader((tmp_path / "episodes.csv").open()))["false_vetoes"] == ""
+    header, _, row = text.splitlines()[:3]
+    assert row[header.index("false/km"):].split()[0] == "–"
+    false_vetoes = evaluation_figure(rows).axes[3]
+    assert false_vetoes.get_title() == "false vetoes per km" and not false_vetoes.patches
+    assert [t.get_text() for t in false_vetoes.texts] == ["not measured"]
+    assert math.isfinite(rows[0]["vetoes_per_km"]) and evaluation_figure(rows).axes[2].patches
