@@ -9,6 +9,7 @@ pytest.importorskip("highway_env")
 pytest.importorskip("torch")
 
 from discern.adapters.highway.perception import Faults
+from discern.monitor.cli import main as cli_main
 from discern.scenarios.highway.evaluate import Setup, evaluate, evaluation_figure, report
 
 
@@ -16,7 +17,7 @@ def test_without_the_judge_false_vetoes_read_not_measured_rather_than_zero(tmp_p
     """--no-judge once reported 0 false vetoes (and drew 0-high bars): a figure never measured read as a perfect one."""
     results = evaluate(1, [Faults()], ["discern"], Setup(duration=3, judge_vetoes=False), progress=False)
     assert results[0].vetoes > 0, "a veto to judge, or the test shows nothing"
-    rows, text = report(results, tmp_path)
+    rows, text, _ = report(results, tmp_path)
     summary = next(csv.DictReader((tmp_path / "summary.csv").open()))
     assert [summary[key] for key in ("false_vetoes", "false_vetoes_per_km", "false_veto_share")] == ["nan"] * 3
     assert next(csv.DictReader((tmp_path / "episodes.csv").open()))["false_vetoes"] == ""
@@ -26,3 +27,16 @@ def test_without_the_judge_false_vetoes_read_not_measured_rather_than_zero(tmp_p
     assert false_vetoes.get_title() == "false vetoes per km" and not false_vetoes.patches
     assert [t.get_text() for t in false_vetoes.texts] == ["not measured"]
     assert math.isfinite(rows[0]["vetoes_per_km"]) and evaluation_figure(rows).axes[2].patches
+
+
+def test_a_rerun_into_the_same_folder_lists_only_what_it_wrote_and_leaves_no_earlier_run_s_plots(tmp_path, capsys):
+    """A planner-only rerun once left the earlier run's vetoing_rules.png beside its own table, and said it wrote it."""
+    def run(variants):
+        assert cli_main(["eval", "highway", "--episodes", "1", "--faults", "none", "--variants", variants, "--quiet",
+                         "--duration", "2", "--out", str(tmp_path)]) == 0
+        return capsys.readouterr().out.splitlines()[-1]
+
+    assert run("planner,discern").endswith(": summary.csv, episodes.csv, summary.txt, evaluation.png, vetoing_rules.png")
+    assert (tmp_path / "vetoing_rules.png").is_file()
+    assert run("planner") == f"wrote {tmp_path}/: summary.csv, episodes.csv, summary.txt, evaluation.png"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["episodes.csv", "evaluation.png", "summary.csv", "summary.txt"]

@@ -178,12 +178,12 @@ def _run_eval(args: argparse.Namespace) -> int:
         print(f"discern eval: error: {exc}", file=sys.stderr)
         return 2
     try:
-        _, text = report(results, args.out)
+        _, text, written = report(results, args.out)
     except OSError as exc:  # a folder not writable, or removed while the episodes ran
         print(f"discern eval: error: cannot write {args.out}: {exc}", file=sys.stderr)
         return 2
     print(text)
-    print(f"\nwrote {args.out}/: summary.csv, episodes.csv, summary.txt, evaluation.png, vetoing_rules.png")
+    print(f"\nwrote {args.out}/: {', '.join(written)}")
     return 0
 
 

@@ -30,6 +30,7 @@ from .wrapper import VEHICLE_PARAMS, DiscernWrapper
 VARIANTS = ("planner", "discern", "rss")
 NAN = float("nan")
 SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
+OUTPUTS = ("summary.csv", "episodes.csv", "summary.txt", "evaluation.png", "vetoing_rules.png")  # what report writes
 HINT_DEADLINE = " (a monitor too busy for its budget: give it a larger --budget-ms, or run fewer --jobs)"
 
 
@@ -337,8 +338,9 @@ def plot(rows: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> None:
-    """Which of Discern's rules did the vetoing, per fault set (the RSS peer has one rule)."""
+def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> bool:
+    """Which of Discern's rules did the vetoing, per fault set (the RSS peer has one rule); False, and nothing
+    written, without a Discern episode."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -346,7 +348,7 @@ def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> None:
 
     groups = sorted({(r.faults, r.variant) for r in results if r.variant == "discern"}, key=lambda g: (g[0] != "none", g))
     if not groups:
-        return
+        return False
     fig, axes = plt.subplots(1, len(groups), figsize=(5.2 * len(groups), 3.4), squeeze=False)
     for ax, (faults, variant) in zip(axes[0], groups):
         counts = Counter()
@@ -361,6 +363,7 @@ def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return True
 
 
 def evaluate(
@@ -400,13 +403,20 @@ def evaluate(
     return results
 
 
-def report(results: list[EpisodeResult], out: Path | None) -> tuple[list[dict], str]:
+def report(results: list[EpisodeResult], out: Path | None) -> tuple[list[dict], str, list[str]]:
+    """The summary rows, the table, and the names of the files written into `out`. The OUTPUTS an earlier run left
+    there go first: one this run does not write (vetoing_rules.png without Discern) would read as this run's."""
     rows = summarise(results)
     text = format_table(rows) + "\n\n" + "\n".join(compare(rows))
+    written = []
     if out is not None:
-        write_csv(out / "episodes.csv", [r.row() for r in results])
+        for name in OUTPUTS:
+            (out / name).unlink(missing_ok=True)
         write_csv(out / "summary.csv", rows)
-        plot(rows, out / "evaluation.png")
-        plot_rules(results, out / "vetoing_rules.png")
+        write_csv(out / "episodes.csv", [r.row() for r in results])
         (out / "summary.txt").write_text(text + "\n")
-    return rows, text
+        plot(rows, out / "evaluation.png")
+        written += ["summary.csv", "episodes.csv", "summary.txt", "evaluation.png"]
+        if plot_rules(results, out / "vetoing_rules.png"):
+            written.append("vetoing_rules.png")
+    return rows, text, written
