@@ -40,3 +40,23 @@ def test_a_rerun_into_the_same_folder_lists_only_what_it_wrote_and_leaves_no_ear
     assert (tmp_path / "vetoing_rules.png").is_file()
     assert run("planner") == f"wrote {tmp_path}/: summary.csv, episodes.csv, summary.txt, evaluation.png"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["episodes.csv", "evaluation.png", "summary.csv", "summary.txt"]
+
+
+def test_recorded_verdicts_name_the_episodes_vehicle_as_their_topic_and_proposal_do(tmp_path):
+    """They said "vehicle": "ego" under /discern/discern_missed-signs_10000/verdict: the audit could not tell whose."""
+    from discern.monitor.log.reader import read_log
+
+    evaluate(1, [Faults.preset("signs,missed")], ["discern"], Setup(duration=2, record=str(tmp_path)), progress=False)
+    records = list(read_log(sorted(tmp_path.glob("*.mcap"))))
+    verdicts = [r for r in records if r.kind == "verdict"]
+    assert verdicts and {r.vehicle for r in records if r.kind in ("proposal", "verdict")} == {"discern_missed-signs_10000"}
+    assert {r.verdict.vehicle for r in verdicts} == {r.proposal.vehicle for r in records if r.kind == "proposal"} == {
+        "discern_missed-signs_10000"}
+
+
+def test_a_wrapper_refuses_a_checker_that_decides_for_another_vehicle():
+    from discern.adapters.highway.envs import make_env
+    from discern.scenarios.highway.wrapper import DiscernWrapper, ReasonerChecker
+
+    with pytest.raises(ValueError, match="^the checker decides for vehicle 'ego', the wrapper's vehicle is 'car7'"):
+        DiscernWrapper(make_env("highway-fast-v0", duration=1), checker=ReasonerChecker(), vehicle="car7")

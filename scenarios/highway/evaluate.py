@@ -29,6 +29,7 @@ from .wrapper import VEHICLE_PARAMS, DiscernWrapper
 
 VARIANTS = ("planner", "discern", "rss")
 NAN = float("nan")
+JURISDICTION = "us"  # the in-process reasoner's rule pack (a monitor decides with its own)
 SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
 OUTPUTS = ("summary.csv", "episodes.csv", "summary.txt", "evaluation.png", "vetoing_rules.png")  # what report writes
 HINT_DEADLINE = " (a monitor too busy for its budget: give it a larger --budget-ms, or run fewer --jobs)"
@@ -74,7 +75,7 @@ _worker: dict = {}
 
 
 def _checker(variant: str, setup: Setup, vehicle: str):
-    """The variant's checker; a monitor one is the episode's own (see run_episode), the others are cached."""
+    """The variant's checker, deciding for the episode's vehicle; the reasoner behind Discern's is cached."""
     if variant == "planner":
         return None
     if variant == "rss":
@@ -85,14 +86,15 @@ def _checker(variant: str, setup: Setup, vehicle: str):
         from .wrapper import MonitorChecker
 
         return MonitorChecker(vehicle=vehicle, connect=list(setup.monitor))
+    from .wrapper import ReasonerChecker
+
     key = ("reasoner", setup.params)
     if key not in _worker:
+        from discern.rules.engine import Reasoner
         from discern.rules.facts import Params
 
-        from .wrapper import ReasonerChecker
-
-        _worker[key] = ReasonerChecker(params=Params(**dict(setup.params)))
-    return _worker[key]
+        _worker[key] = Reasoner(params=Params(**dict(setup.params)), jurisdiction=JURISDICTION)
+    return ReasonerChecker(reasoner=_worker[key], vehicle=vehicle)  # the reasoner is shared, the vehicle the episode's
 
 
 def _recorder(setup: Setup):
@@ -104,9 +106,10 @@ def _recorder(setup: Setup):
         from discern.rules.catalog import catalog_digest
         from discern.rules.engine import jurisdiction_pack
 
-        # the in-process reasoner's (the shipped catalog, US pack): a running monitor logs its own verdicts
+        # the in-process reasoner's (the shipped catalog, JURISDICTION's pack): a running monitor logs its own verdicts
         _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), "highway-eval", dict(setup.params),
-                                            jurisdiction="us", catalog=catalog_digest(extra_files=[jurisdiction_pack("us")]))
+                                            jurisdiction=JURISDICTION,
+                                            catalog=catalog_digest(extra_files=[jurisdiction_pack(JURISDICTION)]))
     return _worker["recorder"]
 
 
