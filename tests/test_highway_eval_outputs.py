@@ -60,3 +60,22 @@ def test_a_wrapper_refuses_a_checker_that_decides_for_another_vehicle():
 
     with pytest.raises(ValueError, match="^the checker decides for vehicle 'ego', the wrapper's vehicle is 'car7'"):
         DiscernWrapper(make_env("highway-fast-v0", duration=1), checker=ReasonerChecker(), vehicle="car7")
+
+
+def test_weights_of_another_network_are_refused_naming_the_missing_unexpected_and_mis_shaped_keys(tmp_path, capsys):
+    """The error ended at "Error(s) in loading state_dict for QNetwork:", the keys it meant on lines never shown."""
+    import torch
+
+    from discern.scenarios.highway.planner import default_weights
+
+    state = torch.load(default_weights(), map_location="cpu", weights_only=True)
+    del state["layers.4.bias"]
+    state["layers.0.weight"] = torch.zeros(128, 35)
+    state["head.weight"] = torch.zeros(5, 128)
+    other = tmp_path / "other.pt"
+    torch.save(state, other)
+    code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "planner", "--faults", "none", "--quiet",
+                     "--weights", str(other), "--duration", "1", "--out", str(tmp_path / "out")])
+    assert code == 2 and capsys.readouterr().err == (
+        f"discern eval: error: {other} does not hold this planner's weights: missing layers.4.bias; unexpected "
+        "head.weight; mis-shaped layers.0.weight (128x35 in the file, 256x35 here)\n")

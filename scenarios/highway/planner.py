@@ -92,6 +92,25 @@ def default_weights() -> Path:
     return Path(str(resources.files("discern.scenarios.highway") / "weights" / WEIGHTS_FILE))
 
 
+def _mismatch(state, expected: dict) -> str:
+    """How a loaded state dict differs from the network's, in one line ('' if it fits): torch's own message puts
+    each kind of difference on a line of its own, under a first line that names none."""
+    if not isinstance(state, dict):
+        return f"a {type(state).__name__}, not a state dict"
+    if not all(isinstance(v, torch.Tensor) for v in state.values()):
+        return "a dict of other things than tensors, not a state dict"
+    missing = [k for k in expected if k not in state]
+    unexpected = [str(k) for k in state if k not in expected]
+    shapes = [f"{k} ({_shape(state[k])} in the file, {_shape(v)} here)" for k, v in expected.items()
+              if k in state and state[k].shape != v.shape]
+    return "; ".join(f"{what} {', '.join(keys)}" for what, keys in (
+        ("missing", missing), ("unexpected", unexpected), ("mis-shaped", shapes)) if keys)
+
+
+def _shape(tensor: torch.Tensor) -> str:
+    return "x".join(map(str, tensor.shape)) or "scalar"
+
+
 @dataclass
 class Planner:
     """Greedy DQN policy + sign-following cruise control; `act` returns a DiscreteMetaAction index."""
@@ -120,10 +139,10 @@ class Planner:
             # (UnpicklingError, IndexError, KeyError, ...); its own reason advises weights_only=False, which would run
             # whatever code the file holds.
             raise RuntimeError(f"{path} is not a planner weights file (a torch state dict from the trainer)") from None
-        try:
-            network.load_state_dict(state)
-        except (RuntimeError, TypeError) as exc:  # another network's weights, or no state dict at all
-            raise RuntimeError(f"{path} does not hold this planner's weights: {str(exc).splitlines()[0]}") from None
+        mismatch = _mismatch(state, network.state_dict())
+        if mismatch:
+            raise RuntimeError(f"{path} does not hold this planner's weights: {mismatch}")
+        network.load_state_dict(state)
         if not all(torch.isfinite(tensor).all() for tensor in network.state_dict().values()):
             raise RuntimeError(f"{path} holds NaN or infinite weights: a diverged training run, not a planner")
         network.eval()
