@@ -36,22 +36,26 @@ def test_a_rerun_into_the_same_folder_lists_only_what_it_wrote_and_leaves_no_ear
                          "--duration", "2", "--out", str(tmp_path)]) == 0
         return capsys.readouterr().out.splitlines()[-1]
 
-    assert run("planner,discern").endswith(": summary.csv, episodes.csv, summary.txt, evaluation.png, vetoing_rules.png")
+    assert run("planner,discern").endswith(": summary.csv, episodes.csv, summary.txt, evaluation.png, vetoing_rules.png, "
+                                           "run.json")
     assert (tmp_path / "vetoing_rules.png").is_file()
-    assert run("planner") == f"wrote {tmp_path}/: summary.csv, episodes.csv, summary.txt, evaluation.png"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["episodes.csv", "evaluation.png", "summary.csv", "summary.txt"]
+    assert run("planner") == f"wrote {tmp_path}/: summary.csv, episodes.csv, summary.txt, evaluation.png, run.json"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["episodes.csv", "evaluation.png", "run.json", "summary.csv",
+                                                          "summary.txt"]
 
 
 def test_recorded_verdicts_name_the_episodes_vehicle_as_their_topic_and_proposal_do(tmp_path):
     """They said "vehicle": "ego" under /discern/discern_missed-signs_10000/verdict: the audit could not tell whose."""
     from discern.monitor.log.reader import read_log
 
-    evaluate(1, [Faults.preset("signs,missed")], ["discern"], Setup(duration=2, record=str(tmp_path)), progress=False)
+    faults = Faults.preset("signs,missed", miss_rate=0.9)  # missed@0.9,signs: a vehicle id has no '@' or '.'
+    evaluate(1, [faults], ["discern"], Setup(duration=2, record=str(tmp_path)), progress=False)
     records = list(read_log(sorted(tmp_path.glob("*.mcap"))))
     verdicts = [r for r in records if r.kind == "verdict"]
-    assert verdicts and {r.vehicle for r in records if r.kind in ("proposal", "verdict")} == {"discern_missed-signs_10000"}
+    vehicle = "discern_missed-0p9-signs_10000"
+    assert verdicts and {r.vehicle for r in records if r.kind in ("proposal", "verdict")} == {vehicle}
     assert {r.verdict.vehicle for r in verdicts} == {r.proposal.vehicle for r in records if r.kind == "proposal"} == {
-        "discern_missed-signs_10000"}
+        vehicle}
 
 
 def test_a_wrapper_refuses_a_checker_that_decides_for_another_vehicle():
@@ -79,3 +83,42 @@ def test_weights_of_another_network_are_refused_naming_the_missing_unexpected_an
     assert code == 2 and capsys.readouterr().err == (
         f"discern eval: error: {other} does not hold this planner's weights: missing layers.4.bias; unexpected "
         "head.weight; mis-shaped layers.0.weight (128x35 in the file, 256x35 here)\n")
+
+
+def test_the_output_folder_records_what_produced_it_and_each_episode_its_fault_seed(tmp_path, capsys):
+    """Nothing in --out said which command, weights, rules, code, rates or seeds made its figures; a rate other than
+    the default read as the default's ('missed'), and no episode row said which fault seed to replay it with."""
+    import hashlib
+    import json
+    from importlib import metadata
+
+    from discern.rules.catalog import catalog_digest
+    from discern.rules.code_digest import reasoning_code_digest
+    from discern.rules.engine import jurisdiction_pack
+    from discern.scenarios.highway.planner import default_weights
+
+    argv = ["eval", "highway", "--episodes", "1", "--faults", "missed", "--miss-rate", "0.9", "--variants",
+            "planner,discern", "--param", "headway_s=2", "--seed", "3", "--fault-seed", "0", "--duration", "2", "--quiet",
+            "--out", str(tmp_path)]
+    assert cli_main(argv) == 0
+    assert "missed@0.9  discern" in capsys.readouterr().out
+    episodes = list(csv.DictReader((tmp_path / "episodes.csv").open()))
+    assert [(e["faults"], e["seed"], e["fault_seed"]) for e in episodes] == [("missed@0.9", "10003", "0")] * 2
+    run = json.loads((tmp_path / "run.json").read_text())
+    assert run["command"] == ["discern", *argv]
+    assert run["arguments"]["miss_rate"] == 0.9 and run["arguments"]["episodes"] == 1 and run["arguments"]["jobs"] == 1
+    assert run["environment"]["id"] == "highway-fast-v0" and run["environment"]["duration_s"] == 2.0
+    assert run["episode_seeds"] == [10003] and run["fault_seed"] == 0
+    [faults] = run["faults"]
+    assert (faults["label"], faults["kinds"], faults["miss_rate"], faults["seed"]) == ("missed@0.9", {"missed": 0.9}, 0.9, 0)
+    weights = default_weights()
+    assert run["planner"]["weights"] == str(weights.resolve())
+    assert run["planner"]["sha256"] == hashlib.sha256(weights.read_bytes()).hexdigest()
+    discern = run["discern"]
+    assert discern["jurisdiction"] == "us" and discern["param_overrides"] == {"accel_step": 2.5, "decel": 4.0,
+                                                                             "headway_s": 2.0}
+    assert discern["params"]["headway_s"] == 2.0 and discern["params"]["reaction_s"] == 1.0  # a default used
+    assert discern["catalog"] == catalog_digest(extra_files=[jurisdiction_pack("us")])
+    assert discern["reasoning_code"] == reasoning_code_digest()
+    assert {name: run["versions"][name] for name in ("highway-env", "torch", "clingo")} == {
+        name: metadata.version(name) for name in ("highway-env", "torch", "clingo")}

@@ -8,6 +8,7 @@ false vetoes (oracle.py's definition), time above the true limit, and the rules 
 from __future__ import annotations
 
 import csv
+import json
 import math
 import multiprocessing
 import time
@@ -31,7 +32,7 @@ VARIANTS = ("planner", "discern", "rss")
 NAN = float("nan")
 JURISDICTION = "us"  # the in-process reasoner's rule pack (a monitor decides with its own)
 SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
-OUTPUTS = ("summary.csv", "episodes.csv", "summary.txt", "evaluation.png", "vetoing_rules.png")  # what report writes
+OUTPUTS = ("summary.csv", "episodes.csv", "summary.txt", "evaluation.png", "vetoing_rules.png", "run.json")  # report's
 HINT_DEADLINE = " (a monitor too busy for its budget: give it a larger --budget-ms, or run fewer --jobs)"
 
 
@@ -40,6 +41,7 @@ class EpisodeResult:
     variant: str
     faults: str
     seed: int
+    fault_seed: int = 0  # with `seed`, runs the episode again: --seed (seed - SEED_BASE) --fault-seed F --episodes 1
     steps: int = 0
     collided: bool = False
     distance_m: float = 0.0
@@ -119,13 +121,20 @@ def close_recorder() -> None:
         recorder.close()
 
 
+def episode_vehicle(variant: str, faults: Faults, seed: int) -> str:
+    """The vehicle an episode drives as, for a monitor and the log: one zenoh key chunk ([A-Za-z0-9_-]), so the
+    label's ',', '@' and ':' become '-' and a decimal point 'p' (discern_missed-0p9-signs_10000)."""
+    chunk = faults.label().translate(str.maketrans({",": "-", "@": "-", ":": "-", ".": "p", "+": ""}))
+    return f"{variant}_{chunk}_{seed}"
+
+
 def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> EpisodeResult:
     """One seeded episode; through a monitor, as its own vehicle, whose frame ids no other episode has used."""
     key = ("planner", setup.weights)
     if key not in _worker:
         _worker[key] = Planner.load(setup.weights)
     planner: Planner = _worker[key]
-    vehicle = f"{variant}_{faults.label().replace(',', '-')}_{seed}"
+    vehicle = episode_vehicle(variant, faults, seed)
     checker = _checker(variant, setup, vehicle)
     env = DiscernWrapper(
         make_env(setup.env, duration=setup.duration),
@@ -136,7 +145,7 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
         recorder=_recorder(setup) if variant == "discern" else None,
         vehicle=vehicle,
     )
-    result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed,
+    result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed, fault_seed=faults.seed,
                            false_vetoes=0 if setup.judge_vetoes else None)
     period = policy_period(env)
     env.reset(seed=seed)
@@ -369,6 +378,11 @@ def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> bool:
     return True
 
 
+def episode_seeds(episodes: int, seed: int = 0) -> list[int]:
+    """The environment seeds of a run of `episodes` from `seed`, the same for every variant and fault set."""
+    return [SEED_BASE + seed + episode for episode in range(episodes)]
+
+
 def evaluate(
     episodes: int,
     fault_sets: list[Faults],
@@ -381,10 +395,10 @@ def evaluate(
     from tqdm import tqdm
 
     tasks = [
-        (variant, faults, SEED_BASE + seed + episode, setup)
+        (variant, faults, episode, setup)
         for faults in fault_sets
         for variant in variants
-        for episode in range(episodes)
+        for episode in episode_seeds(episodes, seed)
     ]
     if setup.monitor and setup.record is not None:
         raise ValueError("a running monitor logs its own verdicts, with its own parameters: record with its --log-dir")
@@ -406,9 +420,10 @@ def evaluate(
     return results
 
 
-def report(results: list[EpisodeResult], out: Path | None) -> tuple[list[dict], str, list[str]]:
-    """The summary rows, the table, and the names of the files written into `out`. The OUTPUTS an earlier run left
-    there go first: one this run does not write (vetoing_rules.png without Discern) would read as this run's."""
+def report(results: list[EpisodeResult], out: Path | None, manifest: dict | None = None) -> tuple[list[dict], str, list[str]]:
+    """The summary rows, the table, and the names of the files written into `out`, `manifest` as run.json (see
+    manifest.py). The OUTPUTS an earlier run left there go first: one this run does not write (vetoing_rules.png
+    without Discern) would read as this run's."""
     rows = summarise(results)
     text = format_table(rows) + "\n\n" + "\n".join(compare(rows))
     written = []
@@ -422,4 +437,7 @@ def report(results: list[EpisodeResult], out: Path | None) -> tuple[list[dict], 
         written += ["summary.csv", "episodes.csv", "summary.txt", "evaluation.png"]
         if plot_rules(results, out / "vetoing_rules.png"):
             written.append("vetoing_rules.png")
+        if manifest is not None:
+            (out / "run.json").write_text(json.dumps(manifest, indent=2) + "\n")
+            written.append("run.json")
     return rows, text, written
