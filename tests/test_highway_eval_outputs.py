@@ -122,3 +122,57 @@ def test_the_output_folder_records_what_produced_it_and_each_episode_its_fault_s
     assert discern["reasoning_code"] == reasoning_code_digest()
     assert {name: run["versions"][name] for name in ("highway-env", "torch", "clingo")} == {
         name: metadata.version(name) for name in ("highway-env", "torch", "clingo")}
+
+
+def _train(*argv, cwd):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "discern.scenarios.highway.train", *map(str, argv)],
+                          capture_output=True, text=True, timeout=300, cwd=cwd)
+
+
+def test_training_needs_an_out_path_and_replaces_the_shipped_weights_only_with_force(tmp_path):
+    """--out defaulted to a path relative to the working directory, which its help called the packaged weights."""
+    from discern.scenarios.highway.planner import default_weights
+
+    shipped = default_weights()
+    before = shipped.read_bytes()
+    try:
+        done = _train("--steps", "1", cwd=tmp_path)
+        assert done.returncode == 2 and done.stderr.splitlines()[-1] == (
+            "train.py: error: the following arguments are required: --out")
+        done = _train("--steps", "1", "--out", shipped, cwd=tmp_path)
+        assert done.returncode == 2 and done.stderr.splitlines()[-1] == (
+            f"train.py: error: --out {shipped} is the shipped planner's weights: give --force to replace them")
+        assert list(tmp_path.iterdir()) == []
+    finally:
+        if shipped.read_bytes() != before:  # the refusal failed: put the shipped weights back before failing
+            shipped.write_bytes(before)
+            pytest.fail("the trainer overwrote the shipped weights without --force")
+
+
+def test_a_trained_checkpoint_carries_how_it_was_trained_into_the_evaluations_run_json(tmp_path):
+    """Nothing recorded which steps, seed, torch or environment made a set of weights; the shipped ones, saved before
+    checkpoints carried it, still load, their training 'unknown'."""
+    import json
+    from importlib import metadata
+
+    import torch
+
+    from discern.adapters.highway.envs import config_digest, make_env
+    from discern.scenarios.highway.planner import Planner
+
+    weights = tmp_path / "dqn.pt"
+    done = _train("--steps", "1", "--seed", "3", "--out", weights, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    training = {"steps": 1, "episodes": 0, "env": "highway-fast-v0", "env_config_sha256": config_digest(make_env()),
+                "seed": 3, "torch": str(torch.__version__), "highway_env": metadata.version("highway-env")}
+    assert Planner.load(weights).training == training and Planner.load().training is None
+    for name, argv in (("trained", ["--weights", str(weights)]), ("shipped", [])):
+        assert cli_main(["eval", "highway", "--episodes", "1", "--faults", "none", "--variants", "planner", "--quiet",
+                         "--out", str(tmp_path / name), *argv]) == 0
+    trained, shipped = (json.loads((tmp_path / name / "run.json").read_text()) for name in ("trained", "shipped"))
+    assert trained["planner"]["training"] == training and shipped["planner"]["training"] == "unknown"
+    # the evaluation ran the environment the weights were trained on (the default duration)
+    assert trained["environment"]["config_sha256"] == training["env_config_sha256"]

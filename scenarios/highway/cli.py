@@ -98,6 +98,7 @@ def _run_eval(args: argparse.Namespace) -> int:
         from discern.adapters.highway.envs import SUPPORTED
         from .evaluate import VARIANTS, Setup, episode_seeds, evaluate, report
         from .manifest import manifest
+        from .planner import Planner
         from discern.adapters.highway.perception import Faults
     except ImportError as exc:
         print(
@@ -178,12 +179,13 @@ def _run_eval(args: argparse.Namespace) -> int:
     )
     started = datetime.now(timezone.utc)
     try:
+        planner = Planner.load(args.weights)  # weights that are no planner's fail now, not in the first episode
         results = evaluate(args.episodes, fault_sets, variants, setup, seed=args.seed, jobs=args.jobs, progress=not args.quiet)
     except (OSError, RuntimeError) as exc:
         print(f"discern eval: error: {exc}", file=sys.stderr)
         return 2
     run = manifest(["discern", *args.argv], args, setup, variants, fault_sets, episode_seeds(args.episodes, args.seed),
-                   started, datetime.now(timezone.utc))
+                   started, datetime.now(timezone.utc), planner.training)
     try:
         _, text, written = report(results, args.out, run)
     except OSError as exc:  # a folder not writable, or removed while the episodes ran

@@ -21,8 +21,9 @@ LIBRARIES = ("discern", "highway-env", "gymnasium", "torch", "clingo", "ad-rss",
 
 
 def manifest(command: list[str], args: argparse.Namespace, setup: Setup, variants: list[str], fault_sets: list[Faults],
-             seeds: list[int], started: datetime, finished: datetime) -> dict:
-    """`command`: the command line as given; `args`: every option, defaults included; `seeds`: the episodes'."""
+             seeds: list[int], started: datetime, finished: datetime, training: dict | None) -> dict:
+    """`command`: the command line as given; `args`: every option, defaults included; `seeds`: the episodes';
+    `training`: the checkpoint's metadata (Planner.training), None for one saved without any."""
     env = make_env(setup.env, duration=setup.duration)
     try:
         environment = {"id": setup.env, "duration_s": env.unwrapped.config["duration"],
@@ -43,7 +44,8 @@ def manifest(command: list[str], args: argparse.Namespace, setup: Setup, variant
         "faults": [{"label": f.label(), "kinds": {name: rate for name, (_, rate) in f.kinds().items()}, **asdict(f)}
                    for f in fault_sets],
         "judge": setup.judge_vetoes,
-        "planner": {"weights": str(weights.resolve()), "sha256": _sha256(weights)},
+        "planner": {"weights": str(weights.resolve()), "sha256": _sha256(weights),
+                    "training": "unknown" if training is None else training},
         "discern": _discern(setup) if "discern" in variants else None,
         "versions": {"python": platform.python_version(), **{name: _version(name) for name in LIBRARIES}},
     }
