@@ -332,6 +332,9 @@ def evaluation_figure(rows: list[dict]):
             ax.bar([x for x, _ in bars], [v for _, v in bars], width, label=variant, color=colours.get(variant))
         if not measured:
             ax.text(0.5, 0.5, "not measured", transform=ax.transAxes, ha="center", va="center", color="#808080")
+            ax.set_yticks([])
+        # every variant's slot, drawn or not: the fault sets line up across the panels
+        ax.set_xlim(-width / 2 - 0.1, len(fault_sets) - 1 + (len(variants) - 0.5) * width + 0.1)
         ax.set_xticks(np.arange(len(fault_sets)) + width * (len(variants) - 1) / 2)
         ax.set_xticklabels([f"faults: {f}" for f in fault_sets], fontsize=8)
         ax.set_title(title)
