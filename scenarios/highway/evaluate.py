@@ -423,7 +423,8 @@ def evaluate(
     return results
 
 
-def report(results: list[EpisodeResult], out: Path | None, manifest: dict | None = None) -> tuple[list[dict], str, list[str]]:
+def report(results: list[EpisodeResult], out: Path | None,
+           manifest: dict | None = None) -> tuple[list[dict], str, list[str]]:
     """The summary rows, the table, and the names of the files written into `out`, `manifest` as run.json (see
     manifest.py). The OUTPUTS an earlier run left there go first: one this run does not write (vetoing_rules.png
     without Discern) would read as this run's."""
