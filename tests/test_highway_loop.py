@@ -87,7 +87,7 @@ def test_short_evaluation_compares_planner_and_discern_on_the_same_episodes():
     )
     assert [(r.faults, r.variant, r.seed) for r in results] == [
         (faults, variant, seed)
-        for faults in ("none", "missed,signs")
+        for faults in ("none", "missed,signs@1")
         for variant in ("planner", "discern")
         for seed in (10_000, 10_001)
     ]

@@ -96,11 +96,23 @@ def test_none_and_all_are_refused_in_a_list_of_kinds_as_standing_alone(kinds):
 def test_dropped_detections_are_a_fault_of_their_own_that_all_leaves_out():
     """'missed' keeps the radar track in Discern's list (only the planner loses it); 'dropped' takes it from both."""
     dropped = Faults.preset("signs,dropped", miss_rate=0.2)
-    assert dropped.miss_drop_track and dropped.miss_rate == 0.2 and dropped.label() == "dropped,signs"
+    assert dropped.miss_drop_track and dropped.miss_rate == 0.2 and dropped.label() == "dropped@0.2,signs"
     assert not Faults.preset("missed").miss_drop_track and Faults.preset("missed").label() == "missed"
     assert not Faults.preset("all").miss_drop_track and Faults.preset("all").label() == "noise,missed,phantoms,signs"
     with pytest.raises(ValueError, match="'dropped' is 'missed' with the object gone"):
         Faults.preset("missed,dropped")
+
+
+@pytest.mark.parametrize("kinds, rates, label", [
+    ("missed", {"miss_rate": 0.05}, "missed"),  # the default rate, given
+    ("missed", {"miss_rate": 0.9}, "missed@0.9"),
+    ("all", {"noise": 2.0, "phantom_rate": 0.3}, "noise@2,missed,phantoms@0.3,signs"),
+    ("signs", {"sign_value": 60.0}, "signs@0.5:60"),
+    ("signs", {"sign_rate": 1.0}, "signs@1"),
+])
+def test_a_fault_sets_label_carries_each_rate_other_than_the_default(kinds, rates, label):
+    """A row of missed detections at 0.9 read 'missed', as one at the default 0.05 does."""
+    assert Faults.preset(kinds, **rates).label() == label
 
 
 def test_unknown_fault_kind_is_named_in_the_error():

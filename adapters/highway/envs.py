@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
 import warnings
 
 import gymnasium as gym
@@ -27,6 +29,12 @@ def make_env(name: str = "highway-fast-v0", duration: float | None = None) -> gy
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # merge-v0 is "out of date" but is what the issue names
         return gym.make(name, config=config)
+
+
+def config_digest(env) -> str:
+    """sha256 of the environment's whole configuration: the same digest, the same road, traffic, rewards, timing and
+    action space (what a checkpoint was trained on, and what an evaluation ran, compare by it)."""
+    return hashlib.sha256(json.dumps(env.unwrapped.config, sort_keys=True, default=repr).encode()).hexdigest()
 
 
 def policy_period(env) -> float:

@@ -25,6 +25,8 @@ from .truth import Track, Truth
 
 FAULT_KINDS = ("noise", "missed", "dropped", "phantoms", "signs")
 ALL_FAULTS = ("noise", "missed", "phantoms", "signs")  # 'all': "dropped" is "missed" gone from Discern's list too
+# What --faults gives a named fault when no flag sets its rate (and the value a misread sign reads).
+DEFAULT_RATES = {"noise": 1.0, "miss_rate": 0.05, "phantom_rate": 0.1, "sign_rate": 0.5, "sign_value": 80.0}
 RANGE_FRONT = 150.0  # m: long-range radar
 RANGE_REAR = 80.0
 RANGE_SIDE = 40.0  # m: corner radars
@@ -66,7 +68,7 @@ class Faults:
         if {"missed", "dropped"} <= set(names):
             raise ValueError(f"fault set {','.join(names)!r}: 'dropped' is 'missed' with the object gone from the list "
                              "Discern gets too: name one of them")
-        defaults = {"noise": 1.0, "miss_rate": 0.05, "phantom_rate": 0.1, "sign_rate": 0.5}
+        defaults = dict(DEFAULT_RATES)
         defaults.update({k: v for k, v in rates.items() if v is not None})
         return cls(
             noise=defaults["noise"] if "noise" in names else 0.0,
@@ -74,23 +76,33 @@ class Faults:
             miss_drop_track="dropped" in names,
             phantom_rate=defaults["phantom_rate"] if "phantoms" in names else 0.0,
             sign_rate=defaults["sign_rate"] if "signs" in names else 0.0,
-            sign_value=defaults.get("sign_value", 80.0),
+            sign_value=defaults["sign_value"],
             seed=seed,
         )
 
-    def label(self) -> str:
-        kinds = [
-            name
-            for name, on in (
-                ("noise", self.noise > 0),
-                ("missed", self.miss_rate > 0 and not self.miss_drop_track),
-                ("dropped", self.miss_rate > 0 and self.miss_drop_track),
-                ("phantoms", self.phantom_rate > 0),
-                ("signs", self.sign_rate > 0),
+    def kinds(self) -> dict[str, tuple[str, float]]:
+        """The injected fault kinds, each with the name of its rate and the rate."""
+        return {
+            name: (key, rate)
+            for name, on, key, rate in (
+                ("noise", self.noise > 0, "noise", self.noise),
+                ("missed", self.miss_rate > 0 and not self.miss_drop_track, "miss_rate", self.miss_rate),
+                ("dropped", self.miss_rate > 0 and self.miss_drop_track, "miss_rate", self.miss_rate),
+                ("phantoms", self.phantom_rate > 0, "phantom_rate", self.phantom_rate),
+                ("signs", self.sign_rate > 0, "sign_rate", self.sign_rate),
             )
             if on
-        ]
-        return ",".join(kinds) or "none"
+        }
+
+    def label(self) -> str:
+        """The injected kinds, each with its rate where that is not DEFAULT_RATES' ('missed@0.9', 'signs@0.5:60' for
+        signs misread as 60 m/s): rows run at other rates must not read as the default's."""
+        labels = []
+        for name, (key, rate) in self.kinds().items():
+            value = name == "signs" and self.sign_value != DEFAULT_RATES["sign_value"]
+            labels.append(name + (f"@{rate:g}" if value or rate != DEFAULT_RATES[key] else "")
+                          + (f":{self.sign_value:g}" if value else ""))
+        return ",".join(labels) or "none"
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,7 @@ import argparse
 import math
 import os
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 
 from discern.monitor.config import path_arg, path_text
@@ -36,7 +37,9 @@ def demo(out: Path = Path("out/demo-highway"), episodes: int = 3, duration: floa
     argv = ["--episodes", str(episodes), "--faults", *DEMO_FAULTS, "--out", str(out)]
     if duration is not None:
         argv += ["--duration", str(duration)]
-    return _run_eval(parser.parse_args(argv))
+    args = parser.parse_args(argv)
+    args.argv = ["eval", "highway", *argv]  # the command that makes the same folder
+    return _run_eval(args)
 
 
 def _options(parser: argparse.ArgumentParser) -> None:
@@ -93,7 +96,9 @@ def _options(parser: argparse.ArgumentParser) -> None:
 def _run_eval(args: argparse.Namespace) -> int:
     try:
         from discern.adapters.highway.envs import SUPPORTED
-        from .evaluate import VARIANTS, Setup, evaluate, report
+        from .evaluate import VARIANTS, Setup, episode_seeds, evaluate, report
+        from .manifest import manifest
+        from .planner import Planner
         from discern.adapters.highway.perception import Faults
     except ImportError as exc:
         print(
@@ -172,18 +177,22 @@ def _run_eval(args: argparse.Namespace) -> int:
         params=params,
         record=str(args.record) if args.record else None,
     )
+    started = datetime.now(timezone.utc)
     try:
+        planner = Planner.load(args.weights)  # weights that are no planner's fail now, not in the first episode
         results = evaluate(args.episodes, fault_sets, variants, setup, seed=args.seed, jobs=args.jobs, progress=not args.quiet)
     except (OSError, RuntimeError) as exc:
         print(f"discern eval: error: {exc}", file=sys.stderr)
         return 2
+    run = manifest(["discern", *args.argv], args, setup, variants, fault_sets, episode_seeds(args.episodes, args.seed),
+                   started, datetime.now(timezone.utc), planner.training)
     try:
-        _, text = report(results, args.out)
+        _, text, written = report(results, args.out, run)
     except OSError as exc:  # a folder not writable, or removed while the episodes ran
         print(f"discern eval: error: cannot write {args.out}: {exc}", file=sys.stderr)
         return 2
     print(text)
-    print(f"\nwrote {args.out}/: summary.csv, episodes.csv, summary.txt, evaluation.png, vetoing_rules.png")
+    print(f"\nwrote {args.out}/: {', '.join(written)}")
     return 0
 
 

@@ -8,6 +8,7 @@ false vetoes (oracle.py's definition), time above the true limit, and the rules 
 from __future__ import annotations
 
 import csv
+import json
 import math
 import multiprocessing
 import time
@@ -29,7 +30,9 @@ from .wrapper import VEHICLE_PARAMS, DiscernWrapper
 
 VARIANTS = ("planner", "discern", "rss")
 NAN = float("nan")
+JURISDICTION = "us"  # the in-process reasoner's rule pack (a monitor decides with its own)
 SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
+OUTPUTS = ("summary.csv", "episodes.csv", "summary.txt", "evaluation.png", "vetoing_rules.png", "run.json")  # report's
 HINT_DEADLINE = " (a monitor too busy for its budget: give it a larger --budget-ms, or run fewer --jobs)"
 
 
@@ -38,13 +41,14 @@ class EpisodeResult:
     variant: str
     faults: str
     seed: int
+    fault_seed: int = 0  # with `seed`, runs the episode again: --seed (seed - SEED_BASE) --fault-seed F --episodes 1
     steps: int = 0
     collided: bool = False
     distance_m: float = 0.0
     time_s: float = 0.0
     vetoes: int = 0  # verdicts that did not approve the proposal
     overrides: int = 0  # ... and replaced it with another action
-    false_vetoes: int = 0
+    false_vetoes: int | None = 0  # None: not judged (--no-judge), which is not none found
     speeding_s: float = 0.0  # time with the ego above the true limit
     misread_s: float = 0.0  # time with the stack believing a misread sign
     decide_ms: list[float] = field(default_factory=list)
@@ -73,7 +77,7 @@ _worker: dict = {}
 
 
 def _checker(variant: str, setup: Setup, vehicle: str):
-    """The variant's checker; a monitor one is the episode's own (see run_episode), the others are cached."""
+    """The variant's checker, deciding for the episode's vehicle; the reasoner behind Discern's is cached."""
     if variant == "planner":
         return None
     if variant == "rss":
@@ -84,14 +88,15 @@ def _checker(variant: str, setup: Setup, vehicle: str):
         from .wrapper import MonitorChecker
 
         return MonitorChecker(vehicle=vehicle, connect=list(setup.monitor))
+    from .wrapper import ReasonerChecker
+
     key = ("reasoner", setup.params)
     if key not in _worker:
+        from discern.rules.engine import Reasoner
         from discern.rules.facts import Params
 
-        from .wrapper import ReasonerChecker
-
-        _worker[key] = ReasonerChecker(params=Params(**dict(setup.params)))
-    return _worker[key]
+        _worker[key] = Reasoner(params=Params(**dict(setup.params)), jurisdiction=JURISDICTION)
+    return ReasonerChecker(reasoner=_worker[key], vehicle=vehicle)  # the reasoner is shared, the vehicle the episode's
 
 
 def _recorder(setup: Setup):
@@ -103,9 +108,10 @@ def _recorder(setup: Setup):
         from discern.rules.catalog import catalog_digest
         from discern.rules.engine import jurisdiction_pack
 
-        # the in-process reasoner's (the shipped catalog, US pack): a running monitor logs its own verdicts
+        # the in-process reasoner's (the shipped catalog, JURISDICTION's pack): a running monitor logs its own verdicts
         _worker["recorder"] = McapLogWriter(LogSettings(directory=Path(setup.record)), "highway-eval", dict(setup.params),
-                                            jurisdiction="us", catalog=catalog_digest(extra_files=[jurisdiction_pack("us")]))
+                                            jurisdiction=JURISDICTION,
+                                            catalog=catalog_digest(extra_files=[jurisdiction_pack(JURISDICTION)]))
     return _worker["recorder"]
 
 
@@ -115,13 +121,20 @@ def close_recorder() -> None:
         recorder.close()
 
 
+def episode_vehicle(variant: str, faults: Faults, seed: int) -> str:
+    """The vehicle an episode drives as, for a monitor and the log: one zenoh key chunk ([A-Za-z0-9_-]), so the
+    label's ',', '@' and ':' become '-' and a decimal point 'p' (discern_missed-0p9-signs_10000)."""
+    chunk = faults.label().translate(str.maketrans({",": "-", "@": "-", ":": "-", ".": "p", "+": ""}))
+    return f"{variant}_{chunk}_{seed}"
+
+
 def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> EpisodeResult:
     """One seeded episode; through a monitor, as its own vehicle, whose frame ids no other episode has used."""
     key = ("planner", setup.weights)
     if key not in _worker:
         _worker[key] = Planner.load(setup.weights)
     planner: Planner = _worker[key]
-    vehicle = f"{variant}_{faults.label().replace(',', '-')}_{seed}"
+    vehicle = episode_vehicle(variant, faults, seed)
     checker = _checker(variant, setup, vehicle)
     env = DiscernWrapper(
         make_env(setup.env, duration=setup.duration),
@@ -132,7 +145,8 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
         recorder=_recorder(setup) if variant == "discern" else None,
         vehicle=vehicle,
     )
-    result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed)
+    result = EpisodeResult(variant=variant, faults=faults.label(), seed=seed, fault_seed=faults.seed,
+                           false_vetoes=0 if setup.judge_vetoes else None)
     period = policy_period(env)
     env.reset(seed=seed)
     done = False
@@ -199,6 +213,9 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
         decide = [ms for r in group for ms in r.decide_ms]
         vetoes = sum(r.vetoes for r in group)
         checked = variant != "planner"  # the planner alone vetoes nothing: its figures are missing, not 0 (NaN)
+        # without the judge (--no-judge) false vetoes were not looked for: not measured, not 0 (NaN)
+        judged = checked and all(r.false_vetoes is not None for r in group)
+        false_vetoes = sum(r.false_vetoes for r in group) if judged else NAN
         rows.append(
             {
                 "faults": faults,
@@ -211,9 +228,9 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
                 "mean_speed": (km * 1000.0 / hours) if hours else 0.0,
                 "vetoes_per_km": (vetoes / km if km else 0.0) if checked else NAN,
                 "overrides_per_km": (sum(r.overrides for r in group) / km if km else 0.0) if checked else NAN,
-                "false_vetoes": sum(r.false_vetoes for r in group),
-                "false_vetoes_per_km": (sum(r.false_vetoes for r in group) / km if km else 0.0) if checked else NAN,
-                "false_veto_share": (sum(r.false_vetoes for r in group) / vetoes if vetoes else 0.0) if checked else NAN,
+                "false_vetoes": false_vetoes,
+                "false_vetoes_per_km": (false_vetoes / km if km else 0.0) if judged else NAN,
+                "false_veto_share": (false_vetoes / vetoes if vetoes else 0.0) if judged else NAN,
                 "speeding_s": sum(r.speeding_s for r in group),
                 # by nearest rank, as the monitor's status, the audit and the benchmarks report them
                 "decide_ms_p50": percentile(sorted(decide), 50) if decide else NAN,
@@ -287,7 +304,9 @@ def write_csv(path: Path, rows: list[dict]) -> None:
         writer.writerows(rows)
 
 
-def plot(rows: list[dict], path: Path) -> None:
+def evaluation_figure(rows: list[dict]):
+    """The bar charts of evaluation.png; a figure a row does not have (NaN: the planner's vetoes, false vetoes not
+    judged) gets no bar, where a 0 would read as measured."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -305,24 +324,38 @@ def plot(rows: list[dict], path: Path) -> None:
     width = 0.8 / len(variants)
     colours = {"planner": "#b0b0b0", "discern": "#1f77b4", "rss": "#ff7f0e"}
     for ax, (key, title) in zip(axes, metrics):
+        measured = False
         for i, variant in enumerate(variants):
-            values = [
-                next((r[key] for r in rows if r["faults"] == f and r["variant"] == variant), 0.0) for f in fault_sets
-            ]
-            ax.bar(np.arange(len(fault_sets)) + i * width, values, width, label=variant, color=colours.get(variant))
+            bars = [(x + i * width, r[key]) for x, f in enumerate(fault_sets) for r in rows
+                    if r["faults"] == f and r["variant"] == variant and not math.isnan(r[key])]
+            measured |= bool(bars)
+            ax.bar([x for x, _ in bars], [v for _, v in bars], width, label=variant, color=colours.get(variant))
+        if not measured:
+            ax.text(0.5, 0.5, "not measured", transform=ax.transAxes, ha="center", va="center", color="#808080")
+            ax.set_yticks([])
+        # every variant's slot, drawn or not: the fault sets line up across the panels
+        ax.set_xlim(-width / 2 - 0.1, len(fault_sets) - 1 + (len(variants) - 0.5) * width + 0.1)
         ax.set_xticks(np.arange(len(fault_sets)) + width * (len(variants) - 1) / 2)
         ax.set_xticklabels([f"faults: {f}" for f in fault_sets], fontsize=8)
         ax.set_title(title)
         ax.grid(axis="y", alpha=0.3)
     axes[0].legend()
     fig.tight_layout()
+    return fig
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = evaluation_figure(rows)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> None:
-    """Which of Discern's rules did the vetoing, per fault set (the RSS peer has one rule)."""
+def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> bool:
+    """Which of Discern's rules did the vetoing, per fault set (the RSS peer has one rule); False, and nothing
+    written, without a Discern episode."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -330,7 +363,7 @@ def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> None:
 
     groups = sorted({(r.faults, r.variant) for r in results if r.variant == "discern"}, key=lambda g: (g[0] != "none", g))
     if not groups:
-        return
+        return False
     fig, axes = plt.subplots(1, len(groups), figsize=(5.2 * len(groups), 3.4), squeeze=False)
     for ax, (faults, variant) in zip(axes[0], groups):
         counts = Counter()
@@ -345,6 +378,12 @@ def plot_rules(results: list[EpisodeResult], path: Path, top: int = 8) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return True
+
+
+def episode_seeds(episodes: int, seed: int = 0) -> list[int]:
+    """The environment seeds of a run of `episodes` from `seed`, the same for every variant and fault set."""
+    return [SEED_BASE + seed + episode for episode in range(episodes)]
 
 
 def evaluate(
@@ -359,10 +398,10 @@ def evaluate(
     from tqdm import tqdm
 
     tasks = [
-        (variant, faults, SEED_BASE + seed + episode, setup)
+        (variant, faults, episode, setup)
         for faults in fault_sets
         for variant in variants
-        for episode in range(episodes)
+        for episode in episode_seeds(episodes, seed)
     ]
     if setup.monitor and setup.record is not None:
         raise ValueError("a running monitor logs its own verdicts, with its own parameters: record with its --log-dir")
@@ -384,13 +423,25 @@ def evaluate(
     return results
 
 
-def report(results: list[EpisodeResult], out: Path | None) -> tuple[list[dict], str]:
+def report(results: list[EpisodeResult], out: Path | None,
+           manifest: dict | None = None) -> tuple[list[dict], str, list[str]]:
+    """The summary rows, the table, and the names of the files written into `out`, `manifest` as run.json (see
+    manifest.py). The OUTPUTS an earlier run left there go first: one this run does not write (vetoing_rules.png
+    without Discern) would read as this run's."""
     rows = summarise(results)
     text = format_table(rows) + "\n\n" + "\n".join(compare(rows))
+    written = []
     if out is not None:
-        write_csv(out / "episodes.csv", [r.row() for r in results])
+        for name in OUTPUTS:
+            (out / name).unlink(missing_ok=True)
         write_csv(out / "summary.csv", rows)
-        plot(rows, out / "evaluation.png")
-        plot_rules(results, out / "vetoing_rules.png")
+        write_csv(out / "episodes.csv", [r.row() for r in results])
         (out / "summary.txt").write_text(text + "\n")
-    return rows, text
+        plot(rows, out / "evaluation.png")
+        written += ["summary.csv", "episodes.csv", "summary.txt", "evaluation.png"]
+        if plot_rules(results, out / "vetoing_rules.png"):
+            written.append("vetoing_rules.png")
+        if manifest is not None:
+            (out / "run.json").write_text(json.dumps(manifest, indent=2) + "\n")
+            written.append("run.json")
+    return rows, text, written

@@ -89,7 +89,33 @@ def available(action: int, ego: EgoTruth, lanes: int) -> bool:
 
 
 def default_weights() -> Path:
+    """The shipped checkpoint (trained before checkpoints carried metadata)."""
     return Path(str(resources.files("discern.scenarios.highway") / "weights" / WEIGHTS_FILE))
+
+
+def save_checkpoint(path: Path, network: QNetwork, training: dict) -> None:
+    """The weights with how they were trained (steps, seed, versions, the environment's configuration digest), in one
+    file that Planner.load reads: metadata in a file of its own would not travel with the weights."""
+    torch.save({"state_dict": network.state_dict(), "training": training}, path)
+
+
+def _mismatch(state, expected: dict) -> str:
+    """How a loaded state dict differs from the network's, in one line ('' if it fits): torch's own message puts
+    each kind of difference on a line of its own, under a first line that names none."""
+    if not isinstance(state, dict):
+        return f"a {type(state).__name__}, not a state dict"
+    if not all(isinstance(v, torch.Tensor) for v in state.values()):
+        return "a dict of other things than tensors, not a state dict"
+    missing = [k for k in expected if k not in state]
+    unexpected = [str(k) for k in state if k not in expected]
+    shapes = [f"{k} ({_shape(state[k])} in the file, {_shape(v)} here)" for k, v in expected.items()
+              if k in state and state[k].shape != v.shape]
+    return "; ".join(f"{what} {', '.join(keys)}" for what, keys in (
+        ("missing", missing), ("unexpected", unexpected), ("mis-shaped", shapes)) if keys)
+
+
+def _shape(tensor: torch.Tensor) -> str:
+    return "x".join(map(str, tensor.shape)) or "scalar"
 
 
 @dataclass
@@ -98,6 +124,7 @@ class Planner:
 
     network: QNetwork
     follow_signs: bool = True
+    training: dict | None = None  # the trainer's metadata (save_checkpoint); None: a checkpoint saved without any
 
     @classmethod
     def load(cls, path: Path | str | None = None, follow_signs: bool = True) -> "Planner":
@@ -108,7 +135,7 @@ class Planner:
         if not path.is_file():
             raise FileNotFoundError(
                 f"planner weights not found at {path}: train them with "
-                "`python -m discern.scenarios.highway.train` or reinstall the package"
+                "`python -m discern.scenarios.highway.train --out PATH` or reinstall the package"
             )
         network = QNetwork()
         try:
@@ -120,14 +147,18 @@ class Planner:
             # (UnpicklingError, IndexError, KeyError, ...); its own reason advises weights_only=False, which would run
             # whatever code the file holds.
             raise RuntimeError(f"{path} is not a planner weights file (a torch state dict from the trainer)") from None
-        try:
-            network.load_state_dict(state)
-        except (RuntimeError, TypeError) as exc:  # another network's weights, or no state dict at all
-            raise RuntimeError(f"{path} does not hold this planner's weights: {str(exc).splitlines()[0]}") from None
+        training = None
+        if isinstance(state, dict) and state.keys() == {"state_dict", "training"} and isinstance(state["training"], dict):
+            # save_checkpoint's; anything else is bare weights (the shipped checkpoint's) or none at all
+            state, training = state["state_dict"], state["training"]
+        mismatch = _mismatch(state, network.state_dict())
+        if mismatch:
+            raise RuntimeError(f"{path} does not hold this planner's weights: {mismatch}")
+        network.load_state_dict(state)
         if not all(torch.isfinite(tensor).all() for tensor in network.state_dict().values()):
             raise RuntimeError(f"{path} holds NaN or infinite weights: a diverged training run, not a planner")
         network.eval()
-        return cls(network=network, follow_signs=follow_signs)
+        return cls(network=network, follow_signs=follow_signs, training=training)
 
     def q_values(self, ego: EgoTruth, lanes: int, tracks: list[Track]) -> np.ndarray:
         with torch.no_grad():

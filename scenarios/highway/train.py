@@ -1,6 +1,11 @@
 """Train the planner's DQN on highway-fast-v0 (double DQN, own torch code, CPU, seeded).
 
-    python -m discern.scenarios.highway.train --steps 50000 --seed 0 --out scenarios/highway/weights/dqn_highway_fast.pt
+    python -m discern.scenarios.highway.train --steps 50000 --seed 0 --out out/dqn_highway_fast.pt
+    discern eval highway --weights out/dqn_highway_fast.pt
+
+--out is required; it replaces the shipped checkpoint (planner.default_weights) only with --force. The checkpoint
+carries how it was trained (steps, seed, torch and highway-env versions, the environment's configuration digest),
+which the evaluation's run.json reports.
 
 The cruise control that follows the (true) speed-limit sign is in the loop while training, as it is when
 the planner drives, so the DQN learns to brake and change lanes around it. Hyper-parameters follow
@@ -14,15 +19,20 @@ import argparse
 import copy
 import random
 import time
+from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 import torch
 from torch import nn
 
-from discern.adapters.highway.envs import make_env
-from .planner import N_ACTIONS, OBSERVATION_SIZE, QNetwork, available, follow_sign, observation
+from discern.adapters.highway.envs import config_digest, make_env
+from .planner import (N_ACTIONS, OBSERVATION_SIZE, QNetwork, available, default_weights, follow_sign, observation,
+                      save_checkpoint)
 from discern.adapters.highway.truth import VehicleIds, read_truth
+
+
+ENV = "highway-fast-v0"
 
 
 def lanes_of(truth) -> int:
@@ -35,7 +45,9 @@ def train(steps: int, seed: int, out: Path, log_every: int = 1000) -> None:
     np.random.seed(seed)
     random.seed(seed)
     rng = np.random.default_rng(seed)
-    env = make_env("highway-fast-v0")
+    env = make_env(ENV)
+    trained = {"env": ENV, "env_config_sha256": config_digest(env), "seed": seed, "torch": str(torch.__version__),
+               "highway_env": metadata.version("highway-env")}
     q = QNetwork()
     target = copy.deepcopy(q)
     optimiser = torch.optim.Adam(q.parameters(), lr=5e-4)
@@ -100,8 +112,8 @@ def train(steps: int, seed: int, out: Path, log_every: int = 1000) -> None:
                 f"elapsed {time.time() - started:.0f}s",
                 flush=True,
             )
-            torch.save(q.state_dict(), out)
-    torch.save(q.state_dict(), out)
+            save_checkpoint(out, q, {"steps": step + 1, "episodes": episode, **trained})
+    save_checkpoint(out, q, {"steps": steps, "episodes": episode, **trained})
     print(f"saved {out} after {steps} steps, {episode} episodes, {time.time() - started:.0f}s", flush=True)
 
 
@@ -123,10 +135,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=_at_least(1), default=50_000,
                         help="training steps, at least 1 (default: 50000, as the shipped weights)")
     parser.add_argument("--seed", type=_at_least(0), default=0, help="seed, at least 0 (the environment's seeds are)")
-    parser.add_argument("--out", type=Path, default=Path("scenarios/highway/weights/dqn_highway_fast.pt"),
-                        help="where to write the trained weights (default: %(default)s, the packaged ones)")
+    parser.add_argument("--out", type=Path, required=True,
+                        help=f"where to write the trained weights (required); the shipped ones ({default_weights()}) "
+                             "only with --force")
+    parser.add_argument("--force", action="store_true", help="let --out replace the shipped weights")
     args = parser.parse_args(argv)
     # Checked before training, which would otherwise fail at its first save, minutes or hours in.
+    if args.out.resolve() == default_weights().resolve() and not args.force:
+        parser.error(f"--out {args.out} is the shipped planner's weights: give --force to replace them")
     if args.out.is_dir():
         parser.error(f"--out {args.out}: a directory, not a weights file")
     if args.out.parent.exists() and not args.out.parent.is_dir():

@@ -47,11 +47,12 @@ class Checker(Protocol):
 
 
 class ReasonerChecker:
-    """Discern in-process: the rules catalog and the sanity layer on clingo."""
+    """Discern in-process: the rules catalog and the sanity layer on clingo, deciding for `vehicle` (whom its
+    verdicts name, as a monitor's name the vehicle that asked)."""
 
     name = "discern"
 
-    def __init__(self, reasoner=None, explain: bool = False, shadow: bool = False, params=None):
+    def __init__(self, reasoner=None, explain: bool = False, shadow: bool = False, params=None, vehicle: str = "ego"):
         if reasoner is None:
             from discern.rules.engine import Reasoner
             from discern.rules.facts import Params
@@ -60,9 +61,11 @@ class ReasonerChecker:
         self.reasoner = reasoner
         self.explain = explain
         self.shadow = shadow
+        self.vehicle = vehicle
 
     def check(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> Verdict:
-        return self.reasoner.decide(scene, proposed, history=tuple(history), explain=self.explain, shadow=self.shadow)
+        return self.reasoner.decide(scene, proposed, history=tuple(history), explain=self.explain, shadow=self.shadow,
+                                    vehicle=self.vehicle)
 
 
 class MonitorChecker:
@@ -79,6 +82,7 @@ class MonitorChecker:
                 "use the in-process reasoner (monitor=False)"
             ) from exc
         self.client = Monitor(vehicle, timeout=timeout, **client_options)
+        self.vehicle = vehicle
         self.timeout = timeout
 
     def check(self, scene: Scene, proposed: Action, history: Sequence[Scene]) -> Verdict:
@@ -134,6 +138,10 @@ class DiscernWrapper(gym.Wrapper):
                 f"speeds {list(TARGET_SPEEDS)} (envs.make_env); this environment's are {list(speeds)}: make it with "
                 "make_env, or pass a checker whose Params.accel_step is half its speed step"
             )
+        named = getattr(checker, "vehicle", vehicle)
+        if named != vehicle:  # its verdicts would name another vehicle than the proposals and topics recorded with them
+            raise ValueError(f"the checker decides for vehicle {named!r}, the wrapper's vehicle is {vehicle!r}: "
+                             "give both the same")
         self._owns_checker = checker is None
         self.vehicle = vehicle
         if passthrough:
@@ -143,7 +151,7 @@ class DiscernWrapper(gym.Wrapper):
         elif monitor:
             self.checker = MonitorChecker(timeout=timeout, vehicle=vehicle, **(monitor_options or {}))
         else:
-            self.checker = ReasonerChecker(explain=explain, shadow=shadow)
+            self.checker = ReasonerChecker(explain=explain, shadow=shadow, vehicle=vehicle)
         self.recorder = recorder  # a discern.monitor.log.writer.McapLogWriter: proposals and verdicts to MCAP
         self._episodes = 0
         self.perception = Perception(faults)
