@@ -6,7 +6,7 @@ import functools
 import re
 from typing import Optional
 
-from clingo import Symbol, SymbolType
+from clingo import Number, Symbol, SymbolType
 from clingo.ast import BinaryOperator, ComparisonOperator as _CMP, UnaryOperator
 
 from .answer_set import AnswerSet
@@ -233,6 +233,10 @@ class Phrasebook:
         if fmt in _MOTION:
             if len(terms) == 2 and len(numbers) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
                 return self._motion_against_zero(terms, values, ops[0], fmt)
+            if fmt == "closing" and len(terms) == 2 and len(numbers) == 2 and ops[0] in _CLOSING_BOUND:
+                constant = [not term_vars(t) for t in terms]
+                if constant.count(True) == 1:
+                    return self._closing_against(terms, values, ops[0], constant[0])
             fmt = "mps"  # between two speeds a side or a gap reads worse than plain numbers
         if fmt in _AXES and len(numbers) == len(values):
             if len(terms) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
@@ -294,6 +298,20 @@ class Phrasebook:
         if said == f"the gap {verb}":  # the words already say which way: "the gap shrinks by 5.0 m/s"
             return f"{said} by {by}"
         return f"{said} (it {verb} by {by})"
+
+    def _closing_against(self, terms: list[Term], values: list[Symbol], op: int, constant_first: bool) -> str:
+        """'C < -200' of a closing speed as 'the gap grows by more than 2.0 m/s (it shrinks by 8.0 m/s)', not
+        '8.0 m/s < -2.0 m/s' under a line that says the ego closes in at 8.0 m/s."""
+        if constant_first:
+            op, closing, bound = _FLIPPED[op], values[1], values[0].number
+        else:
+            closing, bound = values[0], values[1].number
+        verb = "shrinks" if bound > 0 else "grows"
+        before, after = _CLOSING_BOUND[op][bound > 0]
+        size = self.value(Number(abs(bound)), "closing", "")
+        n = closing.number
+        actual = "it stays the same" if n == 0 else f"it {'shrinks' if n > 0 else 'grows'} by {self.value(closing, 'closing', '')}"
+        return f"the gap {verb} by {before} {size}{after} ({actual})"
 
     def _against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str, owner: Optional[str]) -> str:
         """'Y < 0' as 'car 1, 4.0 m behind, is behind the ego', not '-4.0 m < 0.0 m' under 'car 1 is 4.0 m behind';
@@ -393,6 +411,14 @@ _EQ, _NOT_EQ = int(_CMP.Equal), int(_CMP.NotEqual)
 _ABSOLUTE = {"ahead": "ahead or behind", "right": "to the side"}  # |Y|, |X|: a distance off the ego either way
 _PLUS_MINUS = {int(BinaryOperator.Plus): "+", int(BinaryOperator.Minus): "−"}
 _FLIPPED = {_LESS: _MORE, _LESS_EQ: _MORE_EQ, _MORE: _LESS, _MORE_EQ: _LESS_EQ, _EQ: _EQ, _NOT_EQ: _NOT_EQ}
+# A closing speed against a bound other than 0, by operator and whether the bound is a shrinking gap (> 0): the words
+# before the bound's size. 'C > 200': the gap shrinks by more than 2 m/s; 'C > -200': it grows by less, or shrinks.
+_CLOSING_BOUND = {
+    _MORE: {True: ("more than", ""), False: ("less than", ", if at all")},
+    _MORE_EQ: {True: ("at least", ""), False: ("at most", ", if at all")},
+    _LESS: {True: ("less than", ", if at all"), False: ("more than", "")},
+    _LESS_EQ: {True: ("at most", ", if at all"), False: ("at least", "")},
+}
 _MOTION = {  # a signed speed against 0 as words: which way it goes, or what the gap does
     "along": {_LESS: "is a move against the ego's heading", _LESS_EQ: "is no move along the ego's heading",
               _MORE: "is a move along the ego's heading", _MORE_EQ: "is no move against the ego's heading",
