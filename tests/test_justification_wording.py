@@ -21,6 +21,14 @@ def test_an_object_pulling_away_is_not_said_to_be_closed_in_on_at_a_negative_spe
     assert not re.search(r"-\d+\.\d+ m/s|closes? in on bicycle 1 at", text)
 
 
+def test_a_closing_speed_against_a_bound_other_than_zero_reads_as_the_gap_growing_or_shrinking(reasoner):
+    """'8.0 m/s < -2.0 m/s' under 'closes in on the ego at 8.0 m/s' read as a false sum of signs."""
+    ambulance = obj("emergency_vehicle", 0, -40, lane=1, vy=20.0, emergency_lights=True)
+    text = _text(reasoner, scene(speed=13, lanes=2, limit=15, objects=[ambulance]), "accelerate")
+    assert "rule def.falling_back needs that the gap grows by more than 2.0 m/s (it shrinks by 7.0 m/s)" in text
+    assert "< -2.0 m/s" not in text
+
+
 def test_a_speed_or_distance_of_a_few_centimetres_is_not_shown_as_zero(reasoner):
     beside = scene(speed=8.0, lanes=2, objects=[obj("car", 3.5, -0.04, lane=2, vy=8.03)])
     text = _text(reasoner, beside, "change_lane_right")
