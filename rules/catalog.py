@@ -381,6 +381,7 @@ class _Annotations:
     templates: list[tuple[str, PredTemplate]]  # ("pred" or "term", its template)
     hidden: set[tuple[str, int]]
     reads: list[tuple[str, int, PredTemplate]]  # (rule id, line, how its head reads)
+    described: dict[int, list[tuple[int, str]]]  # each block's first line -> (line, "says" or "source") of its own
 
 
 def _annotations(text: str, path: str) -> _Annotations:
@@ -389,6 +390,7 @@ def _annotations(text: str, path: str) -> _Annotations:
     templates: list[tuple[str, PredTemplate]] = []
     reads: list[tuple[str, int, PredTemplate]] = []
     hidden: set[tuple[str, int]] = set()
+    described: dict[int, list[tuple[int, str]]] = {}
     current: dict[str, str] = {}
     start = 0
 
@@ -441,11 +443,16 @@ def _annotations(text: str, path: str) -> _Annotations:
         else:
             if not current:
                 raise CatalogError(f"{path}:{number}: '{key}' before any '%! rule'")
+            if key in current:  # a block whose `%! rule` line is missing: it would take this rule's id
+                first = next(line for line, said in described[start] if said == key)
+                raise CatalogError(f"{path}:{number}: a second '%! {key}' for rule {current['rule']} (line {first}):"
+                                   f" the rule block at {path}:{number} has no `%! rule` line")
             current[key] = value
+            described.setdefault(start, []).append((number, key))
             if "says" in current and "source" in current:
                 blocks[start] = RuleInfo(current["rule"], current["says"], current["source"], path, start)
     close()
-    return _Annotations(blocks, templates, hidden, reads)
+    return _Annotations(blocks, templates, hidden, reads, described)
 
 
 def _compile_file(path: str, text: str, catalog: Catalog) -> None:
@@ -483,6 +490,8 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         if stm.ast_type != ast.ASTType.Rule:
             raise CatalogError(f"{path}:{stm.location.begin.line}: only rules and facts belong in a catalog")
         info = owner(stm.location.begin.line)
+        if info is not None:
+            _check_described_first(info, found.described[info.line], stm.location.begin.line)
         if _classically_negated(stm):  # the prover and the slicers read an atom's predicate from its name
             raise CatalogError(f"{path}:{stm.location.begin.line}: classical negation ('-p') is not supported: "
                                "name the opposite as a predicate of its own, or use 'not p'")
@@ -529,6 +538,15 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         if (rule_id, template.signature) not in derived:
             name, arity = template.signature
             raise CatalogError(f"{path}:{line}: 'reads' gives words for {name}/{arity}, which rule {rule_id} does not derive")
+
+
+def _check_described_first(info: RuleInfo, described: list[tuple[int, str]], statement: int) -> None:
+    """A block's `says` and `source` come before its statements: one after them starts a block with no `%! rule`
+    line, whose statement would otherwise be credited to this rule."""
+    for line, key in described:
+        if line > statement:
+            raise CatalogError(f"{info.file}:{line}: '%! {key}' after rule {info.id}'s statement at line {statement}:"
+                               f" the rule block at {info.file}:{line} has no `%! rule` line")
 
 
 def _computed_head_arguments(head: ast.AST, body: tuple[Literal, ...]) -> tuple[Term, tuple[Literal, ...]]:

@@ -166,3 +166,23 @@ def test_classical_negation_is_rejected_with_its_line(tmp_path, statement):
     # the prover and the slicers read each atom's predicate from its name: `-fast(1)` crashed them
     with pytest.raises(CatalogError, match=r"r\.lp:4: classical negation \('-p'\) is not supported"):
         load_catalog(write_rules(tmp_path, "%! rule x.c\n%! says C.\n%! source s\n" + statement + "\n"))
+
+
+@pytest.mark.parametrize("block, problem", [
+    ("%! says B.\n%! source t\n",
+     r"r\.lp:5: a second '%! says' for rule x\.a \(line 2\): the rule block at \S*r\.lp:5 has no `%! rule` line"),
+    ("%! source t\n",
+     r"r\.lp:5: a second '%! source' for rule x\.a \(line 3\): the rule block at \S*r\.lp:5 has no `%! rule` line"),
+])
+def test_a_block_without_its_rule_line_is_refused_not_credited_to_the_rule_before(tmp_path, block, problem):
+    # its statement used to take x.a's id and its says overwrote x.a's: a veto credited to the wrong rule
+    text = "%! rule x.a\n%! says A.\n%! source s\na :- b.\n" + block + "forbidden(brake) :- c.\n"
+    with pytest.raises(CatalogError, match=problem):
+        load_catalog(write_rules(tmp_path, text))
+
+
+def test_a_source_after_the_blocks_statements_starts_a_block_without_its_rule_line(tmp_path):
+    text = "%! rule x.a\n%! says A.\na :- b.\n\n%! source t\nforbidden(brake) :- c.\n"
+    with pytest.raises(CatalogError, match=r"r\.lp:5: '%! source' after rule x\.a's statement at line 3: "
+                                           r"the rule block at \S*r\.lp:5 has no `%! rule` line"):
+        load_catalog(write_rules(tmp_path, text))
