@@ -483,7 +483,13 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         ast.parse_string(text, parsed.append, logger=lambda _code, message: messages.append(message.strip()))
     except RuntimeError:
         detail = "; ".join(m.replace("<string>", path) for m in messages) or "syntax error"
-        raise CatalogError(f"{path}: cannot parse: {detail}") from None
+        unended = _unended_line(text, messages)
+        if unended is None:
+            raise CatalogError(f"{path}: cannot parse: {detail}") from None
+        info = owner(unended)
+        rule = f" {info.id}:" if info is not None else ""
+        raise CatalogError(f"{path}:{unended}:{rule} cannot parse: the statement ends on this line without a full stop"
+                           f" (clingo: {detail})") from None
     for stm in parsed:
         if stm.ast_type in (ast.ASTType.Program, ast.ASTType.Comment):
             continue
@@ -500,7 +506,7 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
             if not normal:  # a choice, a disjunction or a constraint: no fact the prover could cite
                 raise CatalogError(f"{path}:{stm.location.begin.line}: only normal rules and facts are supported")
             catalog.facts.append(stm)
-            for atom in _ground_fact(stm, path):
+            for atom in _ground_fact(stm, path, info):
                 catalog.fact_predicates.add(atom.name)
                 catalog.fact_atoms.setdefault(atom.name, []).append(atom)
                 if info is not None:
@@ -538,6 +544,47 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         if (rule_id, template.signature) not in derived:
             name, arity = template.signature
             raise CatalogError(f"{path}:{line}: 'reads' gives words for {name}/{arity}, which rule {rule_id} does not derive")
+
+
+_SYNTAX_ERROR_AT = re.compile(r"^<string>:(\d+):(\d+)")
+
+
+def _unended_line(text: str, messages: list[str]) -> Optional[int]:
+    """The line a statement that lacks its full stop ends on, where clingo's syntax error says so.
+
+    clingo reports a missing full stop at the next statement's first token, often a block further on. Taken
+    as one when the error is at the first token of its line (or the end of the file), and the code before it
+    ends as a statement can (a name, a number, a closing bracket; not `,`, `:-` or `;`) with its brackets closed.
+    """
+    found = _SYNTAX_ERROR_AT.match(messages[0]) if messages else None
+    if found is None:
+        return None
+    lines = text.splitlines()
+    line, column = int(found.group(1)), int(found.group(2))
+    if line <= len(lines) and lines[line - 1][:column - 1].strip():
+        return None
+    code = [(number, _without_comment(lines[number - 1]).rstrip()) for number in range(1, min(line, len(lines) + 1))]
+    code = [(number, written) for number, written in code if written]
+    if not code or not re.search(r'[\w)"]$', code[-1][1]):
+        return None
+    statement = []
+    for _, written in reversed(code):
+        if written.endswith("."):
+            break
+        statement.append(re.sub(r'"(?:\\.|[^"\\])*"', "", written))
+    opened = "".join(statement)
+    return code[-1][0] if opened.count("(") == opened.count(")") else None
+
+
+def _without_comment(line: str) -> str:
+    """A line of clingo without its `%` comment (a `%` inside a string stays)."""
+    quoted = False
+    for i, char in enumerate(line):
+        if char == '"' and (i == 0 or line[i - 1] != "\\"):
+            quoted = not quoted
+        elif char == "%" and not quoted:
+            return line[:i]
+    return line
 
 
 def _check_described_first(info: RuleInfo, described: list[tuple[int, str]], statement: int) -> None:
@@ -631,15 +678,16 @@ def _assignments(body: tuple[Literal, ...]) -> frozenset[int]:
     return frozenset(found)
 
 
-def _ground_fact(stm: ast.AST, path: str) -> list[Symbol]:
+def _ground_fact(stm: ast.AST, path: str, info: Optional[RuleInfo]) -> list[Symbol]:
     """The atoms a catalog fact stands for (pools expanded), to credit them to their rule."""
-    control = _ground_alone([stm], path)  # held while its atoms are read: they live in it
+    rule_at = {stm.location.begin.line: info.id} if info is not None else {}
+    control = _ground_alone([stm], path, rule_at)  # held while its atoms are read: they live in it
     return [a.symbol for a in control.symbolic_atoms if a.is_fact]
 
 
-def _ground_alone(statements: Iterable[ast.AST], path: str) -> Control:
+def _ground_alone(statements: Iterable[ast.AST], path: str, rule_at: dict[int, str]) -> Control:
     """The statements grounded with no facts. clingo finds an unsafe variable (`foo(X).`, `p(A) :- not q.`) only
-    when it grounds: refused here in its own words, named by the file."""
+    when it grounds: refused here, named by the file, line and rule id (`rule_at`: a statement's line -> its rule)."""
     messages: list[str] = []
     control = Control(["--warn=none"], logger=lambda _code, message: messages.append(message.strip()))
     try:
@@ -648,9 +696,32 @@ def _ground_alone(statements: Iterable[ast.AST], path: str) -> Control:
                 builder.add(statement)
         control.ground([("base", [])])
     except RuntimeError:
-        said = " ".join(" ".join(m.split()) for m in messages).replace("<string>", path)
-        raise CatalogError(f"{path}: clingo cannot ground it: {said or 'no reason given'}") from None
+        raise CatalogError(_grounding_problem(messages, path, rule_at)) from None
     return control
+
+
+_CLINGO_AT = re.compile(r"^<string>:(\d+):[\d:-]+: error: (.*?):?$")
+_UNSAFE = re.compile(r"note: '(\w+)' is unsafe")
+
+
+def _grounding_problem(messages: list[str], path: str, rule_at: dict[int, str]) -> str:
+    """clingo's first grounding error as the catalog reads: where its statement is written and its rule, not the
+    rule as clingo rewrote it (`#range(Y,1,2999);[#inc_base]`)."""
+    for message in messages:
+        lines = message.splitlines()
+        found = _CLINGO_AT.match(lines[0])
+        if found is None:
+            continue
+        line = int(found.group(1))
+        rule = f" {rule_at[line]}:" if line in rule_at else ""
+        unsafe = [m.group(1) for m in map(_UNSAFE.search, lines[1:]) if m]
+        what = found.group(2)
+        if unsafe:
+            what = (f"unsafe variable{'s' if len(unsafe) > 1 else ''} {', '.join(unsafe)}: no positive body atom"
+                    f" binds {'them' if len(unsafe) > 1 else 'it'}")
+        return f"{path}:{line}:{rule} clingo cannot ground it: {what}"
+    said = " ".join(" ".join(m.split()) for m in messages).replace("<string>", path)
+    return f"{path}: clingo cannot ground it: {said or 'no reason given'}"
 
 
 def _check_stratified(catalog: Catalog) -> None:
@@ -728,11 +799,11 @@ def catalog_dirs() -> list[Path]:
 def _check_safe(catalog: Catalog) -> None:
     """A catalog with a rule clingo cannot ground is refused on loading, not at every frame: each file's rules
     grounded alone (no facts: quick), so that the message names the file."""
-    by_file: dict[str, list[ast.AST]] = {}
+    by_file: dict[str, list[CompiledRule]] = {}
     for rule in catalog.compiled:
-        by_file.setdefault(rule.info.file, []).append(rule.statement)
-    for file, statements in by_file.items():
-        _ground_alone(statements, file)
+        by_file.setdefault(rule.info.file, []).append(rule)
+    for file, rules in by_file.items():
+        _ground_alone([r.statement for r in rules], file, {r.statement.location.begin.line: r.info.id for r in rules})
 
 
 def _catalog_texts(dirs: Sequence[Path] | None, extra_files: Iterable[Path]) -> list[tuple[Path, str]]:
@@ -773,14 +844,15 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
     for path, text in texts:
         _compile_file(str(path), text, catalog)
     catalog.digest = _digest(texts)
-    _check_stratified(catalog)
-    _check_safe(catalog)
-    catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it
     seen: dict[str, RuleInfo] = {}
     for info in catalog.rules:
         if info.id in seen:
-            raise CatalogError(f"rule id {info.id} is used twice ({seen[info.id].file}, {info.file})")
+            first = seen[info.id]
+            raise CatalogError(f"rule id {info.id} is used twice ({first.file}:{first.line}, {info.file}:{info.line})")
         seen[info.id] = info
+    _check_stratified(catalog)
+    _check_safe(catalog)
+    catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it
     return catalog
 
 

@@ -49,9 +49,9 @@ def test_a_rule_without_its_english_or_source_is_rejected_not_credited_to_the_ru
         load_catalog(write_rules(tmp_path, text))
 
 
-def test_duplicate_rule_id_is_rejected(tmp_path):
+def test_a_duplicate_rule_id_is_rejected_naming_both_lines_in_one_file(tmp_path):
     text = "%! rule x.a\n%! says A.\n%! source s\na :- b.\n%! rule x.a\n%! says B.\n%! source s\nc :- d.\n"
-    with pytest.raises(CatalogError, match="rule id x.a is used twice"):
+    with pytest.raises(CatalogError, match=r"rule id x\.a is used twice \(\S*r\.lp:1, \S*r\.lp:5\)"):
         load_catalog(write_rules(tmp_path, text))
 
 
@@ -66,14 +66,22 @@ def test_a_rule_through_its_own_negation_is_rejected_as_unstratified(tmp_path):
         load_catalog(write_rules(tmp_path, text))
 
 
-def test_a_rule_with_an_unsafe_variable_is_refused_on_loading_in_clingos_words_naming_its_file(tmp_path):
-    text = "%! rule x.unsafe\n%! says U.\n%! source s\nforbidden(A) :- not hazard(_).\n"
-    with pytest.raises(CatalogError, match=r"r\.lp: clingo cannot ground it: .*r\.lp:4:1-31: error: unsafe variables"):
+@pytest.mark.parametrize("statement, problem", [
+    ("forbidden(A) :- not hazard(_).", r"r\.lp:9: x\.unsafe: clingo cannot ground it: unsafe variable A: "
+                                       r"no positive body atom binds it$"),
+    ("p(O, Z) :- q(O), r(O, Y), Y > 0, Y < 3000, not s(W).",  # clingo wrote it `#range(Y,1,2999);[#inc_base]`
+     r"r\.lp:9: x\.unsafe: clingo cannot ground it: unsafe variables W, Z: no positive body atom binds them$"),
+])
+def test_an_unsafe_variable_is_refused_on_loading_naming_the_line_and_rule_not_clingos_rewritten_rule(
+        tmp_path, statement, problem):
+    text = "%! rule x.safe\n%! says S.\n%! source s\nq(1).\n\n%! rule x.unsafe\n%! says U.\n%! source s\n" + statement
+    with pytest.raises(CatalogError, match=problem):
         load_catalog(write_rules(tmp_path, text))
 
 
 @pytest.mark.parametrize("text, problem", [
-    ("%! rule x.fact\n%! says F.\n%! source s\nfoo(X).\n", r"r\.lp: clingo cannot ground it: .*r\.lp:4:1-8: error: unsafe"),
+    ("%! rule x.fact\n%! says F.\n%! source s\nfoo(X).\n",
+     r"r\.lp:4: x\.fact: clingo cannot ground it: unsafe variable X: no positive body atom binds it$"),
     ("%! rule x.count\n%! says C.\n%! source s\nfoo :- #count{X : bar(X)} > 1.\n",
      r"r\.lp:4: x\.count: unsupported literal in a catalog rule: 1 < #count"),
 ])
@@ -82,9 +90,25 @@ def test_a_variable_fact_or_an_aggregate_is_refused_naming_its_file_not_raised(t
         load_catalog(write_rules(tmp_path, text))
 
 
-def test_a_syntax_error_names_the_file_and_line(tmp_path):
-    with pytest.raises(CatalogError, match=r"r\.lp: cannot parse: .*r\.lp:4"):
-        load_catalog(write_rules(tmp_path, "%! rule x.a\n%! says A.\n%! source s\na :- b,.\n"))
+@pytest.mark.parametrize("statement, where", [
+    ("a :- b,.\n", r"r\.lp:4:8-9: error: syntax error"),
+    ("forbidden(A) :- action(A\n", r"r\.lp:5:1-2: error: syntax error"),  # a bracket left open, not a full stop
+])
+def test_a_syntax_error_names_the_file_and_line(tmp_path, statement, where):
+    with pytest.raises(CatalogError, match=r"r\.lp: cannot parse: .*" + where):
+        load_catalog(write_rules(tmp_path, "%! rule x.a\n%! says A.\n%! source s\n" + statement))
+
+
+@pytest.mark.parametrize("last, where", [
+    ("\n\n%! rule x.b\n%! says B.\n%! source s\nr(1).\n", r"\S*r\.lp:9:1-2: error: syntax error, unexpected <IDENTIFIER>"),
+    ("  % no full stop, and no statement after it\n", r"\S*r\.lp:5:1-2: error: syntax error, unexpected EOF"),
+])
+def test_a_missing_full_stop_is_reported_where_its_statement_ends_not_where_clingo_stumbles(tmp_path, last, where):
+    # clingo finds it at the next statement's first token, maybe a block further on
+    text = "%! rule x.a\n%! says A.\n%! source s\np(O, Y) :- q(O, Y), Y > 0, Y < 3000" + last
+    with pytest.raises(CatalogError, match=r"r\.lp:4: x\.a: cannot parse: the statement ends on this line without "
+                                           r"a full stop \(clingo: " + where):
+        load_catalog(write_rules(tmp_path, text))
 
 
 @pytest.mark.parametrize("template, problem", [
