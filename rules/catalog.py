@@ -378,7 +378,7 @@ def signature_of(head: ast.AST) -> tuple[str, int]:
 @dataclass(frozen=True)
 class _Annotations:
     blocks: dict[int, RuleInfo]  # each `%! rule` block's first line -> its RuleInfo
-    templates: list[tuple[str, PredTemplate]]  # ("pred" or "term", its template)
+    templates: list[tuple[str, int, PredTemplate]]  # ("pred" or "term", its line, its template)
     hidden: set[tuple[str, int]]
     reads: list[tuple[str, int, PredTemplate]]  # (rule id, line, how its head reads)
     described: dict[int, list[tuple[int, str]]]  # each block's first line -> (line, "says" or "source") of its own
@@ -387,7 +387,7 @@ class _Annotations:
 def _annotations(text: str, path: str) -> _Annotations:
     """Map each `%! rule` block's first line to its RuleInfo; collect templates, rules' own words and hidden predicates."""
     blocks: dict[int, RuleInfo] = {}
-    templates: list[tuple[str, PredTemplate]] = []
+    templates: list[tuple[str, int, PredTemplate]] = []
     reads: list[tuple[str, int, PredTemplate]] = []
     hidden: set[tuple[str, int]] = set()
     described: dict[int, list[tuple[int, str]]] = {}
@@ -436,7 +436,7 @@ def _annotations(text: str, path: str) -> _Annotations:
             if key == "reads":
                 reads.append((current["rule"], number, PredTemplate(name, args, template)))
             else:
-                templates.append((key, PredTemplate(name, args, template)))
+                templates.append((key, number, PredTemplate(name, args, template)))
         elif key == "rule":
             close()
             current, start = {"rule": value}, number
@@ -455,14 +455,22 @@ def _annotations(text: str, path: str) -> _Annotations:
     return _Annotations(blocks, templates, hidden, reads, described)
 
 
-def _compile_file(path: str, text: str, catalog: Catalog) -> None:
+def _compile_file(path: str, text: str, catalog: Catalog, declared: dict[tuple[str, int] | str, str]) -> None:
+    """`declared`: where each template (by signature) and each constant's words (by name) are written, so far."""
     found = _annotations(text, path)
     blocks = found.blocks
     catalog.hidden |= found.hidden
     for rule_id, _, template in found.reads:
         catalog.rule_templates[(rule_id, template.signature)] = template
-    for key, template in found.templates:
-        if key == "term" and not template.params:  # a constant's words: its own, apart from any predicate's
+    for key, line, template in found.templates:
+        constant = key == "term" and not template.params  # a constant's words: its own, apart from any predicate's
+        what = template.name if constant else template.signature
+        if what in declared:  # the later one would replace the shipped wording, unsaid
+            named = template.name if constant else "/".join(map(str, template.signature))
+            raise CatalogError(f"{path}:{line}: a second '%! {key}' for {named}: it has words at {declared[what]}"
+                               " already (one wording each)")
+        declared[what] = f"{path}:{line}"
+        if constant:
             catalog.words[template.name] = template.template
         else:
             catalog.templates[template.signature] = template
@@ -841,8 +849,9 @@ def catalog_digest(dirs: Sequence[Path] | None = None, extra_files: Iterable[Pat
 def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> Catalog:
     catalog = Catalog(rules=[], templates={}, compiled=[], facts=[])
     texts = _catalog_texts(dirs, extra_files)
+    declared: dict[tuple[str, int] | str, str] = {}
     for path, text in texts:
-        _compile_file(str(path), text, catalog)
+        _compile_file(str(path), text, catalog, declared)
     catalog.digest = _digest(texts)
     seen: dict[str, RuleInfo] = {}
     for info in catalog.rules:

@@ -1,9 +1,11 @@
 import shutil
+from pathlib import Path
 
 import pytest
 from clingo import Function
 
 from discern.rules.catalog import CatalogError, catalog_dirs, load_catalog, load_driving_rules
+from discern.rules.engine import jurisdiction_pack
 
 
 def test_catalog_has_at_least_35_driving_rules_each_with_english_and_source(reasoner):
@@ -161,14 +163,16 @@ def test_a_broken_annotation_line_is_an_error_naming_its_file_and_line_not_credi
         load_catalog(write_rules(tmp_path, text))
 
 
-def test_every_shipped_catalog_loads_each_annotated_rule_under_its_own_id():
-    from pathlib import Path
-
+@pytest.mark.parametrize("pack", ["us", "uk"])
+def test_every_shipped_catalog_loads_each_annotated_rule_under_its_own_id(pack):
+    # each pack with the catalogs, as they are loaded: the two packs together set the lane changes' ranks twice
     root = Path(__file__).resolve().parents[1]
-    for directory in ("rules/catalog", "sanity/catalog", "rules/jurisdictions"):
-        annotated = sorted(line.split()[2] for path in (root / directory).glob("*.lp")
-                           for line in path.read_text(encoding="utf-8").splitlines() if line.startswith("%! rule "))
-        assert sorted(rule.id for rule in load_catalog([root / directory]).rules) == annotated, directory
+    files = [*(root / "rules" / "catalog").glob("*.lp"), *(root / "sanity" / "catalog").glob("*.lp"),
+             root / "rules" / "jurisdictions" / f"{pack}.lp"]
+    annotated = sorted(line.split()[2] for path in files
+                       for line in path.read_text(encoding="utf-8").splitlines() if line.startswith("%! rule "))
+    catalog = load_catalog([root / "rules" / "catalog", root / "sanity" / "catalog"], files[-1:])
+    assert sorted(rule.id for rule in catalog.rules) == annotated
 
 
 @pytest.mark.parametrize("statement", ["{ c }.", "a | b.", ":- ."])
@@ -209,4 +213,27 @@ def test_a_source_after_the_blocks_statements_starts_a_block_without_its_rule_li
     text = "%! rule x.a\n%! says A.\na :- b.\n\n%! source t\nforbidden(brake) :- c.\n"
     with pytest.raises(CatalogError, match=r"r\.lp:5: '%! source' after rule x\.a's statement at line 3: "
                                            r"the rule block at \S*r\.lp:5 has no `%! rule` line"):
+        load_catalog(write_rules(tmp_path, text))
+
+
+def edited_catalog(tmp_path, **files):
+    """A copy of the shipped driving rules with these files added (name without .lp -> text)."""
+    edited = tmp_path / "rules"
+    shutil.copytree(catalog_dirs()[0], edited)
+    for name, text in files.items():
+        (edited / f"{name}.lp").write_text(text)
+    return edited
+
+
+def test_a_second_template_for_a_shipped_predicate_is_refused_naming_both_places(tmp_path):
+    # it used to replace the shipped wording of in_ego_lane in every proof
+    edited = edited_catalog(tmp_path, zz_bus='%! pred in_ego_lane(O) :: "@(O:obj) is in a bus lane"\n')
+    with pytest.raises(CatalogError, match=r"zz_bus\.lp:1: a second '%! pred' for in_ego_lane/1: "
+                                           r"it has words at \S*10_geometry\.lp:\d+ already"):
+        load_driving_rules([edited], [jurisdiction_pack("us")])
+
+
+def test_a_second_wording_for_a_constant_is_refused_naming_both_places(tmp_path):
+    text = '%! term current :: "same-direction"\n\n%! term current :: "this way"\n'
+    with pytest.raises(CatalogError, match=r"r\.lp:3: a second '%! term' for current: it has words at \S*r\.lp:1 already"):
         load_catalog(write_rules(tmp_path, text))
