@@ -732,6 +732,33 @@ def _grounding_problem(messages: list[str], path: str, rule_at: dict[int, str]) 
     return f"{path}: clingo cannot ground it: {said or 'no reason given'}"
 
 
+def _check_ranks(catalog: Catalog) -> None:
+    """`rank/2` orders the actions (def.ranks_below): one rank per action, one action per rank.
+
+    A jurisdiction pack ranks the lane changes with facts of its own. An action ranked twice ranks below itself,
+    and is never recommended where it is called for; two actions of one rank are both recommended, and the
+    verdict picks one by an order of its own.
+    """
+    by_action: dict[Symbol, Symbol] = {}  # action -> the first fact that ranks it
+    by_rank: dict[Symbol, Symbol] = {}  # rank -> the first fact that gives it
+    for atom in catalog.fact_atoms.get("rank", []):
+        if len(atom.arguments) != 2:
+            continue
+        action, rank = atom.arguments
+        before = by_action.setdefault(action, atom)
+        if before == atom:
+            before = by_rank.setdefault(rank, atom)
+            if before == atom:
+                continue
+            problem = f"rank {rank} is given twice: to {action} here, to {before.arguments[0]}"
+        else:
+            problem = f"{action} is ranked twice: {rank} here, {before.arguments[1]}"
+        info, earlier = (catalog.by_id.get(catalog.fact_rule.get(a, "")) for a in (atom, before))
+        here = f"{info.file}:{info.line}: {info.id}: " if info is not None else ""
+        there = f" by {earlier.id} at {earlier.file}:{earlier.line}" if earlier is not None else " by a fact of no rule"
+        raise CatalogError(f"{here}{problem}{there} (rank/2 gives each action one rank, each rank to one action)")
+
+
 def _check_stratified(catalog: Catalog) -> None:
     """No predicate may depend on itself through negation.
 
@@ -859,6 +886,7 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
             first = seen[info.id]
             raise CatalogError(f"rule id {info.id} is used twice ({first.file}:{first.line}, {info.file}:{info.line})")
         seen[info.id] = info
+    _check_ranks(catalog)
     _check_stratified(catalog)
     _check_safe(catalog)
     catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it

@@ -237,3 +237,23 @@ def test_a_second_wording_for_a_constant_is_refused_naming_both_places(tmp_path)
     text = '%! term current :: "same-direction"\n\n%! term current :: "this way"\n'
     with pytest.raises(CatalogError, match=r"r\.lp:3: a second '%! term' for current: it has words at \S*r\.lp:1 already"):
         load_catalog(write_rules(tmp_path, text))
+
+
+PREFERENCE = "%! rule dec.swerve_first\n%! says Changing lanes to the left comes first.\n%! source review\n"
+
+
+@pytest.mark.parametrize("pack", ["us", "uk"])
+def test_an_action_ranked_again_beside_its_packs_rank_is_refused_naming_both_rules(tmp_path, pack):
+    # it loaded, and ranked change_lane_left below itself: an override with brake that nothing recommended
+    edited = edited_catalog(tmp_path, zz_prefs=PREFERENCE + "rank(change_lane_left, 0).\n")
+    rank = {"us": 4, "uk": 5}[pack]
+    with pytest.raises(CatalogError, match=rf"{pack}\.lp:\d+: jur\.{pack}\.lane_preference: change_lane_left is ranked "
+                                           rf"twice: {rank} here, 0 by dec\.swerve_first at \S*zz_prefs\.lp:1 \(rank/2"):
+        load_driving_rules([edited], [jurisdiction_pack(pack)])
+
+
+def test_two_actions_of_one_rank_are_refused_naming_both_rules(tmp_path):
+    edited = edited_catalog(tmp_path, zz_prefs=PREFERENCE + "rank(change_lane_left, 2).\n")
+    with pytest.raises(CatalogError, match=r"zz_prefs\.lp:1: dec\.swerve_first: rank 2 is given twice: to change_lane_left "
+                                           r"here, to turn_right by def\.rank at \S*90_decision\.lp:\d+ \(rank/2"):
+        load_driving_rules([edited], [jurisdiction_pack("us")])
