@@ -24,9 +24,9 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from importlib import resources
 from pathlib import Path
-from typing import Iterable, Optional, Sequence
+from typing import Hashable, Iterable, Optional, Sequence
 
-from clingo import Control, Function, Number, Symbol, ast
+from clingo import Control, Function, Number, Symbol, SymbolType, ast
 
 from .terms import Literal, Term, compile_literal, compile_term, is_fixed, pattern_of, term_vars
 
@@ -58,6 +58,7 @@ SETTING_PREFIX = "jur."  # a jurisdiction pack's settings (the traffic side, zon
 # (`Catalog.traces`). Not `forbidden`: a veto's proof replays its reasons' bodies anyway, and with its rules
 # recorded, random overrides took 0.98-1.06 of the time.
 TRACED = frozenset({"applicable"})
+EXCEPTION_HOOK = "ab"  # `ab(T)`: an exception to a default rule, one hook per functor of T (`_exception_graph`)
 TRACE_PREFIX = "__by_"
 
 
@@ -760,17 +761,90 @@ def _check_ranks(catalog: Catalog) -> None:
 
 
 def _check_stratified(catalog: Catalog) -> None:
-    """No predicate may depend on itself through negation.
+    """No atom may depend on itself through negation (`_exception_graph`).
 
     Then the program has exactly one answer set, the grounder computes it as
-    facts, and every atom's justification is well-founded.
+    facts, and every atom's justification is well-founded. A cycle is named by
+    the rules that close it, the first in catalog order: the same every run.
     """
-    edges = _dependencies(catalog.compiled)
+    edges = _exception_graph(catalog.compiled)
     component = _components(edges)
-    for head, body in edges.items():
-        for predicate, negated in body:
-            if negated and component.get(predicate) == component.get(head):
-                raise CatalogError(f"{head} depends on itself through 'not {predicate}': the catalog must be stratified")
+    for rule in catalog.compiled:
+        head = _node(rule.head)
+        for target, negated, _ in edges[head]:
+            if negated and component[target] == component[head]:
+                back = _path(edges, target, head, component)
+                raise CatalogError(
+                    f"{rule.info.file}:{rule.statement.location.begin.line}: {rule.info.id}: {_node_text(head)} depends"
+                    f" on itself through 'not {_node_text(target)}'"
+                    + "".join(f"; {_node_text(a)} rests on {_node_text(b)} by {r.info.id} at {r.info.file}:"
+                              f"{r.statement.location.begin.line}" for a, b, r in back)
+                    + ": the catalog must be stratified")
+
+
+_Node = tuple[str, Optional[tuple[str, int]]]  # a predicate, and for EXCEPTION_HOOK its argument's functor (None: any)
+
+
+def _node(atom: Term) -> _Node:
+    """An atom's node in `_exception_graph`: its predicate; for `ab/1` its argument's functor too."""
+    if atom[0] == "s":
+        return (atom[1].name, None)
+    if atom[1] == EXCEPTION_HOOK and len(atom[2]) == 1:
+        argument = atom[2][0]
+        if argument[0] == "f":
+            return (EXCEPTION_HOOK, (argument[1], len(argument[2])))
+        if argument[0] == "s" and argument[1].type == SymbolType.Function:
+            return (EXCEPTION_HOOK, (argument[1].name, len(argument[1].arguments)))
+    return (atom[1], None)
+
+
+def _node_text(node: _Node) -> str:
+    name, functor = node
+    if functor is None:
+        return name
+    inner, arity = functor
+    return f"{name}({inner}({', '.join('_' * arity)}))" if arity else f"{name}({inner})"
+
+
+def _exception_graph(rules: Sequence[CompiledRule]) -> dict[_Node, list[tuple[_Node, bool, CompiledRule]]]:
+    """head node -> (node, negated, rule) for each body atom of its rules that some rule can derive, in order.
+
+    Nodes are predicates, except that `ab/1` atoms are told apart by their argument's functor: an exception
+    about a truck ahead (`ab(truck_ahead(O)) :- in_ego_lane(O), ...`) shares no atom with one about a range
+    sensor's reach that `in_ego_lane` rests on through `not ab(beyond_reach(..))`, and per predicate the two
+    made a cycle through negation that clingo does not see. An `ab(X)` matches every functor.
+    """
+    heads = {_node(rule.head): None for rule in rules}
+    edges: dict[_Node, list[tuple[_Node, bool, CompiledRule]]] = {head: [] for head in heads}
+    for rule in rules:
+        for lit in rule.body:
+            if lit.is_atom:
+                name, functor = _node(lit.atom)
+                edges[_node(rule.head)].extend(
+                    (head, lit.negated, rule) for head in heads
+                    if head[0] == name and (functor is None or head[1] is None or head[1] == functor))
+    return edges
+
+
+def _path(edges: dict[_Node, list[tuple[_Node, bool, CompiledRule]]], start: _Node, end: _Node,
+          component: dict[_Node, int]) -> list[tuple[_Node, _Node, CompiledRule]]:
+    """The first shortest way from `start` to `end` within their component: (node, the node it rests on, by rule)."""
+    came: dict[_Node, tuple[_Node, CompiledRule]] = {start: (start, None)}
+    queue = [start]
+    for node in queue:
+        if node == end:
+            break
+        for target, _, rule in edges[node]:
+            if target not in came and component[target] == component[start]:
+                came[target] = (node, rule)
+                queue.append(target)
+    steps = []
+    node = end
+    while node != start:
+        before, rule = came[node]
+        steps.append((before, node, rule))
+        node = before
+    return steps[::-1]
 
 
 def _dependencies(rules: Iterable[CompiledRule]) -> dict[str, set[tuple[str, bool]]]:
@@ -783,15 +857,15 @@ def _dependencies(rules: Iterable[CompiledRule]) -> dict[str, set[tuple[str, boo
     return edges
 
 
-def _components(edges: dict[str, set[tuple[str, bool]]]) -> dict[str, int]:
-    """Strongly connected components of the dependency graph (Tarjan's, without recursion)."""
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    component: dict[str, int] = {}
-    stack: list[str] = []
+def _components(edges: dict[Hashable, Iterable[tuple]]) -> dict[Hashable, int]:
+    """Strongly connected components of a dependency graph (Tarjan's, without recursion): node -> (node, ...)."""
+    index: dict[Hashable, int] = {}
+    low: dict[Hashable, int] = {}
+    component: dict[Hashable, int] = {}
+    stack: list[Hashable] = []
     counter = 0
 
-    def visit(root: str) -> None:
+    def visit(root: Hashable) -> None:
         nonlocal counter
         work = [(root, iter(edges.get(root, ())))]
         index[root] = low[root] = counter
@@ -799,7 +873,7 @@ def _components(edges: dict[str, set[tuple[str, bool]]]) -> dict[str, int]:
         stack.append(root)
         while work:
             node, children = work[-1]
-            for child, _ in children:
+            for child, *_ in children:
                 if child not in index:
                     index[child] = low[child] = counter
                     counter += 1

@@ -1,4 +1,8 @@
+import os
+import re
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -257,3 +261,72 @@ def test_two_actions_of_one_rank_are_refused_naming_both_rules(tmp_path):
     with pytest.raises(CatalogError, match=r"zz_prefs\.lp:1: dec\.swerve_first: rank 2 is given twice: to change_lane_left "
                                            r"here, to turn_right by def\.rank at \S*90_decision\.lp:\d+ \(rank/2"):
         load_driving_rules([edited], [jurisdiction_pack("us")])
+
+
+TRUCKS = """%! pred large_vehicle(C) :: "a @(C) is a large vehicle"
+%! pred truck_too_close(O, D) :: "@(O:obj), a large vehicle, is only @(D:m) ahead in the ego's lane"
+%! term truck_ahead(O) :: "@(O:obj) is no reason to hold back"
+
+%! rule acc.truck_ahead
+%! says The ego does not accelerate while a large vehicle ahead in its lane is nearer than 30 m.
+%! source review
+forbidden(accelerate) :- truck_too_close(O, _), not ab(truck_ahead(O)).
+
+%! rule def.truck_too_close
+%! says A large vehicle ahead in the ego's lane nearer than 30 m is too close.
+%! source review
+truck_too_close(O, Y) :- in_ego_lane(O), object(O, C), large_vehicle(C), obj_pos(O, _, Y), Y > 0, Y < 3000.
+
+%! rule ent.large_vehicle
+%! says Trucks and buses are large vehicles.
+%! source review
+large_vehicle(truck). large_vehicle(bus).
+"""
+BUS_EXCEPTION = """
+%! rule acc.bus_exception
+%! says A bus ahead is no reason to hold back.
+%! source review
+ab(truck_ahead(O)) :- in_ego_lane(O), object(O, bus).
+"""
+
+
+def test_an_exception_hook_about_an_object_loads_and_decides_as_plain_clingo_does(tmp_path):
+    # per predicate, ab -> in_ego_lane -> not not_on_road -> ... -> not ab(beyond_reach(..)) was a cycle; the atoms
+    # ab(truck_ahead(..)) and ab(beyond_reach(..)) are not one another
+    import clingo
+
+    from discern.rules.engine import Reasoner
+    from discern.rules.scene import Action
+
+    from .scenes import obj, scene
+
+    edited = edited_catalog(tmp_path, zz_trucks=TRUCKS + BUS_EXCEPTION)
+    reasoner = Reasoner(catalog=load_driving_rules([edited], [jurisdiction_pack("us")]))
+    files = [*sorted(edited.glob("*.lp")), *sorted(catalog_dirs()[1].glob("*.lp")), jurisdiction_pack("us")]
+    for cls, forbidden in (("truck", True), ("bus", False)):
+        frame = scene(speed=10.0, lane=2, lanes=2, limit=20.0, objects=(obj(cls, 0.0, 25.0, lane=2, vy=10.0),))
+        verdict = reasoner.decide(frame, "accelerate")
+        assert (verdict.decision.value, verdict.vetoed_by) == (("override", ["acc.truck_ahead"]) if forbidden
+                                                               else ("approve", []))
+        control = clingo.Control(["0", "--warn=none"])
+        for path in files:
+            control.load(str(path))
+        control.add("base", [], reasoner.frame_facts(frame, Action.accelerate, []) + reasoner.params.facts())
+        control.ground([("base", [])])
+        models = []
+        control.solve(on_model=lambda m: models.append(m.contains(Function("forbidden", [Function("accelerate")]))))
+        assert models == [forbidden]
+
+
+def test_a_cycle_through_negation_is_named_by_the_rules_that_close_it_the_same_every_run(tmp_path):
+    cycle = "\n%! rule def.cycle\n%! says C.\n%! source review\nlarge_vehicle(C) :- object(_, C), not truck_too_close(_, _).\n"
+    edited = edited_catalog(tmp_path, zz_trucks=TRUCKS + cycle)
+    load = ("from discern.rules.catalog import load_driving_rules\nfrom discern.rules.engine import jurisdiction_pack\n"
+            f"try:\n    load_driving_rules([{str(edited)!r}], [jurisdiction_pack('us')])\n"
+            "except ValueError as exc:\n    print(exc)\n")
+    said = {subprocess.run([sys.executable, "-c", load], capture_output=True, text=True, check=True,
+                           env={**os.environ, "PYTHONHASHSEED": seed}).stdout for seed in ("1", "2")}
+    assert len(said) == 1
+    assert re.fullmatch(r"\S*zz_trucks\.lp:23: def\.cycle: large_vehicle depends on itself through 'not truck_too_close'; "
+                        r"truck_too_close rests on large_vehicle by def\.truck_too_close at \S*zz_trucks\.lp:13: "
+                        r"the catalog must be stratified\n", said.pop())
