@@ -13,11 +13,13 @@ A `rule` annotation names every statement that follows it up to the next
 an atom reads when that rule derived it, in place of the predicate's template:
 a value the rule assumes reads as assumed, not as measured. Rules are also
 compiled to plain tuples (terms.py) for the justifier, and indexed by the predicates they need so that a frame grounds
-only the rules that can fire on its facts.
+only the rules that can fire on its facts. What breaks the conventions is refused (CatalogError, one line naming the
+file, line and rule); what loads but is likely a mistake is kept in `Catalog.warnings`, for the commands to print.
 """
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import re
 from dataclasses import dataclass, field
@@ -28,6 +30,7 @@ from typing import Hashable, Iterable, Optional, Sequence
 
 from clingo import Control, Function, Number, Symbol, SymbolType, ast
 
+from .facts import PARAM_NAMES, SCENE_PREDICATES
 from .terms import Literal, Term, compile_literal, compile_term, is_fixed, pattern_of, term_vars
 
 # Every line that starts with `%!` is an annotation: a keyword, then (after white space) its value.
@@ -161,6 +164,8 @@ class Catalog:
     # Units of each rule's variables by rule index, read off the templates (phrases.Phrasebook.formats_of): the same
     # in every frame, so kept here rather than worked out again for each proof.
     variable_formats: dict[int, dict[str, str]] = field(default_factory=dict, repr=False)
+    # What loads but is likely a mistake (a misspelt predicate): "file:line: rule: ...", for the commands to show.
+    warnings: list[str] = field(default_factory=list, repr=False)
 
     @cached_property
     def by_id(self) -> dict[str, RuleInfo]:
@@ -456,8 +461,16 @@ def _annotations(text: str, path: str) -> _Annotations:
     return _Annotations(blocks, templates, hidden, reads, described)
 
 
-def _compile_file(path: str, text: str, catalog: Catalog, declared: dict[tuple[str, int] | str, str]) -> None:
-    """`declared`: where each template (by signature) and each constant's words (by name) are written, so far."""
+@dataclass
+class _Places:
+    """Where the files read so far write what the loader checks once all are read: "file:line"."""
+
+    templates: dict[tuple[str, int] | str, str] = field(default_factory=dict)  # by signature; a constant's words by name
+    facts: list[tuple[tuple[str, int], str, Optional[str]]] = field(default_factory=list)  # (signature, place, rule id)
+
+
+def _compile_file(path: str, text: str, catalog: Catalog, places: _Places) -> None:
+    declared = places.templates
     found = _annotations(text, path)
     blocks = found.blocks
     catalog.hidden |= found.hidden
@@ -515,7 +528,10 @@ def _compile_file(path: str, text: str, catalog: Catalog, declared: dict[tuple[s
             if not normal:  # a choice, a disjunction or a constraint: no fact the prover could cite
                 raise CatalogError(f"{path}:{stm.location.begin.line}: only normal rules and facts are supported")
             catalog.facts.append(stm)
-            for atom in _ground_fact(stm, path, info):
+            atoms = _ground_fact(stm, path, info)
+            places.facts.extend((signature, f"{path}:{stm.location.begin.line}", info and info.id)
+                                for signature in dict.fromkeys((a.name, len(a.arguments)) for a in atoms))
+            for atom in atoms:
                 catalog.fact_predicates.add(atom.name)
                 catalog.fact_atoms.setdefault(atom.name, []).append(atom)
                 if info is not None:
@@ -733,6 +749,160 @@ def _grounding_problem(messages: list[str], path: str, rule_at: dict[int, str]) 
     return f"{path}: clingo cannot ground it: {said or 'no reason given'}"
 
 
+def _signature(atom: Term) -> tuple[str, int]:
+    return (atom[1].name, len(atom[1].arguments)) if atom[0] == "s" else (atom[1], len(atom[2]))
+
+
+def _terms(term: Term | Symbol) -> Iterable[tuple[str, int]]:
+    """The signatures of the compound terms inside an atom's arguments, at any depth (`hazard(obstacle(O))`: obstacle/1)."""
+    if not isinstance(term, Symbol) and term[0] == "s":
+        term = term[1]
+    if isinstance(term, Symbol):
+        arguments: Sequence = term.arguments if term.type == SymbolType.Function else ()
+    else:
+        arguments = term[2] if term[0] == "f" else ()
+    for argument in arguments:
+        if not isinstance(argument, Symbol) and argument[0] == "s":
+            argument = argument[1]
+        if isinstance(argument, Symbol) and argument.type == SymbolType.Function and argument.arguments:
+            yield argument.name, len(argument.arguments)
+        elif not isinstance(argument, Symbol) and argument[0] == "f" and argument[2]:
+            yield argument[1], len(argument[2])
+        yield from _terms(argument)
+
+
+def _where(rule: CompiledRule) -> str:
+    return f"{rule.info.file}:{rule.statement.location.begin.line}: {rule.info.id}"
+
+
+def _check_words(catalog: Catalog, places: _Places) -> None:
+    """Every atom a rule derives reads as English: its predicate has a `%! pred` template (unless hidden), and a
+    hazard its words (`%! term obstacle(O)`, or for a constant `%! term flashing_red`). Else a proof shows the raw
+    atom, its numbers in centimetres: `truck_too_close(7, 2500)`, "there is a hazard: truck close (7, 2500)"."""
+    read = _read(catalog)
+    for rule in catalog.compiled:
+        name, arity = rule.signature
+        if rule.signature not in catalog.templates and rule.signature not in catalog.hidden:
+            others = [f"the one at {places.templates[s]} is for {s[0]}/{s[1]}" for s in catalog.templates if s[0] == name]
+            hint = f" ({'; '.join(others)})" if others else ""
+            if not hint and rule.signature not in read:  # nothing reads it either: a misspelt predicate (forbiden)
+                hint = _guess(_show(rule.signature), map(_show, catalog.templates))
+            raise CatalogError(f"{_where(rule)}: {name}/{arity} has no '%! pred' template: its atoms would read as raw"
+                               f" terms, numbers in centimetres{hint}")
+        if name != "hazard" or arity != 1:
+            continue
+        hazard = rule.head[2][0] if rule.head[0] == "f" else None
+        if hazard is not None and hazard[0] == "f" and (hazard[1], len(hazard[2])) not in catalog.templates:
+            raise CatalogError(f"{_where(rule)}: the hazard {hazard[1]}/{len(hazard[2])} has no '%! term' template:"
+                               " it would read as a raw term, numbers in centimetres")
+        constant = hazard[1] if hazard is not None and hazard[0] == "s" else None
+        if constant is not None and constant.type == SymbolType.Function and constant.name not in catalog.words:
+            words = constant.name.replace("_", " ")
+            raise CatalogError(f"{_where(rule)}: the hazard {constant.name} has no '%! term' words: it would read as"
+                               f" \"{words}\"")
+
+
+# The atoms the verdict reads (engine.py: SolvedFrame.READS, the proposal's reasons and prohibitions, the sanity
+# layer's notes): a rule deriving another predicate that no rule reads decides nothing.
+VERDICT_READS = frozenset({("permitted", 1), ("recommended", 1), ("replacement", 1), ("applicable", 1),
+                           ("forbidden", 1), ("noted", 1)})
+
+
+def frame_predicates() -> frozenset[tuple[str, int]]:
+    """The predicates a frame's facts may give: the scene's, the sanity window's and the parameters'."""
+    from discern.sanity.window import WINDOW_PREDICATES  # here, not at the top: the sanity layer imports from rules
+
+    return SCENE_PREDICATES | WINDOW_PREDICATES | {("param", 2)}
+
+
+def _setting_names(catalog: Catalog) -> dict[str, frozenset[str]]:
+    """Per setting predicate, the names that the reasoner's, the window's or the catalog's own facts give."""
+    from discern.sanity.window import WINDOW_PARAMS
+
+    return {name: names | {atom.arguments[0].name for atom in catalog.fact_atoms.get(name, [])
+                           if len(atom.arguments) == 2 and atom.arguments[0].type == SymbolType.Function}
+            for name, names in (("param", PARAM_NAMES), ("window_param", WINDOW_PARAMS))}
+
+
+def _show(signature: tuple[str, int]) -> str:
+    return f"{signature[0]}/{signature[1]}"
+
+
+def _guess(name: str, known: Iterable[str]) -> str:
+    close = difflib.get_close_matches(name, sorted(known), n=1)
+    return f" (did you mean {close[0]}?)" if close else ""
+
+
+def _warnings(catalog: Catalog, places: _Places) -> Iterable[str]:
+    """What loads but is likely a mistake, in catalog order (`Catalog.warnings`)."""
+    given = ({rule.signature for rule in catalog.compiled} | {signature for signature, _, _ in places.facts}
+             | frame_predicates())
+    yield from _unknown_reads(catalog, given)
+    yield from _unread(catalog)
+    yield from _unworded(catalog, places, given)
+
+
+def _unknown_reads(catalog: Catalog, given: set[tuple[str, int]]) -> Iterable[str]:
+    """A body atom of a predicate that nothing gives (`given`) and no `%! pred` declares, or a setting no fact names:
+    a misspelling (`large_vehicles(C)`, `not truck_exmept(O)`, `param(truck_dist, T)`) by which its rule never
+    fires, or is never blocked. A declared predicate may be given by nothing: a pack's setting (school_bus_law)."""
+    settings = _setting_names(catalog)
+    known = {_show(s) for s in given | set(catalog.templates)}
+    for rule in catalog.compiled:
+        for lit in rule.body:
+            if not lit.is_atom:
+                continue
+            signature = _signature(lit.atom)
+            if signature not in given and signature not in catalog.templates:
+                yield (f"{_where(rule)}: nothing gives {_show(signature)}: no catalog fact, rule or frame fact, and no"
+                       f" '%! pred' declares it{_guess(_show(signature), known)}")
+            name = _setting(lit.atom) if signature[0] in settings and signature[1] == 2 else None
+            if name is not None and name not in settings[signature[0]]:
+                hint = _guess(name, settings[signature[0]]) or f" (known: {', '.join(sorted(settings[signature[0]]))})"
+                yield f"{_where(rule)}: {signature[0]}({name}, _) names no setting{hint}"
+
+
+def _setting(atom: Term) -> Optional[str]:
+    """The name a setting's atom gives as its first argument (`param(truck_dist, T)`), if a constant."""
+    first = atom[2][0] if atom[0] == "f" else ("s", atom[1].arguments[0])
+    return first[1].name if first[0] == "s" and first[1].type == SymbolType.Function else None
+
+
+def _read(catalog: Catalog) -> set[tuple[str, int]]:
+    """The predicates that a rule's body or the verdict reads."""
+    return {_signature(lit.atom) for rule in catalog.compiled for lit in rule.body if lit.is_atom} | VERDICT_READS
+
+
+def _unread(catalog: Catalog) -> Iterable[str]:
+    """A rule deriving a predicate that no rule body and not the verdict reads (`forbiden(accelerate)`)."""
+    read = _read(catalog)
+    for rule in catalog.compiled:
+        if rule.signature not in read:
+            yield (f"{_where(rule)}: nothing reads {_show(rule.signature)}: no rule's body, nor the verdict"
+                   f"{_guess(_show(rule.signature), map(_show, read))}")
+
+
+def _unworded(catalog: Catalog, places: _Places, given: set[tuple[str, int]]) -> Iterable[str]:
+    """Words missing or for nothing: a compound term in a rule's head with no `%! term` (an exception hook's
+    `ab(truck_ahead(O))` reads "an exception applies: truck ahead (7)"); a catalog fact with no `%! pred` (a pack's
+    setting, which the catalog it is loaded with words); a template whose signature no atom or term has."""
+    atoms = [rule.head for rule in catalog.compiled] + [lit.atom for rule in catalog.compiled for lit in rule.body
+                                                        if lit.is_atom]
+    terms = {signature for atom in atoms for signature in _terms(atom)}
+    terms |= {signature for facts in catalog.fact_atoms.values() for atom in facts for signature in _terms(atom)}
+    for rule in catalog.compiled:
+        for signature in dict.fromkeys(_terms(rule.head)):
+            if signature not in catalog.templates:
+                yield f"{_where(rule)}: the term {_show(signature)} in its head has no '%! term' template"
+    for signature, place, rule_id in places.facts:
+        if signature not in catalog.templates and signature not in catalog.hidden:
+            yield f"{place}: {rule_id or 'a fact'}: {_show(signature)} has no '%! pred' template"
+    used = given | terms | {_signature(atom) for atom in atoms}
+    for signature, place in places.templates.items():
+        if isinstance(signature, tuple) and signature not in used:
+            yield f"{place}: the template for {_show(signature)} words no predicate or term that the catalog uses"
+
+
 def _check_ranks(catalog: Catalog) -> None:
     """`rank/2` orders the actions (def.ranks_below): one rank per action, one action per rank.
 
@@ -814,15 +984,16 @@ def _exception_graph(rules: Sequence[CompiledRule]) -> dict[_Node, list[tuple[_N
     sensor's reach that `in_ego_lane` rests on through `not ab(beyond_reach(..))`, and per predicate the two
     made a cycle through negation that clingo does not see. An `ab(X)` matches every functor.
     """
-    heads = {_node(rule.head): None for rule in rules}
-    edges: dict[_Node, list[tuple[_Node, bool, CompiledRule]]] = {head: [] for head in heads}
+    heads: dict[str, dict[_Node, None]] = {}  # predicate -> its head nodes, in catalog order
+    for rule in rules:
+        heads.setdefault(rule.signature[0], {})[_node(rule.head)] = None
+    edges: dict[_Node, list[tuple[_Node, bool, CompiledRule]]] = {head: [] for nodes in heads.values() for head in nodes}
     for rule in rules:
         for lit in rule.body:
             if lit.is_atom:
                 name, functor = _node(lit.atom)
-                edges[_node(rule.head)].extend(
-                    (head, lit.negated, rule) for head in heads
-                    if head[0] == name and (functor is None or head[1] is None or head[1] == functor))
+                edges[_node(rule.head)].extend((head, lit.negated, rule) for head in heads.get(name, ())
+                                               if functor is None or head[1] is None or head[1] == functor)
     return edges
 
 
@@ -948,12 +1119,23 @@ def catalog_digest(dirs: Sequence[Path] | None = None, extra_files: Iterable[Pat
 
 
 def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> Catalog:
+    catalog, places = _compiled(dirs, extra_files)
+    _check(catalog, places)
+    return catalog
+
+
+def _compiled(dirs: Sequence[Path] | None, extra_files: Iterable[Path]) -> tuple[Catalog, _Places]:
     catalog = Catalog(rules=[], templates={}, compiled=[], facts=[])
     texts = _catalog_texts(dirs, extra_files)
-    declared: dict[tuple[str, int] | str, str] = {}
+    places = _Places()
     for path, text in texts:
-        _compile_file(str(path), text, catalog, declared)
+        _compile_file(str(path), text, catalog, places)
     catalog.digest = _digest(texts)
+    return catalog, places
+
+
+def _check(catalog: Catalog, places: _Places) -> None:
+    """What only the whole catalog shows: refused in one line naming the file, line and rule; or a warning."""
     seen: dict[str, RuleInfo] = {}
     for info in catalog.rules:
         if info.id in seen:
@@ -963,8 +1145,9 @@ def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path]
     _check_ranks(catalog)
     _check_stratified(catalog)
     _check_safe(catalog)
+    _check_words(catalog, places)
+    catalog.warnings = list(dict.fromkeys(_warnings(catalog, places)))
     catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it
-    return catalog
 
 
 DECIDING = ("action", "permitted", "recommended")  # what a verdict is read from: a driving catalog must define them
@@ -985,7 +1168,7 @@ def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] 
         once.setdefault(directory.resolve(), directory)
     given = list(once.values())
     shipped = [d for d in catalog_dirs()[1:] if d.resolve() not in once]
-    catalog = load_catalog(given + shipped, extra_files=extra_files)
+    catalog, places = _compiled(given + shipped, extra_files)
     for directory in given:
         if not any(Path(rule.file).parent == directory for rule in catalog.driving_rules()):
             raise CatalogError(
@@ -998,6 +1181,7 @@ def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] 
             f"rules directories {', '.join(map(str, given))} define no {', '.join(n + '/1' for n in missing)}: "
             "the decision rules (as in rules/catalog/90_decision.lp) are missing"
         )
+    _check(catalog, places)
     return catalog
 
 

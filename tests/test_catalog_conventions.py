@@ -330,3 +330,62 @@ def test_a_cycle_through_negation_is_named_by_the_rules_that_close_it_the_same_e
     assert re.fullmatch(r"\S*zz_trucks\.lp:23: def\.cycle: large_vehicle depends on itself through 'not truck_too_close'; "
                         r"truck_too_close rests on large_vehicle by def\.truck_too_close at \S*zz_trucks\.lp:13: "
                         r"the catalog must be stratified\n", said.pop())
+
+
+@pytest.mark.parametrize("pack", ["us", "uk"])
+def test_the_shipped_catalog_with_either_pack_loads_without_a_warning(pack):
+    # the UK pack gives no school_bus_law: a setting the catalog declares with a template, not a misspelling
+    assert load_catalog(extra_files=[jurisdiction_pack(pack)]).warnings == []
+
+
+@pytest.mark.parametrize("edit, warning", [
+    (("large_vehicle(C), obj_pos", "large_vehicles(C), obj_pos"),
+     r"zz_trucks\.lp:13: def\.truck_too_close: nothing gives large_vehicles/1: no catalog fact, rule or frame fact, "
+     r"and no '%! pred' declares it \(did you mean large_vehicle/1\?\)"),
+    (("not ab(truck_ahead(O))", "not truck_exmept(O)"),
+     r"zz_trucks\.lp:8: acc\.truck_ahead: nothing gives truck_exmept/1: .* \(did you mean truck_exempt/1\?\)"),
+    (("Y < 3000", "param(truck_dist, T), Y < T"),
+     r"zz_trucks\.lp:13: def\.truck_too_close: param\(truck_dist, _\) names no setting \(did you mean turn_dist\?\)"),
+    (("forbidden(accelerate) :-", "forbiden(accelerate) :-"),
+     r"zz_trucks\.lp:8: acc\.truck_ahead: nothing reads forbiden/1: no rule's body, nor the verdict "
+     r"\(did you mean forbidden/1\?\)"),
+])
+def test_a_misspelt_predicate_or_setting_loads_with_a_warning_naming_its_line_and_rule(tmp_path, edit, warning):
+    # each loaded silently, and its rule never fired (or was never blocked)
+    declared = '%! pred truck_exempt(O) :: "@(O:obj) pulls away"\n%! pred forbiden(A) :: "@(A) is forbidden"\n'
+    edited = edited_catalog(tmp_path, zz_trucks=TRUCKS.replace(*edit), zz_words=declared)
+    warnings = load_driving_rules([edited], [jurisdiction_pack("us")]).warnings
+    assert [w for w in warnings if re.search(warning, w)] != [], warnings
+    assert all("zz_" in w for w in warnings), warnings  # the shipped rules' own are never warned of
+
+
+@pytest.mark.parametrize("edit, problem", [
+    (('%! pred truck_too_close(O, D) :: "@(O:obj), a large vehicle, is only @(D:m) ahead in the ego\'s lane"\n', ""),
+     r"zz_trucks\.lp:12: def\.truck_too_close: truck_too_close/2 has no '%! pred' template: its atoms would read as "
+     r"raw terms, numbers in centimetres$"),
+    (("truck_too_close(O, D) :: \"@(O:obj), a large vehicle, is only @(D:m) ahead",  # an arity no predicate has
+      "truck_too_close(O) :: \"@(O:obj), a large vehicle, is close ahead"),
+     r"zz_trucks\.lp:13: def\.truck_too_close: truck_too_close/2 has no '%! pred' template: .* "
+     r"\(the one at \S*zz_trucks\.lp:2 is for truck_too_close/1\)$"),
+    (("forbidden(accelerate) :-", "forbiden(accelerate) :-"),
+     r"zz_trucks\.lp:8: acc\.truck_ahead: forbiden/1 has no '%! pred' template: .* \(did you mean forbidden/1\?\)$"),
+    (("large_vehicle(truck).", "large_vehicle(truck).\nhazard(truck_close(O, Y)) :- truck_too_close(O, Y), Y < 2700."),
+     r"zz_trucks\.lp:19: ent\.large_vehicle: the hazard truck_close/2 has no '%! term' template"),
+])
+def test_a_derived_predicate_or_hazard_without_words_is_refused_naming_its_line_and_rule(tmp_path, edit, problem):
+    # each read as raw atoms in every proof: "truck_too_close(7, 2500)", "there is a hazard: truck close (7, 2500)"
+    edited = edited_catalog(tmp_path, zz_trucks=TRUCKS.replace(*edit))
+    with pytest.raises(CatalogError, match=problem):
+        load_driving_rules([edited], [jurisdiction_pack("us")])
+
+
+def test_words_missing_where_a_proof_would_show_them_or_given_for_nothing_load_with_a_warning(tmp_path):
+    unused = '%! pred truck_exempt(O) :: "@(O:obj) pulls away"\n'
+    edited = edited_catalog(tmp_path, zz_trucks=unused + TRUCKS.replace("%! term truck_ahead(O)", "% no term")
+                            + BUS_EXCEPTION + "\n%! rule ent.bus\n%! says B.\n%! source s\nbus_class(bus).\n")
+    warnings = load_driving_rules([edited], [jurisdiction_pack("us")]).warnings
+    assert [re.sub(r"^\S*/", "", w) for w in warnings] == [
+        "zz_trucks.lp:24: acc.bus_exception: the term truck_ahead/1 in its head has no '%! term' template",
+        "zz_trucks.lp:29: ent.bus: bus_class/1 has no '%! pred' template",
+        "zz_trucks.lp:1: the template for truck_exempt/1 words no predicate or term that the catalog uses",
+    ]
