@@ -465,7 +465,7 @@ def _annotations(text: str, path: str) -> _Annotations:
 class _Places:
     """Where the files read so far write what the loader checks once all are read: "file:line"."""
 
-    templates: dict[tuple[str, int] | str, str] = field(default_factory=dict)  # by signature; a constant's words by name
+    templates: dict[tuple[str, int] | str, str] = field(default_factory=dict)  # by signature; a constant's by name
     facts: list[tuple[tuple[str, int], str, Optional[str]]] = field(default_factory=list)  # (signature, place, rule id)
 
 
@@ -754,7 +754,7 @@ def _signature(atom: Term) -> tuple[str, int]:
 
 
 def _terms(term: Term | Symbol) -> Iterable[tuple[str, int]]:
-    """The signatures of the compound terms inside an atom's arguments, at any depth (`hazard(obstacle(O))`: obstacle/1)."""
+    """The signatures of the compound terms in an atom's arguments, at any depth (`hazard(obstacle(O))`: obstacle/1)."""
     if not isinstance(term, Symbol) and term[0] == "s":
         term = term[1]
     if isinstance(term, Symbol):
@@ -783,7 +783,7 @@ def _check_words(catalog: Catalog, places: _Places) -> None:
     for rule in catalog.compiled:
         name, arity = rule.signature
         if rule.signature not in catalog.templates and rule.signature not in catalog.hidden:
-            others = [f"the one at {places.templates[s]} is for {s[0]}/{s[1]}" for s in catalog.templates if s[0] == name]
+            others = [f"the one at {places.templates[s]} is for {_show(s)}" for s in catalog.templates if s[0] == name]
             hint = f" ({'; '.join(others)})" if others else ""
             if not hint and rule.signature not in read:  # nothing reads it either: a misspelt predicate (forbiden)
                 hint = _guess(_show(rule.signature), map(_show, catalog.templates))
@@ -987,7 +987,7 @@ def _exception_graph(rules: Sequence[CompiledRule]) -> dict[_Node, list[tuple[_N
     heads: dict[str, dict[_Node, None]] = {}  # predicate -> its head nodes, in catalog order
     for rule in rules:
         heads.setdefault(rule.signature[0], {})[_node(rule.head)] = None
-    edges: dict[_Node, list[tuple[_Node, bool, CompiledRule]]] = {head: [] for nodes in heads.values() for head in nodes}
+    edges: dict[_Node, list[tuple[_Node, bool, CompiledRule]]] = {n: [] for nodes in heads.values() for n in nodes}
     for rule in rules:
         for lit in rule.body:
             if lit.is_atom:
