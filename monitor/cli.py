@@ -78,10 +78,14 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
     try:
         if getattr(args, "rules", None):
             catalog = load_driving_rules([Path(args.rules)], extra_files=[jurisdiction_pack(jurisdiction)])
-            return Reasoner(catalog=catalog, params=params, jurisdiction=jurisdiction)
-        return Reasoner(params=params, jurisdiction=jurisdiction) if values else reasoner_for(jurisdiction)
+            reasoner = Reasoner(catalog=catalog, params=params, jurisdiction=jurisdiction)
+        else:
+            reasoner = Reasoner(params=params, jurisdiction=jurisdiction) if values else reasoner_for(jurisdiction)
     except (CatalogError, ValueError) as exc:
         raise UserError(str(exc)) from None
+    for warning in reasoner.catalog.warnings:  # what loads but likely never fires as meant: a misspelt predicate
+        print(f"discern: warning: {warning}", file=sys.stderr)
+    return reasoner
 
 
 def cmd_check(args: argparse.Namespace) -> int:

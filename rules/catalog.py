@@ -13,21 +13,24 @@ A `rule` annotation names every statement that follows it up to the next
 an atom reads when that rule derived it, in place of the predicate's template:
 a value the rule assumes reads as assumed, not as measured. Rules are also
 compiled to plain tuples (terms.py) for the justifier, and indexed by the predicates they need so that a frame grounds
-only the rules that can fire on its facts.
+only the rules that can fire on its facts. What breaks the conventions is refused (CatalogError, one line naming the
+file, line and rule); what loads but is likely a mistake is kept in `Catalog.warnings`, for the commands to print.
 """
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
 from importlib import resources
 from pathlib import Path
-from typing import Iterable, Optional, Sequence
+from typing import Hashable, Iterable, Optional, Sequence
 
-from clingo import Control, Function, Number, Symbol, ast
+from clingo import Control, Function, Number, Symbol, SymbolType, ast
 
+from .facts import PARAM_NAMES, SCENE_PREDICATES
 from .terms import Literal, Term, compile_literal, compile_term, is_fixed, pattern_of, term_vars
 
 # Every line that starts with `%!` is an annotation: a keyword, then (after white space) its value.
@@ -58,6 +61,7 @@ SETTING_PREFIX = "jur."  # a jurisdiction pack's settings (the traffic side, zon
 # (`Catalog.traces`). Not `forbidden`: a veto's proof replays its reasons' bodies anyway, and with its rules
 # recorded, random overrides took 0.98-1.06 of the time.
 TRACED = frozenset({"applicable"})
+EXCEPTION_HOOK = "ab"  # `ab(T)`: an exception to a default rule, one hook per functor of T (`_exception_graph`)
 TRACE_PREFIX = "__by_"
 
 
@@ -160,6 +164,8 @@ class Catalog:
     # Units of each rule's variables by rule index, read off the templates (phrases.Phrasebook.formats_of): the same
     # in every frame, so kept here rather than worked out again for each proof.
     variable_formats: dict[int, dict[str, str]] = field(default_factory=dict, repr=False)
+    # What loads but is likely a mistake (a misspelt predicate): "file:line: rule: ...", for the commands to show.
+    warnings: list[str] = field(default_factory=list, repr=False)
 
     @cached_property
     def by_id(self) -> dict[str, RuleInfo]:
@@ -378,17 +384,19 @@ def signature_of(head: ast.AST) -> tuple[str, int]:
 @dataclass(frozen=True)
 class _Annotations:
     blocks: dict[int, RuleInfo]  # each `%! rule` block's first line -> its RuleInfo
-    templates: list[tuple[str, PredTemplate]]  # ("pred" or "term", its template)
+    templates: list[tuple[str, int, PredTemplate]]  # ("pred" or "term", its line, its template)
     hidden: set[tuple[str, int]]
     reads: list[tuple[str, int, PredTemplate]]  # (rule id, line, how its head reads)
+    described: dict[int, list[tuple[int, str]]]  # each block's first line -> (line, "says" or "source") of its own
 
 
 def _annotations(text: str, path: str) -> _Annotations:
     """Map each `%! rule` block's first line to its RuleInfo; collect templates, rules' own words and hidden predicates."""
     blocks: dict[int, RuleInfo] = {}
-    templates: list[tuple[str, PredTemplate]] = []
+    templates: list[tuple[str, int, PredTemplate]] = []
     reads: list[tuple[str, int, PredTemplate]] = []
     hidden: set[tuple[str, int]] = set()
+    described: dict[int, list[tuple[int, str]]] = {}
     current: dict[str, str] = {}
     start = 0
 
@@ -434,28 +442,49 @@ def _annotations(text: str, path: str) -> _Annotations:
             if key == "reads":
                 reads.append((current["rule"], number, PredTemplate(name, args, template)))
             else:
-                templates.append((key, PredTemplate(name, args, template)))
+                templates.append((key, number, PredTemplate(name, args, template)))
         elif key == "rule":
             close()
             current, start = {"rule": value}, number
         else:
             if not current:
                 raise CatalogError(f"{path}:{number}: '{key}' before any '%! rule'")
+            if key in current:  # a block whose `%! rule` line is missing: it would take this rule's id
+                first = next(line for line, said in described[start] if said == key)
+                raise CatalogError(f"{path}:{number}: a second '%! {key}' for rule {current['rule']} (line {first}):"
+                                   f" the rule block at {path}:{number} has no `%! rule` line")
             current[key] = value
+            described.setdefault(start, []).append((number, key))
             if "says" in current and "source" in current:
                 blocks[start] = RuleInfo(current["rule"], current["says"], current["source"], path, start)
     close()
-    return _Annotations(blocks, templates, hidden, reads)
+    return _Annotations(blocks, templates, hidden, reads, described)
 
 
-def _compile_file(path: str, text: str, catalog: Catalog) -> None:
+@dataclass
+class _Places:
+    """Where the files read so far write what the loader checks once all are read: "file:line"."""
+
+    templates: dict[tuple[str, int] | str, str] = field(default_factory=dict)  # by signature; a constant's by name
+    facts: list[tuple[tuple[str, int], str, Optional[str]]] = field(default_factory=list)  # (signature, place, rule id)
+
+
+def _compile_file(path: str, text: str, catalog: Catalog, places: _Places) -> None:
+    declared = places.templates
     found = _annotations(text, path)
     blocks = found.blocks
     catalog.hidden |= found.hidden
     for rule_id, _, template in found.reads:
         catalog.rule_templates[(rule_id, template.signature)] = template
-    for key, template in found.templates:
-        if key == "term" and not template.params:  # a constant's words: its own, apart from any predicate's
+    for key, line, template in found.templates:
+        constant = key == "term" and not template.params  # a constant's words: its own, apart from any predicate's
+        what = template.name if constant else template.signature
+        if what in declared:  # the later one would replace the shipped wording, unsaid
+            named = template.name if constant else "/".join(map(str, template.signature))
+            raise CatalogError(f"{path}:{line}: a second '%! {key}' for {named}: it has words at {declared[what]}"
+                               " already (one wording each)")
+        declared[what] = f"{path}:{line}"
+        if constant:
             catalog.words[template.name] = template.template
         else:
             catalog.templates[template.signature] = template
@@ -476,13 +505,21 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         ast.parse_string(text, parsed.append, logger=lambda _code, message: messages.append(message.strip()))
     except RuntimeError:
         detail = "; ".join(m.replace("<string>", path) for m in messages) or "syntax error"
-        raise CatalogError(f"{path}: cannot parse: {detail}") from None
+        unended = _unended_line(text, messages)
+        if unended is None:
+            raise CatalogError(f"{path}: cannot parse: {detail}") from None
+        info = owner(unended)
+        rule = f" {info.id}:" if info is not None else ""
+        raise CatalogError(f"{path}:{unended}:{rule} cannot parse: the statement ends on this line without a full stop"
+                           f" (clingo: {detail})") from None
     for stm in parsed:
         if stm.ast_type in (ast.ASTType.Program, ast.ASTType.Comment):
             continue
         if stm.ast_type != ast.ASTType.Rule:
             raise CatalogError(f"{path}:{stm.location.begin.line}: only rules and facts belong in a catalog")
         info = owner(stm.location.begin.line)
+        if info is not None:
+            _check_described_first(info, found.described[info.line], stm.location.begin.line)
         if _classically_negated(stm):  # the prover and the slicers read an atom's predicate from its name
             raise CatalogError(f"{path}:{stm.location.begin.line}: classical negation ('-p') is not supported: "
                                "name the opposite as a predicate of its own, or use 'not p'")
@@ -491,7 +528,10 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
             if not normal:  # a choice, a disjunction or a constraint: no fact the prover could cite
                 raise CatalogError(f"{path}:{stm.location.begin.line}: only normal rules and facts are supported")
             catalog.facts.append(stm)
-            for atom in _ground_fact(stm, path):
+            atoms = _ground_fact(stm, path, info)
+            places.facts.extend((signature, f"{path}:{stm.location.begin.line}", info and info.id)
+                                for signature in dict.fromkeys((a.name, len(a.arguments)) for a in atoms))
+            for atom in atoms:
                 catalog.fact_predicates.add(atom.name)
                 catalog.fact_atoms.setdefault(atom.name, []).append(atom)
                 if info is not None:
@@ -529,6 +569,56 @@ def _compile_file(path: str, text: str, catalog: Catalog) -> None:
         if (rule_id, template.signature) not in derived:
             name, arity = template.signature
             raise CatalogError(f"{path}:{line}: 'reads' gives words for {name}/{arity}, which rule {rule_id} does not derive")
+
+
+_SYNTAX_ERROR_AT = re.compile(r"^<string>:(\d+):(\d+)")
+
+
+def _unended_line(text: str, messages: list[str]) -> Optional[int]:
+    """The line a statement that lacks its full stop ends on, where clingo's syntax error says so.
+
+    clingo reports a missing full stop at the next statement's first token, often a block further on. Taken
+    as one when the error is at the first token of its line (or the end of the file), and the code before it
+    ends as a statement can (a name, a number, a closing bracket; not `,`, `:-` or `;`) with its brackets closed.
+    """
+    found = _SYNTAX_ERROR_AT.match(messages[0]) if messages else None
+    if found is None:
+        return None
+    lines = text.splitlines()
+    line, column = int(found.group(1)), int(found.group(2))
+    if line <= len(lines) and lines[line - 1][:column - 1].strip():
+        return None
+    code = [(number, _without_comment(lines[number - 1]).rstrip()) for number in range(1, min(line, len(lines) + 1))]
+    code = [(number, written) for number, written in code if written]
+    if not code or not re.search(r'[\w)"]$', code[-1][1]):
+        return None
+    statement = []
+    for _, written in reversed(code):
+        if written.endswith("."):
+            break
+        statement.append(re.sub(r'"(?:\\.|[^"\\])*"', "", written))
+    opened = "".join(statement)
+    return code[-1][0] if opened.count("(") == opened.count(")") else None
+
+
+def _without_comment(line: str) -> str:
+    """A line of clingo without its `%` comment (a `%` inside a string stays)."""
+    quoted = False
+    for i, char in enumerate(line):
+        if char == '"' and (i == 0 or line[i - 1] != "\\"):
+            quoted = not quoted
+        elif char == "%" and not quoted:
+            return line[:i]
+    return line
+
+
+def _check_described_first(info: RuleInfo, described: list[tuple[int, str]], statement: int) -> None:
+    """A block's `says` and `source` come before its statements: one after them starts a block with no `%! rule`
+    line, whose statement would otherwise be credited to this rule."""
+    for line, key in described:
+        if line > statement:
+            raise CatalogError(f"{info.file}:{line}: '%! {key}' after rule {info.id}'s statement at line {statement}:"
+                               f" the rule block at {info.file}:{line} has no `%! rule` line")
 
 
 def _computed_head_arguments(head: ast.AST, body: tuple[Literal, ...]) -> tuple[Term, tuple[Literal, ...]]:
@@ -613,15 +703,16 @@ def _assignments(body: tuple[Literal, ...]) -> frozenset[int]:
     return frozenset(found)
 
 
-def _ground_fact(stm: ast.AST, path: str) -> list[Symbol]:
+def _ground_fact(stm: ast.AST, path: str, info: Optional[RuleInfo]) -> list[Symbol]:
     """The atoms a catalog fact stands for (pools expanded), to credit them to their rule."""
-    control = _ground_alone([stm], path)  # held while its atoms are read: they live in it
+    rule_at = {stm.location.begin.line: info.id} if info is not None else {}
+    control = _ground_alone([stm], path, rule_at)  # held while its atoms are read: they live in it
     return [a.symbol for a in control.symbolic_atoms if a.is_fact]
 
 
-def _ground_alone(statements: Iterable[ast.AST], path: str) -> Control:
+def _ground_alone(statements: Iterable[ast.AST], path: str, rule_at: dict[int, str]) -> Control:
     """The statements grounded with no facts. clingo finds an unsafe variable (`foo(X).`, `p(A) :- not q.`) only
-    when it grounds: refused here in its own words, named by the file."""
+    when it grounds: refused here, named by the file, line and rule id (`rule_at`: a statement's line -> its rule)."""
     messages: list[str] = []
     control = Control(["--warn=none"], logger=lambda _code, message: messages.append(message.strip()))
     try:
@@ -630,23 +721,301 @@ def _ground_alone(statements: Iterable[ast.AST], path: str) -> Control:
                 builder.add(statement)
         control.ground([("base", [])])
     except RuntimeError:
-        said = " ".join(" ".join(m.split()) for m in messages).replace("<string>", path)
-        raise CatalogError(f"{path}: clingo cannot ground it: {said or 'no reason given'}") from None
+        raise CatalogError(_grounding_problem(messages, path, rule_at)) from None
     return control
 
 
+_CLINGO_AT = re.compile(r"^<string>:(\d+):[\d:-]+: error: (.*?):?$")
+_UNSAFE = re.compile(r"note: '(\w+)' is unsafe")
+
+
+def _grounding_problem(messages: list[str], path: str, rule_at: dict[int, str]) -> str:
+    """clingo's first grounding error as the catalog reads: where its statement is written and its rule, not the
+    rule as clingo rewrote it (`#range(Y,1,2999);[#inc_base]`)."""
+    for message in messages:
+        lines = message.splitlines()
+        found = _CLINGO_AT.match(lines[0])
+        if found is None:
+            continue
+        line = int(found.group(1))
+        rule = f" {rule_at[line]}:" if line in rule_at else ""
+        unsafe = [m.group(1) for m in map(_UNSAFE.search, lines[1:]) if m]
+        what = found.group(2)
+        if unsafe:
+            what = (f"unsafe variable{'s' if len(unsafe) > 1 else ''} {', '.join(unsafe)}: no positive body atom"
+                    f" binds {'them' if len(unsafe) > 1 else 'it'}")
+        return f"{path}:{line}:{rule} clingo cannot ground it: {what}"
+    said = " ".join(" ".join(m.split()) for m in messages).replace("<string>", path)
+    return f"{path}: clingo cannot ground it: {said or 'no reason given'}"
+
+
+def _signature(atom: Term) -> tuple[str, int]:
+    return (atom[1].name, len(atom[1].arguments)) if atom[0] == "s" else (atom[1], len(atom[2]))
+
+
+def _terms(term: Term | Symbol) -> Iterable[tuple[str, int]]:
+    """The signatures of the compound terms in an atom's arguments, at any depth (`hazard(obstacle(O))`: obstacle/1)."""
+    if not isinstance(term, Symbol) and term[0] == "s":
+        term = term[1]
+    if isinstance(term, Symbol):
+        arguments: Sequence = term.arguments if term.type == SymbolType.Function else ()
+    else:
+        arguments = term[2] if term[0] == "f" else ()
+    for argument in arguments:
+        if not isinstance(argument, Symbol) and argument[0] == "s":
+            argument = argument[1]
+        if isinstance(argument, Symbol) and argument.type == SymbolType.Function and argument.arguments:
+            yield argument.name, len(argument.arguments)
+        elif not isinstance(argument, Symbol) and argument[0] == "f" and argument[2]:
+            yield argument[1], len(argument[2])
+        yield from _terms(argument)
+
+
+def _where(rule: CompiledRule) -> str:
+    return f"{rule.info.file}:{rule.statement.location.begin.line}: {rule.info.id}"
+
+
+def _check_words(catalog: Catalog, places: _Places) -> None:
+    """Every atom a rule derives reads as English: its predicate has a `%! pred` template (unless hidden), and a
+    hazard its words (`%! term obstacle(O)`, or for a constant `%! term flashing_red`). Else a proof shows the raw
+    atom, its numbers in centimetres: `truck_too_close(7, 2500)`, "there is a hazard: truck close (7, 2500)"."""
+    read = _read(catalog)
+    for rule in catalog.compiled:
+        name, arity = rule.signature
+        if rule.signature not in catalog.templates and rule.signature not in catalog.hidden:
+            others = [f"the one at {places.templates[s]} is for {_show(s)}" for s in catalog.templates if s[0] == name]
+            hint = f" ({'; '.join(others)})" if others else ""
+            if not hint and rule.signature not in read:  # nothing reads it either: a misspelt predicate (forbiden)
+                hint = _guess(_show(rule.signature), map(_show, catalog.templates))
+            raise CatalogError(f"{_where(rule)}: {name}/{arity} has no '%! pred' template: its atoms would read as raw"
+                               f" terms, numbers in centimetres{hint}")
+        if name != "hazard" or arity != 1:
+            continue
+        hazard = rule.head[2][0] if rule.head[0] == "f" else None
+        if hazard is not None and hazard[0] == "f" and (hazard[1], len(hazard[2])) not in catalog.templates:
+            raise CatalogError(f"{_where(rule)}: the hazard {hazard[1]}/{len(hazard[2])} has no '%! term' template:"
+                               " it would read as a raw term, numbers in centimetres")
+        constant = hazard[1] if hazard is not None and hazard[0] == "s" else None
+        if constant is not None and constant.type == SymbolType.Function and constant.name not in catalog.words:
+            words = constant.name.replace("_", " ")
+            raise CatalogError(f"{_where(rule)}: the hazard {constant.name} has no '%! term' words: it would read as"
+                               f" \"{words}\"")
+
+
+# The atoms the verdict reads (engine.py: SolvedFrame.READS, the proposal's reasons and prohibitions, the sanity
+# layer's notes): a rule deriving another predicate that no rule reads decides nothing.
+VERDICT_READS = frozenset({("permitted", 1), ("recommended", 1), ("replacement", 1), ("applicable", 1),
+                           ("forbidden", 1), ("noted", 1)})
+
+
+def frame_predicates() -> frozenset[tuple[str, int]]:
+    """The predicates a frame's facts may give: the scene's, the sanity window's and the parameters'."""
+    from discern.sanity.window import WINDOW_PREDICATES  # here, not at the top: the sanity layer imports from rules
+
+    return SCENE_PREDICATES | WINDOW_PREDICATES | {("param", 2)}
+
+
+def _setting_names(catalog: Catalog) -> dict[str, frozenset[str]]:
+    """Per setting predicate, the names that the reasoner's, the window's or the catalog's own facts give."""
+    from discern.sanity.window import WINDOW_PARAMS
+
+    return {name: names | {atom.arguments[0].name for atom in catalog.fact_atoms.get(name, [])
+                           if len(atom.arguments) == 2 and atom.arguments[0].type == SymbolType.Function}
+            for name, names in (("param", PARAM_NAMES), ("window_param", WINDOW_PARAMS))}
+
+
+def _show(signature: tuple[str, int]) -> str:
+    return f"{signature[0]}/{signature[1]}"
+
+
+def _guess(name: str, known: Iterable[str]) -> str:
+    close = difflib.get_close_matches(name, sorted(known), n=1)
+    return f" (did you mean {close[0]}?)" if close else ""
+
+
+def _warnings(catalog: Catalog, places: _Places) -> Iterable[str]:
+    """What loads but is likely a mistake, in catalog order (`Catalog.warnings`)."""
+    given = ({rule.signature for rule in catalog.compiled} | {signature for signature, _, _ in places.facts}
+             | frame_predicates())
+    yield from _unknown_reads(catalog, given)
+    yield from _unread(catalog)
+    yield from _unworded(catalog, places, given)
+
+
+def _unknown_reads(catalog: Catalog, given: set[tuple[str, int]]) -> Iterable[str]:
+    """A body atom of a predicate that nothing gives (`given`) and no `%! pred` declares, or a setting no fact names:
+    a misspelling (`large_vehicles(C)`, `not truck_exmept(O)`, `param(truck_dist, T)`) by which its rule never
+    fires, or is never blocked. A declared predicate may be given by nothing: a pack's setting (school_bus_law)."""
+    settings = _setting_names(catalog)
+    known = {_show(s) for s in given | set(catalog.templates)}
+    for rule in catalog.compiled:
+        for lit in rule.body:
+            if not lit.is_atom:
+                continue
+            signature = _signature(lit.atom)
+            if signature not in given and signature not in catalog.templates:
+                yield (f"{_where(rule)}: nothing gives {_show(signature)}: no catalog fact, rule or frame fact, and no"
+                       f" '%! pred' declares it{_guess(_show(signature), known)}")
+            name = _setting(lit.atom) if signature[0] in settings and signature[1] == 2 else None
+            if name is not None and name not in settings[signature[0]]:
+                hint = _guess(name, settings[signature[0]]) or f" (known: {', '.join(sorted(settings[signature[0]]))})"
+                yield f"{_where(rule)}: {signature[0]}({name}, _) names no setting{hint}"
+
+
+def _setting(atom: Term) -> Optional[str]:
+    """The name a setting's atom gives as its first argument (`param(truck_dist, T)`), if a constant."""
+    first = atom[2][0] if atom[0] == "f" else ("s", atom[1].arguments[0])
+    return first[1].name if first[0] == "s" and first[1].type == SymbolType.Function else None
+
+
+def _read(catalog: Catalog) -> set[tuple[str, int]]:
+    """The predicates that a rule's body or the verdict reads."""
+    return {_signature(lit.atom) for rule in catalog.compiled for lit in rule.body if lit.is_atom} | VERDICT_READS
+
+
+def _unread(catalog: Catalog) -> Iterable[str]:
+    """A rule deriving a predicate that no rule body and not the verdict reads (`forbiden(accelerate)`)."""
+    read = _read(catalog)
+    for rule in catalog.compiled:
+        if rule.signature not in read:
+            yield (f"{_where(rule)}: nothing reads {_show(rule.signature)}: no rule's body, nor the verdict"
+                   f"{_guess(_show(rule.signature), map(_show, read))}")
+
+
+def _unworded(catalog: Catalog, places: _Places, given: set[tuple[str, int]]) -> Iterable[str]:
+    """Words missing or for nothing: a compound term in a rule's head with no `%! term` (an exception hook's
+    `ab(truck_ahead(O))` reads "an exception applies: truck ahead (7)"); a catalog fact with no `%! pred` (a pack's
+    setting, which the catalog it is loaded with words); a template whose signature no atom or term has."""
+    atoms = [rule.head for rule in catalog.compiled] + [lit.atom for rule in catalog.compiled for lit in rule.body
+                                                        if lit.is_atom]
+    terms = {signature for atom in atoms for signature in _terms(atom)}
+    terms |= {signature for facts in catalog.fact_atoms.values() for atom in facts for signature in _terms(atom)}
+    for rule in catalog.compiled:
+        for signature in dict.fromkeys(_terms(rule.head)):
+            if signature not in catalog.templates:
+                yield f"{_where(rule)}: the term {_show(signature)} in its head has no '%! term' template"
+    for signature, place, rule_id in places.facts:
+        if signature not in catalog.templates and signature not in catalog.hidden:
+            yield f"{place}: {rule_id or 'a fact'}: {_show(signature)} has no '%! pred' template"
+    used = given | terms | {_signature(atom) for atom in atoms}
+    for signature, place in places.templates.items():
+        if isinstance(signature, tuple) and signature not in used:
+            yield f"{place}: the template for {_show(signature)} words no predicate or term that the catalog uses"
+
+
+def _check_ranks(catalog: Catalog) -> None:
+    """`rank/2` orders the actions (def.ranks_below): one rank per action, one action per rank.
+
+    A jurisdiction pack ranks the lane changes with facts of its own. An action ranked twice ranks below itself,
+    and is never recommended where it is called for; two actions of one rank are both recommended, and the
+    verdict picks one by an order of its own.
+    """
+    by_action: dict[Symbol, Symbol] = {}  # action -> the first fact that ranks it
+    by_rank: dict[Symbol, Symbol] = {}  # rank -> the first fact that gives it
+    for atom in catalog.fact_atoms.get("rank", []):
+        if len(atom.arguments) != 2:
+            continue
+        action, rank = atom.arguments
+        before = by_action.setdefault(action, atom)
+        if before == atom:
+            before = by_rank.setdefault(rank, atom)
+            if before == atom:
+                continue
+            problem = f"rank {rank} is given twice: to {action} here, to {before.arguments[0]}"
+        else:
+            problem = f"{action} is ranked twice: {rank} here, {before.arguments[1]}"
+        info, earlier = (catalog.by_id.get(catalog.fact_rule.get(a, "")) for a in (atom, before))
+        here = f"{info.file}:{info.line}: {info.id}: " if info is not None else ""
+        there = f" by {earlier.id} at {earlier.file}:{earlier.line}" if earlier is not None else " by a fact of no rule"
+        raise CatalogError(f"{here}{problem}{there} (rank/2 gives each action one rank, each rank to one action)")
+
+
 def _check_stratified(catalog: Catalog) -> None:
-    """No predicate may depend on itself through negation.
+    """No atom may depend on itself through negation (`_exception_graph`).
 
     Then the program has exactly one answer set, the grounder computes it as
-    facts, and every atom's justification is well-founded.
+    facts, and every atom's justification is well-founded. A cycle is named by
+    the rules that close it, the first in catalog order: the same every run.
     """
-    edges = _dependencies(catalog.compiled)
+    edges = _exception_graph(catalog.compiled)
     component = _components(edges)
-    for head, body in edges.items():
-        for predicate, negated in body:
-            if negated and component.get(predicate) == component.get(head):
-                raise CatalogError(f"{head} depends on itself through 'not {predicate}': the catalog must be stratified")
+    for rule in catalog.compiled:
+        head = _node(rule.head)
+        for target, negated, _ in edges[head]:
+            if negated and component[target] == component[head]:
+                back = _path(edges, target, head, component)
+                raise CatalogError(
+                    f"{rule.info.file}:{rule.statement.location.begin.line}: {rule.info.id}: {_node_text(head)} depends"
+                    f" on itself through 'not {_node_text(target)}'"
+                    + "".join(f"; {_node_text(a)} rests on {_node_text(b)} by {r.info.id} at {r.info.file}:"
+                              f"{r.statement.location.begin.line}" for a, b, r in back)
+                    + ": the catalog must be stratified")
+
+
+_Node = tuple[str, Optional[tuple[str, int]]]  # a predicate, and for EXCEPTION_HOOK its argument's functor (None: any)
+
+
+def _node(atom: Term) -> _Node:
+    """An atom's node in `_exception_graph`: its predicate; for `ab/1` its argument's functor too."""
+    if atom[0] == "s":
+        return (atom[1].name, None)
+    if atom[1] == EXCEPTION_HOOK and len(atom[2]) == 1:
+        argument = atom[2][0]
+        if argument[0] == "f":
+            return (EXCEPTION_HOOK, (argument[1], len(argument[2])))
+        if argument[0] == "s" and argument[1].type == SymbolType.Function:
+            return (EXCEPTION_HOOK, (argument[1].name, len(argument[1].arguments)))
+    return (atom[1], None)
+
+
+def _node_text(node: _Node) -> str:
+    name, functor = node
+    if functor is None:
+        return name
+    inner, arity = functor
+    return f"{name}({inner}({', '.join('_' * arity)}))" if arity else f"{name}({inner})"
+
+
+def _exception_graph(rules: Sequence[CompiledRule]) -> dict[_Node, list[tuple[_Node, bool, CompiledRule]]]:
+    """head node -> (node, negated, rule) for each body atom of its rules that some rule can derive, in order.
+
+    Nodes are predicates, except that `ab/1` atoms are told apart by their argument's functor: an exception
+    about a truck ahead (`ab(truck_ahead(O)) :- in_ego_lane(O), ...`) shares no atom with one about a range
+    sensor's reach that `in_ego_lane` rests on through `not ab(beyond_reach(..))`, and per predicate the two
+    made a cycle through negation that clingo does not see. An `ab(X)` matches every functor.
+    """
+    heads: dict[str, dict[_Node, None]] = {}  # predicate -> its head nodes, in catalog order
+    for rule in rules:
+        heads.setdefault(rule.signature[0], {})[_node(rule.head)] = None
+    edges: dict[_Node, list[tuple[_Node, bool, CompiledRule]]] = {n: [] for nodes in heads.values() for n in nodes}
+    for rule in rules:
+        for lit in rule.body:
+            if lit.is_atom:
+                name, functor = _node(lit.atom)
+                edges[_node(rule.head)].extend((head, lit.negated, rule) for head in heads.get(name, ())
+                                               if functor is None or head[1] is None or head[1] == functor)
+    return edges
+
+
+def _path(edges: dict[_Node, list[tuple[_Node, bool, CompiledRule]]], start: _Node, end: _Node,
+          component: dict[_Node, int]) -> list[tuple[_Node, _Node, CompiledRule]]:
+    """The first shortest way from `start` to `end` within their component: (node, the node it rests on, by rule)."""
+    came: dict[_Node, tuple[_Node, CompiledRule]] = {start: (start, None)}
+    queue = [start]
+    for node in queue:
+        if node == end:
+            break
+        for target, _, rule in edges[node]:
+            if target not in came and component[target] == component[start]:
+                came[target] = (node, rule)
+                queue.append(target)
+    steps = []
+    node = end
+    while node != start:
+        before, rule = came[node]
+        steps.append((before, node, rule))
+        node = before
+    return steps[::-1]
 
 
 def _dependencies(rules: Iterable[CompiledRule]) -> dict[str, set[tuple[str, bool]]]:
@@ -659,15 +1028,15 @@ def _dependencies(rules: Iterable[CompiledRule]) -> dict[str, set[tuple[str, boo
     return edges
 
 
-def _components(edges: dict[str, set[tuple[str, bool]]]) -> dict[str, int]:
-    """Strongly connected components of the dependency graph (Tarjan's, without recursion)."""
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    component: dict[str, int] = {}
-    stack: list[str] = []
+def _components(edges: dict[Hashable, Iterable[tuple]]) -> dict[Hashable, int]:
+    """Strongly connected components of a dependency graph (Tarjan's, without recursion): node -> (node, ...)."""
+    index: dict[Hashable, int] = {}
+    low: dict[Hashable, int] = {}
+    component: dict[Hashable, int] = {}
+    stack: list[Hashable] = []
     counter = 0
 
-    def visit(root: str) -> None:
+    def visit(root: Hashable) -> None:
         nonlocal counter
         work = [(root, iter(edges.get(root, ())))]
         index[root] = low[root] = counter
@@ -675,7 +1044,7 @@ def _components(edges: dict[str, set[tuple[str, bool]]]) -> dict[str, int]:
         stack.append(root)
         while work:
             node, children = work[-1]
-            for child, _ in children:
+            for child, *_ in children:
                 if child not in index:
                     index[child] = low[child] = counter
                     counter += 1
@@ -710,11 +1079,11 @@ def catalog_dirs() -> list[Path]:
 def _check_safe(catalog: Catalog) -> None:
     """A catalog with a rule clingo cannot ground is refused on loading, not at every frame: each file's rules
     grounded alone (no facts: quick), so that the message names the file."""
-    by_file: dict[str, list[ast.AST]] = {}
+    by_file: dict[str, list[CompiledRule]] = {}
     for rule in catalog.compiled:
-        by_file.setdefault(rule.info.file, []).append(rule.statement)
-    for file, statements in by_file.items():
-        _ground_alone(statements, file)
+        by_file.setdefault(rule.info.file, []).append(rule)
+    for file, rules in by_file.items():
+        _ground_alone([r.statement for r in rules], file, {r.statement.location.begin.line: r.info.id for r in rules})
 
 
 def _catalog_texts(dirs: Sequence[Path] | None, extra_files: Iterable[Path]) -> list[tuple[Path, str]]:
@@ -750,20 +1119,35 @@ def catalog_digest(dirs: Sequence[Path] | None = None, extra_files: Iterable[Pat
 
 
 def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> Catalog:
+    catalog, places = _compiled(dirs, extra_files)
+    _check(catalog, places)
+    return catalog
+
+
+def _compiled(dirs: Sequence[Path] | None, extra_files: Iterable[Path]) -> tuple[Catalog, _Places]:
     catalog = Catalog(rules=[], templates={}, compiled=[], facts=[])
     texts = _catalog_texts(dirs, extra_files)
+    places = _Places()
     for path, text in texts:
-        _compile_file(str(path), text, catalog)
+        _compile_file(str(path), text, catalog, places)
     catalog.digest = _digest(texts)
-    _check_stratified(catalog)
-    _check_safe(catalog)
-    catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it
+    return catalog, places
+
+
+def _check(catalog: Catalog, places: _Places) -> None:
+    """What only the whole catalog shows: refused in one line naming the file, line and rule; or a warning."""
     seen: dict[str, RuleInfo] = {}
     for info in catalog.rules:
         if info.id in seen:
-            raise CatalogError(f"rule id {info.id} is used twice ({seen[info.id].file}, {info.file})")
+            first = seen[info.id]
+            raise CatalogError(f"rule id {info.id} is used twice ({first.file}:{first.line}, {info.file}:{info.line})")
         seen[info.id] = info
-    return catalog
+    _check_ranks(catalog)
+    _check_stratified(catalog)
+    _check_safe(catalog)
+    _check_words(catalog, places)
+    catalog.warnings = list(dict.fromkeys(_warnings(catalog, places)))
+    catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it
 
 
 DECIDING = ("action", "permitted", "recommended")  # what a verdict is read from: a driving catalog must define them
@@ -784,7 +1168,7 @@ def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] 
         once.setdefault(directory.resolve(), directory)
     given = list(once.values())
     shipped = [d for d in catalog_dirs()[1:] if d.resolve() not in once]
-    catalog = load_catalog(given + shipped, extra_files=extra_files)
+    catalog, places = _compiled(given + shipped, extra_files)
     for directory in given:
         if not any(Path(rule.file).parent == directory for rule in catalog.driving_rules()):
             raise CatalogError(
@@ -797,6 +1181,7 @@ def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] 
             f"rules directories {', '.join(map(str, given))} define no {', '.join(n + '/1' for n in missing)}: "
             "the decision rules (as in rules/catalog/90_decision.lp) are missing"
         )
+    _check(catalog, places)
     return catalog
 
 

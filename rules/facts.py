@@ -7,6 +7,7 @@ cm/s; the predicate templates convert them back for people.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import asdict, dataclass, fields
 
 from clingo import String
@@ -105,6 +106,21 @@ class Params:
             ]
             + [f"param({name},{cm(value)})." for name, value in values.items()]
         )
+
+
+PARAM_NAMES = frozenset(re.findall(r"param\((\w+),", Params().facts()))  # as the rules read them: reaction_ms
+# The predicates scene_facts gives (a test checks it on every scenario file): a catalog rule that reads another
+# one that no catalog fact or rule gives either reads nothing, a misspelling (catalog.py warns of it).
+SCENE_PREDICATES = frozenset({
+    ("ego_speed", 1), ("ego_lane", 1), ("intent", 1), ("zone", 1), ("ego_path", 1), ("speed_limit", 1),
+    ("map_speed_limit", 1), ("road_divided", 0), ("lane", 2), ("lane_ends", 2), ("lane_leaves_road", 1),
+    ("lane_speed_limit", 3), ("object", 2), ("obj_pos", 3), ("obj_lane", 3), ("lane_unreported", 1),
+    ("obj_velocity", 3), ("has_velocity", 1), ("obj_indicator", 2), ("obj_emergency_lights", 1), ("obj_path", 2),
+    ("obj_source", 2), ("obj_elevation", 2), ("obj_track_age", 2), ("traffic_light", 1), ("light_flashing", 1),
+    ("light_steady", 1), ("traffic_sign", 1), ("sign_reading", 3), ("intersection", 1), ("intersection_stage", 1),
+    ("intersection_road", 1), ("arrival_rank", 1), ("intersection_distance", 1), ("stop_line", 0),
+    ("stop_controlled", 0), ("sensor", 3), ("paths_cross", 2), ("proposed", 1),
+})
 
 
 def scene_facts(scene: Scene, proposed: Action | None = None) -> str:

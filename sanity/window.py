@@ -166,6 +166,22 @@ class Bodies:
         return self.lengths.get(obj.cls, DEFAULT_SIZE), WIDTH.get(obj.cls, DEFAULT_SIZE)
 
 
+# The predicates `WindowProvider.facts` gives, and the names of its window_param/2 (a test checks both on every
+# scenario file): what the catalog loader takes frames to give besides the scene's (rules.facts.SCENE_PREDICATES).
+WINDOW_PREDICATES = frozenset({
+    ("signal_dark", 0), ("window_frames", 1), ("window_param", 2), ("light_seen_on_approach", 0),
+    ("slowest_recent_speed", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2), ("reading_time", 2),
+    ("misread_before", 2), ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
+    ("light_flashing_frames", 2), ("light_flashing_time", 2), ("light_flashes", 1), ("light_seen_recently", 1),
+    ("sign_seen_recently", 1), ("obj_size", 3), ("overlaps", 2), ("predicted_conflict", 3), ("obj_source_before", 2),
+    ("remembered", 2), ("remembered_object", 2), ("remembered_pos", 3), ("track_frames", 2), ("track_time", 2),
+    ("remembered_lane", 3), ("remembered_velocity", 3), ("remembered_source", 2), ("sensor_still_reads", 4),
+    ("sensor_reads_past", 4), ("reported_before", 2), ("ran_beside", 2), ("remembered_conflict", 3),
+    ("lights_frames", 2), ("lights_time", 2),
+})
+WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "track_ms"})
+
+
 class WindowProvider:
     """FactProvider for the sanity rules (see discern.rules.engine.FactProvider)."""
 

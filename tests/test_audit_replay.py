@@ -527,3 +527,15 @@ def test_a_file_without_the_writers_metadata_does_not_block_a_replay(capsys, tmp
     (tmp_path / "discern-m-20260101T000000-0000.mcap").write_bytes(b"")  # an empty file beside it
     code, _, err = audit(capsys, "--replay", str(tmp_path), "-q", "--workers", "1")
     assert code == 0 and "different settings" not in err
+
+
+def test_a_rules_catalog_with_a_misspelt_predicate_is_replayed_and_warned_of(capsys, tmp_path, logs):
+    rules = tmp_path / "rules"
+    shutil.copytree(catalog_dirs()[0], rules)
+    (rules / "35_trucks.lp").write_text(
+        "%! rule acc.truck_ahead\n%! says Not behind a truck.\n%! source review\n"
+        "forbidden(accelerate) :- in_ego_lane(O), object(O, C), large_vehicles(C).\n")
+    code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(rules), "--workers", "1")
+    assert code == 0 and "no decision would change" in out
+    assert (f"discern audit: warning: rules catalog: {rules / '35_trucks.lp'}:4: acc.truck_ahead: nothing gives "
+            "large_vehicles/1: ") in err

@@ -665,3 +665,32 @@ def test_check_refuses_a_scene_note_with_a_terminal_escape_or_past_its_length_in
         assert main(["check", write(tmp_path, good_dict() | {"notes": [note]}), "--proposed", "cruise"]) == 2
         captured = capsys.readouterr()
         assert f"notes.0: {problem}" in captured.err and "\x1b" not in captured.err + captured.out
+
+
+@pytest.mark.parametrize("command", [
+    ["catalog", "--rules", "{rules}"],
+    ["check", "{good}", "--proposed", "accelerate", "--rules", "{rules}"],
+])
+def test_a_misspelt_predicate_in_a_rules_directory_is_warned_of_on_stderr_naming_its_line_and_rule(
+        tmp_path, capsys, command):
+    import shutil
+
+    rules = tmp_path / "rules"
+    shutil.copytree(ROOT / "rules" / "catalog", rules)
+    (rules / "35_trucks.lp").write_text(
+        "%! rule acc.truck_ahead\n%! says Not behind a truck.\n%! source review\n"
+        "forbidden(accelerate) :- in_ego_lane(O), object(O, C), large_vehicles(C).\n")
+    argv = [a.format(rules=rules, good=write(tmp_path, good_dict())) for a in command]
+    assert main(argv) == 0
+    out, err = capsys.readouterr()
+    assert out and err == (f"discern: warning: {rules / '35_trucks.lp'}:4: acc.truck_ahead: nothing gives large_vehicles/1: "
+                           "no catalog fact, rule or frame fact, and no '%! pred' declares it"
+                           " (did you mean emergency_vehicle/1?)\n")
+
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_the_shipped_rules_load_without_a_warning(capsys, jurisdiction):
+    assert main(["catalog", "--jurisdiction", jurisdiction]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(["catalog", "--jurisdiction", jurisdiction, "--rules", str(ROOT / "rules" / "catalog")]) == 0
+    assert capsys.readouterr().err == ""

@@ -125,7 +125,7 @@ def test_frames_without_crossing_traffic_ground_no_crossing_rules_and_a_crossing
 
 def test_a_rule_requires_the_constants_and_functors_of_its_positive_atoms_not_their_variables(tmp_path):
     (tmp_path / "r.lp").write_text(
-        "%! rule x.a\n%! says A.\n%! source s\n"
+        '%! pred a(X) :: "@(X) is an a"\n%! rule x.a\n%! says A.\n%! source s\n'
         "a(X) :- p(X, left, f(Y), Z+1), q(X), r(c), not s(d), X > 0.\n")
     rule = load_catalog([tmp_path]).compiled[0]
     assert {pattern_text(p) for p in rule.requires} == {"p(_,left,f(_),_)", "r(c)"}
@@ -133,6 +133,7 @@ def test_a_rule_requires_the_constants_and_functors_of_its_positive_atoms_not_th
 
 def test_a_derived_predicate_that_no_left_out_rule_needs_gets_atoms_without_grounding_the_frame_again(tmp_path):
     (tmp_path / "r.lp").write_text(
+        '%! pred p(X) :: "@(X) is a p"\n%! pred q(X) :: "@(X) is a q"\n%! pred r(X) :: "@(X) is an r"\n'
         "%! rule x.p\n%! says P.\n%! source s\np(X) :- f(X), X > 9.\n"
         "%! rule x.q\n%! says Q.\n%! source s\nq(X) :- f(X), X > 5.\n"
         "%! rule x.r\n%! says R.\n%! source s\nr(X) :- p(X), g(X).\n")

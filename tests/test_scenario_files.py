@@ -39,3 +39,28 @@ def test_a_wrong_expectation_is_reported_as_a_failure(reasoner):
     scenario.frames[0].expect.action = Action.accelerate
     outcome = runner.run(scenario, reasoner)[0]
     assert not outcome.passed and "expected accelerate" in outcome.problems[0]
+
+
+def test_every_fact_a_frame_gives_is_of_a_predicate_the_catalog_loader_knows_frames_give():
+    """The loader warns of a rule that reads a predicate nothing gives (`catalog.frame_predicates`) or a
+    window_param no window names: a frame fact it did not know of would make it warn of a sound rule."""
+    import clingo
+
+    from discern.rules.catalog import frame_predicates
+    from discern.sanity.window import WINDOW_PARAMS
+
+    texts = []
+    for path in FILES:
+        scenario = runner.load(path)
+        reasoner = reasoner_for(scenario.jurisdiction)
+        history = []
+        for frame in scenario.frames:
+            texts.append(reasoner.frame_facts(frame.scene, frame.proposed, tuple(history)) + reasoner.params.facts())
+            history.append(frame.scene)
+    control = clingo.Control(["--warn=none"])
+    control.add("base", [], "".join(texts))
+    control.ground([("base", [])])
+    given = {(name, arity) for name, arity, _ in control.symbolic_atoms.signatures}
+    assert given - frame_predicates() == set()
+    named = {atom.symbol.arguments[0].name for atom in control.symbolic_atoms.by_signature("window_param", 2)}
+    assert named == WINDOW_PARAMS

@@ -157,9 +157,11 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     window = args.window if args.window is not None else recorded.window_s
     catalog = ReplayCatalog.of(args.rules, args.jurisdiction or recorded.jurisdiction or "us", params)
     try:
-        catalog.load()
+        loaded = catalog.load()
     except CatalogError as exc:  # names the file and line it could not read
         raise UsageError(f"rules catalog: {exc}") from None
+    for warning in loaded.warnings:  # what loads but likely never fires as meant: a misspelt predicate
+        print(f"discern audit: warning: rules catalog: {warning}", file=sys.stderr)
     # this version's catalog with the pack the logs were decided with, whatever --jurisdiction replays them with
     shipped = catalog_digest(extra_files=[jurisdiction_pack(recorded.jurisdiction or "us")])
     if recorded.catalog is not None and recorded.catalog != shipped:
