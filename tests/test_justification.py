@@ -613,10 +613,10 @@ def test_a_position_compared_with_a_distance_setting_gives_the_setting_no_side(r
     """'|Y| < W' with W the crossing distance: once '-Y < W', which read '-4.0 m is behind 15.0 m ahead', then '-4.0 m'."""
     sc = scene(speed=5, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"),
                intersection={"type": "t_intersect", "stage": "at"},
-               objects=[obj("bicycle", 2.5, 4, lane=1, kind="shoulder", vy=5)])
+               objects=[obj("bicycle", 2.5, -4, lane=1, kind="shoulder", vy=5)])
     text = reasoner.decide(sc, "turn_right", explain=True).justification.text
-    assert "tr.kerb_side_user" in text
-    assert "4.0 m ahead or behind < 15.0 m" in text and "-4.0 m" not in text and "15.0 m ahead" not in text
+    assert "tr.kerb_side_user" in text and "bicycle 1, 4.0 m behind, is behind the ego" in text
+    assert "4.0 m < 15.0 m" in text and "-4.0 m" not in text and "15.0 m ahead" not in text
 
 
 def test_a_signed_speed_against_zero_reads_in_words_not_with_a_minus_sign(reasoner):
