@@ -803,8 +803,9 @@ def test_inside_a_uk_junction_with_dark_signals_the_ego_clears_it_rather_than_st
 
 
 def test_a_red_seen_before_the_lights_went_dark_still_holds_the_ego():
-    frames = (scene(frame=1, speed=6.0, limit=15.6, lights=[{"colour": "red"}], intersection=DARK),
-              scene(frame=2, speed=5.0, limit=15.6, lights=[{"colour": "none"}], intersection=DARK))
+    near = {**DARK, "distance": 12.0}  # within a comfortable stop: farther out, no light holds the ego yet
+    frames = (scene(frame=1, speed=6.0, limit=15.6, lights=[{"colour": "red"}], intersection=near),
+              scene(frame=2, speed=5.0, limit=15.6, lights=[{"colour": "none"}], intersection=near))
     for jurisdiction in ("us", "uk"):
         verdict = _run(frames, Action.accelerate, jurisdiction)
         assert verdict.decision is Decision.override and "san.memory.red_light" in verdict.rules, jurisdiction
