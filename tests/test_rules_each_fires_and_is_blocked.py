@@ -61,6 +61,18 @@ CASES = {
         scene(speed=13, objects=[obj("bicycle", 1.9, 20, vy=5.0)]),
         scene(speed=6, objects=[obj("bicycle", 1.9, 20, vy=5.0)]),
     ),
+    "brake.vehicle_stopped_at_crossing": (
+        scene(speed=11, lanes=2, light="green", intersection={"type": "signaled", "stage": "arriving", "distance": 8.0},
+              objects=[obj("car", 3.5, 4, lane=2, vy=0.0)]),
+        scene(speed=11, lanes=2, light="green", intersection={"type": "signaled", "stage": "arriving", "distance": 8.0},
+              objects=[obj("car", 3.5, 4, lane=2, vy=0.0, indicator="right")]),
+    ),
+    "def.stopped_at_crossing": (
+        scene(speed=11, lanes=2, intersection={"type": "signaled", "stage": "arriving", "distance": 8.0},
+              objects=[obj("car", 3.5, 4, lane=2, vy=0.0)]),
+        scene(speed=11, lanes=2, intersection={"type": "signaled", "stage": "arriving", "distance": 40.0},
+              objects=[obj("car", 3.5, 4, lane=2, vy=0.0)]),
+    ),
     "brake.obstacle_ahead": (scene(objects=[ped_ahead]), scene(objects=[obj("plastic_bag", 0, 6, lane=1)])),
     "brake.red_light": (
         scene(light="red", intersection={"type": "signaled", "stage": "arriving"}),
