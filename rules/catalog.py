@@ -802,10 +802,10 @@ def _check_words(catalog: Catalog, places: _Places) -> None:
                                f" \"{words}\"")
 
 
-# The atoms the verdict reads (engine.py: SolvedFrame.READS, the proposal's reasons and prohibitions, the sanity
-# layer's notes): a rule deriving another predicate that no rule reads decides nothing.
-VERDICT_READS = frozenset({("permitted", 1), ("recommended", 1), ("replacement", 1), ("applicable", 1),
-                           ("forbidden", 1), ("noted", 1)})
+VERDICT_CONSTANTS = ("permitted", "recommended", "replacement")  # the actions every verdict reads (engine.SolvedFrame)
+# The atoms the verdict reads (those, the proposal's reasons and prohibitions, the sanity layer's notes): a rule
+# deriving another predicate that no rule reads decides nothing.
+VERDICT_READS = frozenset({(name, 1) for name in VERDICT_CONSTANTS} | {("applicable", 1), ("forbidden", 1), ("noted", 1)})
 
 
 def frame_predicates() -> frozenset[tuple[str, int]]:

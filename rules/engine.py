@@ -22,7 +22,7 @@ from clingo import ast
 
 from .answer_set import AnswerSet, show_statements
 from .batch import BatchAnswers, FrameAnswers, FrameTagger
-from .catalog import Catalog, load_catalog, static_fact_refused
+from .catalog import VERDICT_CONSTANTS, Catalog, load_catalog, static_fact_refused
 from .fact_text import FACT_NAME
 from .facts import Params, scene_facts
 from .justify import Prover, rule_ids
@@ -70,7 +70,7 @@ class FactProvider(Protocol):
 class SolvedFrame:
     """The solved frame: model plus what the verdict needs from it."""
 
-    READS = ("permitted", "recommended", "replacement")  # the constants every verdict reads
+    READS = VERDICT_CONSTANTS
 
     def __init__(self, answer: AnswerSet, proposed: Action, owns: Optional[clingo.Control] = None):
         self.answer = answer
