@@ -73,6 +73,16 @@ CASES = {
         scene(speed=11, lanes=2, intersection={"type": "signaled", "stage": "arriving", "distance": 40.0},
               objects=[obj("car", 3.5, 4, lane=2, vy=0.0)]),
     ),
+    "cruise.short_headway": (scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 20, lane=1, vy=30.0)]),
+                             scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 35, lane=1, vy=30.0)])),
+    "acc.lead_braking": (
+        scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 35, lane=1, vy=30.0, indicator="brake_light")]),
+        scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 35, lane=1, vy=30.0)]),
+    ),
+    "def.lead_warns": (scene(objects=[obj("car", 0, 35, lane=1, vy=10.0, indicator="hazard")]),
+                       scene(objects=[obj("car", 0, 35, lane=1, vy=10.0, indicator="left")])),
+    "def.step_pulls_away_clear": (scene(speed=20, limit=31.3, objects=[obj("car", 0, 12, lane=1, vy=28.0)]),
+                                  scene(speed=20, limit=31.3, objects=[obj("car", 0, 12, lane=1, vy=21.0)])),
     "brake.obstacle_ahead": (scene(objects=[ped_ahead]), scene(objects=[obj("plastic_bag", 0, 6, lane=1)])),
     "brake.red_light": (
         scene(light="red", intersection={"type": "signaled", "stage": "arriving"}),
