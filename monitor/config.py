@@ -103,13 +103,27 @@ class ZenohSettings:
         return config
 
 
+ZENOH_DEFAULT_MODE = "peer"  # what zenoh runs as when a configuration names no mode
+
+
 def listen_endpoints(config: zenoh.Config) -> list[str]:
-    """The endpoints a config listens on; zenoh may give them per mode ({"peer": [...], ...})."""
-    value = config.get_json("listen/endpoints")
-    value = json.loads(value) if isinstance(value, str) else value
+    """The endpoints a session opened with `config` listens on: those of the mode it runs in.
+
+    Zenoh takes a list for every mode, or a list per mode ({"peer": [...], "router": [...]}), and then opens only
+    the running mode's: zenoh's own default is such a dict with nothing for a client, which listens only when told
+    to. Counting every mode's refused a client configured by file for the peer default's port 0, and named endpoints
+    that were never opened.
+    """
+    mode = _config_value(config, "mode") or ZENOH_DEFAULT_MODE
+    value = _config_value(config, "listen/endpoints")
     if isinstance(value, dict):
-        value = [e for eps in value.values() for e in eps]
+        value = value.get(mode)
     return list(value or [])
+
+
+def _config_value(config: zenoh.Config, key: str):
+    value = config.get_json(key)
+    return json.loads(value) if isinstance(value, str) else value
 
 
 _IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")

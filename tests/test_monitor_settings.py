@@ -109,6 +109,52 @@ def test_a_zenoh_config_naming_no_listen_endpoint_is_told_that_zenohs_default_is
         proc.lines[0]), proc.output
 
 
+def ready_line(proc: DiscernProcess) -> str:
+    return next(line for line in proc.lines if " ready; " in line)
+
+
+def test_a_client_monitor_configured_by_file_listens_on_nothing_and_serves_through_its_router(tmp_path):
+    """A client names no listen endpoint: zenoh's default for peers (port 0) is not its own, and was refused."""
+    from discern.monitor.client import Monitor
+    from discern.monitor.example_planner import highway_scene
+
+    router_ep = endpoint(free_port())
+    config = tmp_path / "client.json5"
+    config.write_text(f'{{ mode: "client", connect: {{ endpoints: ["{router_ep}"] }}, '
+                      'scouting: { multicast: { enabled: false }, gossip: { enabled: false } } }\n')
+    router = DiscernProcess("router", "--listen", router_ep).wait_ready()
+    try:
+        proc = DiscernProcess("serve", "--zenoh-config", str(config), "--id", "by_file", "--budget-ms", "5000").wait_ready()
+        try:
+            assert "; listening on nothing; " in ready_line(proc), proc.output
+            with Monitor("car_1", connect=[router_ep], mode="client", timeout=5) as planner:
+                assert planner.wait_for_monitor(timeout=10)
+                verdict = planner.check(highway_scene(0, 4), "cruise")
+            assert not verdict.failsafe and verdict.vehicle == "car_1", verdict.error
+        finally:
+            assert proc.stop() == 0, proc.output
+    finally:
+        router.stop()
+
+
+def test_a_monitor_names_only_the_listen_endpoints_of_its_mode(tmp_path):
+    """Per-mode endpoints: a peer opens the peer's only, and says so (it named the router's as well)."""
+    from discern.monitor.client import Monitor
+    from discern.monitor.example_planner import highway_scene
+
+    peer_ep, router_ep = endpoint(free_port()), endpoint(free_port())
+    config = tmp_path / "per_mode.json5"
+    config.write_text(f'{{ mode: "peer", listen: {{ endpoints: {{ peer: ["{peer_ep}"], router: ["{router_ep}"] }} }}, '
+                      'scouting: { multicast: { enabled: false }, gossip: { enabled: false } } }\n')
+    proc = DiscernProcess("serve", "--zenoh-config", str(config), "--budget-ms", "5000").wait_ready()
+    try:
+        assert f"; listening on {peer_ep}; " in ready_line(proc), proc.output
+        with Monitor("car_1", connect=[peer_ep], timeout=5) as planner:
+            assert not planner.check(highway_scene(0, 4), "cruise").failsafe
+    finally:
+        assert proc.stop() == 0, proc.output
+
+
 @pytest.mark.parametrize(
     "text, message",
     [
