@@ -202,7 +202,12 @@ class MonitorServer:
         self.stop()
 
     def status(self) -> MonitorStatus:
-        extra = dict(vehicles=len(self._vehicles))
+        waiting = list(self._open.values())  # a copy in one step: the zenoh threads add to it meanwhile
+        oldest = min((req.arrived for req in waiting), default=None)
+        extra = dict(
+            vehicles=len(self._vehicles), open_proposals=len(waiting),
+            oldest_open_ms=None if oldest is None else round((time.monotonic() - oldest) * 1000, 3),
+        )
         if self.log is not None:
             extra.update(
                 # The last few, not every file of a run that may last months (it grew by a file an hour, and each

@@ -59,6 +59,12 @@ class MonitorStatus(BaseModel):
     unsent: int = Field(0, description="verdicts counted above that zenoh refused to send (the session closing): "
                                        "logged, but no planner got them; zenoh does not report a querier gone")
     vehicles: int = Field(0, description="vehicles heard from within their window (and budget): those it keeps state for")
+    # A monitor that has stopped answering (its watchdog or every worker stuck) counts nothing more: these show it,
+    # as a growing count or an oldest one past the budget. Puts that zenoh dropped before they reached the monitor
+    # are not among them: it never had them (docs/protocol.md, "What never reaches the monitor").
+    open_proposals: int = Field(0, description="proposals received and not answered yet")
+    oldest_open_ms: Optional[float] = Field(None, description="how long the oldest open proposal has waited, in ms; "
+                                                              "null when none is open")
     latency_ms: LatencySummary = Field(default_factory=LatencySummary)
     log_files: list[str] = Field(default_factory=list, description=f"of this run's last {LOG_FILES_LISTED} log files, "
                                                                    "those still on disk, the one being written last")

@@ -1,14 +1,45 @@
-"""The monitor's log files, and what the status key says of them."""
+"""What the status key says of a monitor: what it has in hand, and its log files (kept by rules of their own)."""
 
 import itertools
+import subprocess
+import sys
 import time
 from pathlib import Path
 
+import zenoh
+
 from discern.monitor.client import Monitor
+from discern.monitor.config import ZenohSettings
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import RecoveryReport, read_log
+from discern.monitor.protocol import encode
 from discern.monitor.status import LOG_FILES_LISTED
-from tests.monitor_process import serve, status, wait_until
+from discern.rules.scene import Proposal
+from tests.monitor_process import REPO, serve, status, wait_until
+
+
+def test_the_status_counts_the_proposals_open_and_how_long_the_oldest_has_waited():
+    """A monitor sitting on its proposals looked like an idle one: nothing said it had them and was not answering."""
+    proc, ep = serve("--id", "busy", "--budget-ms", "20000", "--test-only-decision-delay-ms", "6000")
+    session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
+    try:
+        [idle] = status(ep, "busy")
+        replies = [session.get("discern/car_1/check", timeout=30, payload=encode(
+            Proposal(vehicle="car_1", action="cruise", scene=highway_scene(frame, 4)))) for frame in range(2)]
+        time.sleep(0.5)
+        [busy] = status(ep, "busy")
+        text = subprocess.run([sys.executable, "-m", "discern.monitor.commands", "status", "--connect", ep, "--id",
+                               "busy"], cwd=REPO, capture_output=True, text=True, timeout=60).stdout
+        verdicts = [reply.ok for replied in replies for reply in replied]
+        [done] = status(ep, "busy")
+    finally:
+        session.close()
+        assert proc.stop() == 0, proc.output
+    assert (idle["open_proposals"], idle["oldest_open_ms"]) == (0, None)
+    assert busy["open_proposals"] == 2 and busy["oldest_open_ms"] >= 500 and busy["proposals"] == 0
+    assert "  open 2 (received, not answered yet), the oldest for " in text, text
+    assert len(verdicts) == 2 and all(verdicts)
+    assert (done["open_proposals"], done["oldest_open_ms"], done["proposals"]) == (0, None, 2)
 
 
 def test_the_status_lists_the_last_log_files_still_on_disk_and_counts_every_one_opened(tmp_path):
