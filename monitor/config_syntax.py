@@ -14,7 +14,7 @@ from typing import Optional
 
 _CLOSE = {"{": "}", "[": "]"}
 _PUNCTUATION = "{}[]:,"
-# JSON5 numbers and literals (a leading sign, hexadecimal, Infinity and NaN included), and unquoted keys
+# the bare words that are JSON5 values: numbers (a leading sign, hexadecimal, Infinity and NaN included) and literals
 _VALUE_WORD = re.compile(r"[+-]?(?:Infinity|NaN|0[xX][0-9a-fA-F]+|(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|true|false|null")
 _LINE_ENDS = "\n\r\u2028\u2029"
 
@@ -35,6 +35,7 @@ class _Fault(Exception):
 
 
 def _check(text: str) -> None:
+    """Raise _Fault at the first token out of its place in the grammar."""
     stack: list[tuple[str, int]] = []  # the open brackets and braces, with where they open
     expect = "value"  # value | value_or_close | key_or_close | colon | comma_or_close | end
     key = ""
@@ -81,7 +82,9 @@ def _check(text: str) -> None:
                 raise _Fault(start, f"expected ',' or '{close}' (the '{opener}' at {_position(text, opened)} is "
                                     f"open), found {found}")
             stack.pop()
-        elif kind != "eof":  # expect == "end"
+        elif kind == "eof":  # expect == "end": the text is one value
+            return
+        else:
             raise _Fault(start, f"expected the end of the file after the value that ends at "
                                 f"{_position(text, value_end - 1)}, found {found}")
         value_end = end  # a value is complete: a string, a word, or a closed bracket or brace
