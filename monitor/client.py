@@ -44,6 +44,11 @@ JSON = zenoh.Encoding.APPLICATION_JSON
 STYLES = ("query", "pubsub")
 ZENOH_TIMEOUT = "Timeout"  # the error reply zenoh itself gives a query whose timeout expired
 TIMEOUT_MAX_S = 2 * BUDGET_MAX_MS / 1000  # twice the longest budget a monitor may have: no verdict comes later
+# Proposals, queried or published, are dropped rather than waited on when the link to the monitor is full: a check
+# keeps its timeout (and returns its fail-safe) however stuck the monitor. Zenoh's default for queries, BLOCK, waited
+# for room: 5 s (its wait before closing the link) for a check of 50 ms, once a monitor stopped reading. The monitor's
+# reply takes its query's.
+CONGESTION = zenoh.CongestionControl.DROP
 
 
 def check_timeout(timeout) -> float:
@@ -97,7 +102,8 @@ class Monitor:
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
         self._unreadable: Optional[tuple[float, str]] = None  # when the last unreadable verdict came, and why
         self._lock = threading.Lock()
-        self._publisher = self.session.declare_publisher(keys.proposal_key(vehicle), encoding=JSON)
+        self._publisher = self.session.declare_publisher(keys.proposal_key(vehicle), encoding=JSON,
+                                                         congestion_control=CONGESTION)
         self._querier = self.session.declare_querier(keys.check_key(vehicle))
         self._subscriber = None
         if style == "pubsub" or on_verdict is not None:
@@ -220,7 +226,7 @@ class Monitor:
         """
         key = keys.check_key(self.vehicle)
         started = time.monotonic()
-        replies = self.session.get(key, payload=payload, encoding=JSON, timeout=timeout)
+        replies = self.session.get(key, payload=payload, encoding=JSON, timeout=timeout, congestion_control=CONGESTION)
         problem = None
         timed_out = False
         try:

@@ -327,12 +327,15 @@ def _status_text(s) -> str:
         else "no decisions yet"
     )
     errors = ", ".join(f"{k} {v}" for k, v in sorted(s.errors_by_kind.items())) or "none"
+    waiting = (f"open {s.open_proposals} (received, not answered yet), the oldest for {s.oldest_open_ms:g} ms"
+               if s.open_proposals else "none open")
     return (
         f"monitor {s.monitor_id} (vehicles {s.vehicles_filter}, up {s.uptime_s:.0f} s, budget {s.budget_ms:g} ms)\n"
         f"  proposals {s.proposals}: {s.approvals} approved, {s.vetoes} vetoed, {s.overrides} overridden by the rules, "
         f"{s.failsafes} fail-safe (deadline {s.deadline_misses}, internal {s.internal_errors}), "
         f"refused {s.errors} ({errors})\n"
         f"  {latency}\n"
+        f"  {waiting}\n"
         f"  vehicles {s.vehicles}, log records {s.log_records} (dropped {s.log_dropped})"
     )
 

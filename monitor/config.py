@@ -23,6 +23,8 @@ from discern.rules.engine import JURISDICTIONS
 from discern.rules.facts import Params
 from discern.rules.scene import ID_RULE, valid_id
 
+from .config_syntax import json5_fault
+
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 MODES = ("peer", "client", "router")
@@ -73,7 +75,8 @@ class ZenohSettings:
             try:
                 config = zenoh.Config.from_file(str(self.config_file))
             except zenoh.ZError as exc:
-                raise ValueError(f"zenoh config {self.config_file}: {config_file_problem(str(exc))}") from None
+                raise ValueError(f"zenoh config {self.config_file}: "
+                                 f"{config_file_problem(str(exc), _read_text(self.config_file))}") from None
             from_file = True
         else:
             config = zenoh.Config()
@@ -103,13 +106,27 @@ class ZenohSettings:
         return config
 
 
+ZENOH_DEFAULT_MODE = "peer"  # what zenoh runs as when a configuration names no mode
+
+
 def listen_endpoints(config: zenoh.Config) -> list[str]:
-    """The endpoints a config listens on; zenoh may give them per mode ({"peer": [...], ...})."""
-    value = config.get_json("listen/endpoints")
-    value = json.loads(value) if isinstance(value, str) else value
+    """The endpoints a session opened with `config` listens on: those of the mode it runs in.
+
+    Zenoh takes a list for every mode, or a list per mode ({"peer": [...], "router": [...]}), and then opens only
+    the running mode's: zenoh's own default is such a dict with nothing for a client, which listens only when told
+    to. Counting every mode's refused a client configured by file for the peer default's port 0, and named endpoints
+    that were never opened.
+    """
+    mode = _config_value(config, "mode") or ZENOH_DEFAULT_MODE
+    value = _config_value(config, "listen/endpoints")
     if isinstance(value, dict):
-        value = [e for eps in value.values() for e in eps]
+        value = value.get(mode)
     return list(value or [])
+
+
+def _config_value(config: zenoh.Config, key: str):
+    value = config.get_json(key)
+    return json.loads(value) if isinstance(value, str) else value
 
 
 _IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
@@ -135,16 +152,34 @@ _PARSER_POSITION = re.compile(r"-->\s*(\d+):(\d+)")
 _PARSER_EXPECTED = re.compile(r"^\s*= (.+)$", re.MULTILINE)
 
 
-def config_file_problem(text: str) -> str:
-    """One line from zenoh's error on a config file: its position and reason, not the parser's diagram of them."""
+def config_file_problem(text: str, source: Optional[str]) -> str:
+    """One line from zenoh's error on a config file: its position and reason, not the parser's diagram of them.
+
+    A value zenoh cannot take is named at its exact position. A syntax error is named where zenoh's JSON5 parser
+    gave up, the start of the value it could not finish, often lines before the fault: the file's `source` is read
+    again (config_syntax) for the fault's own position and kind, and zenoh's position is only given, as near the
+    fault, when that finds none.
+    """
     text = without_rust_locations(text)
     message, position = _JSON5_MESSAGE.search(text), _JSON5_LOCATION.search(text)
+    near = ""
     if message is None:
         message, position = _PARSER_EXPECTED.search(text), _PARSER_POSITION.search(text)
+        fault = json5_fault(source) if message is not None and source is not None else None
+        if fault is not None:
+            return fault
+        near = "near "
     if message is None:
         return " ".join(text.split())
     reason = message.group(1).replace('\\"', '"')  # a value quoted inside the debug form's own quotes
-    return f"line {position.group(1)} column {position.group(2)}: {reason}" if position else reason
+    return f"{near}line {position.group(1)} column {position.group(2)}: {reason}" if position else reason
+
+
+def _read_text(path: Path) -> Optional[str]:
+    try:
+        return path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return None
 
 
 def without_rust_locations(text: str) -> str:

@@ -46,7 +46,7 @@ from .protocol import (
     RULE_BAD_INPUT, RULE_DEADLINE, RULE_INTERNAL_ERROR, InputError, decode_proposal, encode, failsafe_verdict,
     invalid_vehicle, peek_frame,
 )
-from .status import MonitorStatus, StatusCounters
+from .status import LOG_FILES_LISTED, MonitorStatus, StatusCounters
 from .vehicle_state import EXPIRY_MARGIN_S, EXPIRY_SWEEP_S, PermittedMemory
 
 log = logging.getLogger(__name__)
@@ -202,12 +202,19 @@ class MonitorServer:
         self.stop()
 
     def status(self) -> MonitorStatus:
-        extra = dict(vehicles=len(self._vehicles))
+        waiting = list(self._open.values())  # a copy in one step: the zenoh threads add to it meanwhile
+        oldest = min((req.arrived for req in waiting), default=None)
+        extra = dict(
+            vehicles=len(self._vehicles), open_proposals=len(waiting),
+            oldest_open_ms=None if oldest is None else round((time.monotonic() - oldest) * 1000, 3),
+        )
         if self.log is not None:
             extra.update(
-                # still on disk: one deleted from outside (an operator, a cleaner) is no longer this run's log
-                log_files=[str(p) for p in list(self.log.files) if p.exists()], log_records=self.log.records,
-                log_dropped=self.log.dropped
+                # The last few, not every file of a run that may last months (it grew by a file an hour, and each
+                # was looked for on disk at every status); still on disk: one deleted from outside (an operator, a
+                # cleaner) is no longer this run's log.
+                log_files=[str(p) for p in self.log.files[-LOG_FILES_LISTED:] if p.exists()],
+                log_files_opened=self.log.opened, log_records=self.log.records, log_dropped=self.log.dropped,
             )
         return self.counters.snapshot(**extra)
 

@@ -15,6 +15,7 @@ from discern.rules.scene import SCHEMA_VERSION, Version
 from discern.rules.verdict import Decision
 
 LATENCY_SAMPLES = 8192  # percentiles cover the most recent decisions
+LOG_FILES_LISTED = 5  # the status names this run's last log files, the one being written last
 _DECISION_COUNTER = {Decision.approve.value: "approvals", Decision.veto.value: "vetoes", Decision.override.value: "overrides"}
 
 
@@ -58,8 +59,16 @@ class MonitorStatus(BaseModel):
     unsent: int = Field(0, description="verdicts counted above that zenoh refused to send (the session closing): "
                                        "logged, but no planner got them; zenoh does not report a querier gone")
     vehicles: int = Field(0, description="vehicles heard from within their window (and budget): those it keeps state for")
+    # A monitor that has stopped answering (its watchdog or every worker stuck) counts nothing more: these show it,
+    # as a growing count or an oldest one past the budget. Puts that zenoh dropped before they reached the monitor
+    # are not among them: it never had them (docs/protocol.md, "What never reaches the monitor").
+    open_proposals: int = Field(0, description="proposals received and not answered yet")
+    oldest_open_ms: Optional[float] = Field(None, description="how long the oldest open proposal has waited, in ms; "
+                                                              "null when none is open")
     latency_ms: LatencySummary = Field(default_factory=LatencySummary)
-    log_files: list[str] = Field(default_factory=list)
+    log_files: list[str] = Field(default_factory=list, description=f"of this run's last {LOG_FILES_LISTED} log files, "
+                                                                   "those still on disk, the one being written last")
+    log_files_opened: int = Field(0, description="log files this run opened, listed or not, deleted or not")
     log_records: int = 0
     log_dropped: int = 0
 

@@ -6,6 +6,11 @@ within an episode so the window is never fed a stale or replayed frame. The
 window lives in the vehicle's decision worker; the permitted-action memory in
 the monitor process.
 
+A frame counter may also start again in the middle of a drive: a 16-bit one
+wraps from 65535 to 0, a restarted planner counts from 0 on the drive's clock.
+A frame id that goes back while the scene time moves on, by no more than the
+window, starts the count again and keeps the window's history (_counts_again).
+
 A new episode (a restarted planner, a reset simulation) starts the window
 afresh and its frame ids may start again. It is recognised by a frame that goes
 back in both frame id and scene time from past the episode's first frame to
@@ -58,6 +63,9 @@ class VehicleState:
         if now - self.last_arrival > self.window_s or self._restarts(scene):
             self.frames.clear()
             self.last_frame_id = None
+        elif self._counts_again(scene):
+            self._renumber(self.last_frame_id + 1 - scene.frame_id)
+            self.last_frame_id = None  # the order starts again from this frame, the history kept
         last = self.last_frame_id
         if last is not None and scene.frame_id <= last:
             what = "duplicate" if scene.frame_id == last else "out-of-order"
@@ -90,6 +98,29 @@ class VehicleState:
             self.last_frame_id is not None
             and scene.frame_id <= first_id < self.last_frame_id
             and scene.timestamp <= first_time < self.last_timestamp
+        )
+
+    def _counts_again(self, scene: Scene) -> bool:
+        """Does the frame counter start again in the same drive? Its id goes back while its scene time moves on, by
+        no more than the window: a counter that wrapped (65535, then 0) or a planner restarted on the drive's clock.
+
+        A replayed or late frame goes back in time too, and stays refused, as does one without timestamps; one
+        stamped more than a window ahead may be a clock glitch, as `_evict` takes it. Refused, a wrapped counter
+        got fail-safes for a whole window, until the silence it made started the vehicle afresh.
+        """
+        return (
+            self.last_frame_id is not None
+            and scene.frame_id < self.last_frame_id
+            and 0 < scene.timestamp - self.last_timestamp <= self.window_s
+        )
+
+    def _renumber(self, shift: int) -> None:
+        """Number the frames kept `shift` lower, so that they go before the frame that starts the count again, in
+        their order. The sanity window orders frames by id as well as time (WindowProvider.window): with their own
+        ids it took the new count for a restart, and left the frame no history. Ids below 0 are for the window only:
+        no verdict names them. Copies, as a batch in flight holds the frames themselves."""
+        self.frames = deque(
+            ((at, s.model_copy(update={"frame_id": s.frame_id - shift})) for at, s in self.frames), maxlen=MAX_FRAMES
         )
 
     def _evict(self, scene: Scene, now: float) -> None:

@@ -320,3 +320,30 @@ def test_the_vehicles_recent_frames_reach_the_sanity_layer(client, rule):
     assert (verdict.decision, verdict.action, verdict.rules) == (with_history.decision, with_history.action, with_history.rules)
     assert rule in verdict.rules
     assert reasoner.decide(last, example.proposed).decision is not verdict.decision  # the history decided it
+
+
+def test_a_frame_counter_that_wraps_gets_verdicts_not_order_refusals(client):
+    """The review's planner: a 16-bit counter from 65520 on, its scene time running on at 20 Hz. Frame 0 was
+    refused ("out-of-order frame 0, the last frame received for this vehicle was 65535"), and so was every frame
+    for the next 2 s: fail-safe brakes."""
+    monitor = client("wrapper")
+    verdicts = [monitor.check(highway_scene(i, 8, dt=0.05).model_copy(
+        update={"frame_id": (65520 + i) % 65536, "timestamp": 100.0 + 0.05 * i}), "cruise") for i in range(40)]
+    assert [v.frame_id for v in verdicts] == [(65520 + i) % 65536 for i in range(40)]
+    assert [v.error for v in verdicts if v.failsafe] == []
+
+
+@pytest.mark.parametrize("rule", ["san.memory.stop_sign", "san.memory.object_permanence", "san.limit.remembered"])
+def test_the_window_reaches_the_sanity_layer_across_a_frame_counter_that_wraps(client, rule):
+    """The frames before the wrap are the history of the frames after it, as if the counter had run on."""
+    from discern.sanity.examples import EXAMPLES
+
+    [example] = [e for e in EXAMPLES if e.rule == rule]
+    *earlier, last = example.frames
+    monitor = client(f"wrap_{rule.replace('.', '_')}")
+    for k, frame in enumerate(earlier):  # counted up to 65535, the last frame as 0
+        assert not monitor.check(frame.model_copy(update={"frame_id": 65536 - len(earlier) + k}), example.proposed).failsafe
+    verdict = monitor.check(last.model_copy(update={"frame_id": 0}), example.proposed)
+    with_history = Reasoner().decide(last, example.proposed, history=tuple(earlier))
+    assert (verdict.decision, verdict.action, verdict.rules) == (with_history.decision, with_history.action, with_history.rules)
+    assert rule in verdict.rules and verdict.frame_id == 0

@@ -7,7 +7,8 @@ import math
 import pytest
 
 from discern.monitor import keys
-from discern.monitor.config import LogSettings, MonitorConfig
+from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings
+from discern.monitor.config_syntax import json5_fault
 from tests.monitor_process import START_TIMEOUT_S, DiscernProcess, endpoint, free_port
 
 
@@ -109,10 +110,60 @@ def test_a_zenoh_config_naming_no_listen_endpoint_is_told_that_zenohs_default_is
         proc.lines[0]), proc.output
 
 
+def ready_line(proc: DiscernProcess) -> str:
+    return next(line for line in proc.lines if " ready; " in line)
+
+
+def test_a_client_monitor_configured_by_file_listens_on_nothing_and_serves_through_its_router(tmp_path):
+    """A client names no listen endpoint: zenoh's default for peers (port 0) is not its own, and was refused."""
+    from discern.monitor.client import Monitor
+    from discern.monitor.example_planner import highway_scene
+
+    router_ep = endpoint(free_port())
+    config = tmp_path / "client.json5"
+    config.write_text(f'{{ mode: "client", connect: {{ endpoints: ["{router_ep}"] }}, '
+                      'scouting: { multicast: { enabled: false }, gossip: { enabled: false } } }\n')
+    router = DiscernProcess("router", "--listen", router_ep).wait_ready()
+    try:
+        proc = DiscernProcess("serve", "--zenoh-config", str(config), "--id", "by_file", "--budget-ms", "5000").wait_ready()
+        try:
+            assert "; listening on nothing; " in ready_line(proc), proc.output
+            with Monitor("car_1", connect=[router_ep], mode="client", timeout=5) as planner:
+                assert planner.wait_for_monitor(timeout=10)
+                verdict = planner.check(highway_scene(0, 4), "cruise")
+            assert not verdict.failsafe and verdict.vehicle == "car_1", verdict.error
+        finally:
+            assert proc.stop() == 0, proc.output
+    finally:
+        router.stop()
+
+
+def test_a_monitor_names_only_the_listen_endpoints_of_its_mode(tmp_path):
+    """Per-mode endpoints: a peer opens the peer's only, and says so (it named the router's as well)."""
+    from discern.monitor.client import Monitor
+    from discern.monitor.example_planner import highway_scene
+
+    peer_ep, router_ep = endpoint(free_port()), endpoint(free_port())
+    config = tmp_path / "per_mode.json5"
+    config.write_text(f'{{ mode: "peer", listen: {{ endpoints: {{ peer: ["{peer_ep}"], router: ["{router_ep}"] }} }}, '
+                      'scouting: { multicast: { enabled: false }, gossip: { enabled: false } } }\n')
+    proc = DiscernProcess("serve", "--zenoh-config", str(config), "--budget-ms", "5000").wait_ready()
+    try:
+        assert f"; listening on {peer_ep}; " in ready_line(proc), proc.output
+        with Monitor("car_1", connect=[peer_ep], timeout=5) as planner:
+            assert not planner.check(highway_scene(0, 4), "cruise").failsafe
+    finally:
+        assert proc.stop() == 0, proc.output
+
+
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("{ mode: \n", "line 2 column 1: expected array, boolean, null, number, object, or string"),
+        ("{ mode: \n", "line 2 column 1: expected a value, found the end of the file"),
+        # zenoh's parser named line 1 column 39, the '[', "expected boolean or null"
+        ('{ mode: "peer", listen: { endpoints: ["tcp/127.0.0.1:17449"] }\n  scouting: {} }\n',
+         "line 2 column 3: expected ',' or '}', found 'scouting': likely a comma missing after the value that ends at "
+         "line 1 column 62"),
         ('{ mode: "pear" }\n', "line 1 column 9: unknown variant `pear`, expected one of `router`, `peer`, `client`"),
         ('{ listen: { endpoints: "tcp/127.0.0.1:7447" } }\n',  # a quoted value, not \"tcp/...\"
          'line 1 column 24: invalid type: string "tcp/127.0.0.1:7447", expected list of endpoints or mode dependent'
@@ -128,6 +179,39 @@ def test_a_malformed_zenoh_config_is_one_line_naming_its_position(tmp_path, text
     finally:
         proc.stop()
     assert code == 2 and proc.lines == [f"discern serve: error: zenoh config {path}: {message}"], proc.output
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ('{ mode: "peer" listen: {} }', "line 1 column 16: expected ',' or '}', found 'listen': likely a comma missing "
+                                        "after the value that ends at line 1 column 14"),
+        ('{ listen: { endpoints: ["tcp/127.0.0.1:1"\n "tcp/127.0.0.1:2"] } }',
+         "line 2 column 2: expected ',' or ']', found '\"tcp/127.0.0.1:2\"': likely a comma missing after the value "
+         "that ends at line 1 column 41"),
+        ('{ mode: "peer }', "line 1 column 9: a string starts here that is not closed on its line"),
+        ('{ mode: "peer"\n', "line 2 column 1: expected ',' or '}' (the '{' at line 1 column 1 is open), found the end "
+                            "of the file"),
+        ('{ mode "peer" }', "line 1 column 8: expected ':' after the key 'mode', found '\"peer\"'"),
+        ('{ mode: peer }', "line 1 column 9: 'peer' is no JSON5 value: quote a string (a number, true, false and null "
+                           "are not quoted)"),
+        ('{ mode: "peer" } /* done', "line 1 column 18: a comment starts here that is never closed with '*/'"),
+        # what this reading passes and zenoh's parser does not: zenoh's position, said to be near the fault
+        ('{ mode: "\\u00" }', "near line 1 column 12: expected unicode_escape_sequence"),
+    ],
+)
+def test_a_zenoh_config_syntax_error_is_named_where_it_is(tmp_path, text, message):
+    path = tmp_path / "bad.json5"
+    path.write_text(text)
+    with pytest.raises(ValueError) as refused:
+        ZenohSettings(config_file=path).to_zenoh()
+    assert str(refused.value) == f"zenoh config {path}: {message}"
+
+
+def test_a_config_zenoh_takes_has_no_syntax_fault():
+    """The reading that names a fault agrees with zenoh's parser on what is valid JSON5, comments and all."""
+    assert json5_fault("// the monitor\n{ mode: 'peer', listen: { endpoints: [\"tcp/127.0.0.1:7447\",], },\n"
+                       "  /* off */ scouting: { multicast: { enabled: false } }, $x: [+.5, 0x1F, -Infinity, 5.] }\n") is None
 
 
 @pytest.mark.parametrize("pattern", ["**", "fleet_**", "**_a", "a**b"])

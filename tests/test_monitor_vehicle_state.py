@@ -36,9 +36,10 @@ def test_without_scene_timestamps_the_window_follows_arrival_time():
 def test_replayed_and_old_frames_are_refused_without_touching_the_window():
     state = VehicleState(window_s=2.0)
     state.admit(frame(7, 1.0), now=0.0)
-    for bad, word in ((7, "duplicate"), (3, "out-of-order")):
+    # a late or replayed frame keeps its time; an id going back at a later time starts the count again (below)
+    for bad, at, word in ((7, 1.1, "duplicate"), (7, 1.0, "duplicate"), (3, 0.9, "out-of-order")):
         with pytest.raises(InputError, match=word) as refused:
-            state.admit(frame(bad, 1.1), now=0.1)
+            state.admit(frame(bad, at), now=0.1)
         assert refused.value.kind == "order"
     assert [s.frame_id for s in state.admit(frame(8, 1.2), now=0.2)] == [7]
 
@@ -130,7 +131,7 @@ def test_a_frame_back_in_id_or_time_alone_or_before_the_episode_moved_on_is_no_n
     state.admit(frame(5, 3.0), now=0.0)
     state.admit(frame(6, 3.05), now=0.05)
     with pytest.raises(InputError, match="out-of-order frame 0"):
-        state.admit(frame(0, 3.1), now=0.1)  # the id went back, the clock did not
+        state.admit(frame(0, 3.05), now=0.1)  # the id went back, the clock did not move on
     with pytest.raises(InputError, match="duplicate frame 6"):
         state.admit(frame(6, 1.0), now=0.15)  # the clock went back, the id did not
     single = VehicleState(window_s=2.0)
@@ -146,3 +147,47 @@ def test_the_window_is_bounded_whatever_the_rate():
     for i in range(MAX_FRAMES + 50):
         history = state.admit(frame(i, 1.0 + i * 1e-4), now=float(i) * 1e-4)
     assert len(history) == MAX_FRAMES
+
+
+def times(state: VehicleState, scene, now: float) -> list[float]:
+    """The scene times of the scene's window as its decision worker reads it."""
+    return [s.timestamp for s in WINDOW.window(scene, state.admit(scene, now))]
+
+
+def test_a_frame_counter_that_wraps_while_scene_time_runs_on_keeps_the_window():
+    """A 16-bit counter going from 65535 to 0 got fail-safes ("out-of-order frame 0") for a whole window."""
+    state = VehicleState(window_s=2.0)
+    stamps = [100.0 + 0.05 * i for i in range(40)]
+    windows = [times(state, frame((65520 + i) % 65536, t), now=0.05 * i) for i, t in enumerate(stamps)]
+    assert windows[16] == stamps[:16]  # frame 0: the frames 65520 to 65535 before it
+    assert windows[39] == stamps[:39]  # frame 23: the whole drive, 1.95 s of it
+    history = state.admit(frame(24, 102.0), now=2.0)
+    assert [s.frame_id for s in history[-3:]] == [21, 22, 23]  # the frames since the wrap keep their own ids
+    with pytest.raises(InputError, match="duplicate frame 24"):
+        state.admit(frame(24, 102.05), now=2.05)
+
+
+def test_a_planner_restarted_on_the_drives_clock_counts_from_zero_with_the_window_kept():
+    state = VehicleState(window_s=2.0)
+    for i in range(500, 510):
+        state.admit(frame(i, 0.05 * i), now=0.05 * i)
+    assert times(state, frame(0, 25.6), now=25.6) == [0.05 * i for i in range(500, 510)]  # 25.0 to 25.45
+
+
+def test_a_frame_back_in_id_and_time_after_a_wrap_is_still_refused_and_one_far_ahead_too():
+    state = VehicleState(window_s=2.0)
+    for i in range(8):
+        state.admit(frame((65532 + i) % 65536, 10.0 + 0.05 * i), now=0.05 * i)  # 65532 .. 65535, 0 .. 3
+    with pytest.raises(InputError, match="out-of-order frame 1"):
+        state.admit(frame(1, 10.25), now=0.4)  # a replay of frame 1: back in id and time
+    with pytest.raises(InputError, match="out-of-order frame 0"):
+        state.admit(frame(0, 12.5), now=0.45)  # back in id, and more than a window ahead: a glitch, not a count
+    assert times(state, frame(4, 10.4), now=0.5) == [10.0 + 0.05 * i for i in range(8)]
+
+
+def test_a_frame_from_before_the_wrap_that_comes_after_it_is_late_and_costs_no_history():
+    state = VehicleState(window_s=2.0)
+    for i in range(8):
+        state.admit(frame((65532 + i) % 65536, 10.0 + 0.05 * i), now=0.05 * i)  # 65532 .. 65535, 0 .. 3
+    assert times(state, frame(65534, 10.1), now=0.4) == [10.0, 10.05]  # its id rises: judged with its own past
+    assert times(state, frame(4, 10.4), now=0.45) == [10.0 + 0.05 * i for i in range(8)]  # and passed over

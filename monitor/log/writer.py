@@ -4,7 +4,9 @@ Records go through a queue to one writer thread, so a slow disk never delays
 a verdict (a full queue drops records and counts them instead). The current
 chunk is closed and handed to the OS every `flush_seconds`, so a `kill -9`
 loses at most that much and the file stays readable up to its last chunk
-(see reader.py). Files rotate by size and age.
+(see reader.py). Files rotate by size and age; by age only once they hold a
+proposal, verdict or refusal: the monitor's periodic status records alone do
+not make an idle period worth a file.
 
 A disk error (a full disk, a log directory gone) loses the current file, never
 the monitor: the records it held since the last flush and those written while
@@ -108,7 +110,7 @@ class McapLogWriter:
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
         self._opened_at = 0.0
-        self._in_file = 0  # messages in the current file
+        self._traffic = 0  # records in the current file other than status records: proposals, verdicts, refusals
         self._pending = 0  # records added since the last flush: lost if the file fails
         self._failing = False  # since a disk error, until a new file opens
         self.run = uuid.uuid4().hex
@@ -213,7 +215,8 @@ class McapLogWriter:
         self._writer.add_message(channel, log_time=log_time_ns, data=data, publish_time=log_time_ns)
         self.records += 1
         self._pending += 1
-        self._in_file += 1
+        if kind != "status":
+            self._traffic += 1
 
     def _register(self, topic: str, kind: str) -> int:
         schema = self._schemas.get(kind)
@@ -248,7 +251,9 @@ class McapLogWriter:
             self._pending = 0
         too_big = self._stream.tell() >= self.settings.rotate_bytes
         too_old = now - self._opened_at >= self.settings.rotate_seconds
-        if too_old and not self._in_file:  # an idle monitor does not leave a trail of files with no message
+        # An idle monitor does not leave a trail of files: its periodic status records alone make no period worth
+        # a file of its own (a monitor idle for 100 s at --log-rotate-s 1 left 69 files of them).
+        if too_old and not self._traffic:
             self._opened_at, too_old = now, False
         if too_big or too_old:
             self._finish_file()
@@ -291,7 +296,7 @@ class McapLogWriter:
         self._channels.clear()
         self._schemas.clear()
         self._opened_at = time.monotonic()
-        self._in_file = 0
+        self._traffic = 0
         self.files.append(path)
         self.opened += 1
         log.info("logging to %s", path)
