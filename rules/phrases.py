@@ -230,6 +230,13 @@ class Phrasebook:
             except Unbound:
                 values.append(None)
         numbers = [v.number for v in values if v is not None and v.type == SymbolType.Number]
+        sideways = [self._sideways_variable(t, formats) is not None for t in terms]
+        if any(sideways) and len(numbers) == len(values) and not (fmt == "across" and any(
+                not term_vars(t) and v.number == 0 for t, v in zip(terms, values))):
+            # '-VX >= S' as '0.0 m/s to the left ≥ 0.5 m/s': a sideways speed says its side, not a sign
+            digits = _digits_to_tell_apart(numbers, "mps")
+            shown = [self._sideways(term, value, formats, digits) for term, value in zip(terms, values)]
+            return " ".join([shown[0]] + [w for op, side in zip(ops, shown[1:]) for w in (CMP_TEXT.get(op, "?"), side)])
         if fmt in _MOTION:
             if len(terms) == 2 and len(numbers) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
                 return self._motion_against_zero(terms, values, ops[0], fmt)
@@ -298,6 +305,24 @@ class Phrasebook:
         if said == f"the gap {verb}":  # the words already say which way: "the gap shrinks by 5.0 m/s"
             return f"{said} by {by}"
         return f"{said} (it {verb} by {by})"
+
+    @staticmethod
+    def _sideways_variable(term: Term, formats: dict[str, str]) -> Optional[bool]:
+        """Whether a comparison's side is a sideways velocity (False: VX) or its negation (True: -VX); None if neither."""
+        negated = term[0] == "u" and term[1] == int(UnaryOperator.Minus) and term[2][0] == "v"
+        variable = term[2] if negated else term
+        return negated if variable[0] == "v" and formats.get(variable[1]) == "across" else None
+
+    def _sideways(self, term: Term, value: Symbol, formats: dict[str, str], digits: int) -> str:
+        """A sideways velocity (VX) or its negation (-VX) as a speed to its side; anything else as a plain speed."""
+        negated = self._sideways_variable(term, formats)
+        if negated is None:
+            return self.value(value, "mps", "", digits)
+        rightward = value.number >= 0 if not negated else value.number < 0
+        side = "to the right" if rightward else "to the left"
+        if value.number == 0:
+            side = "to the left" if negated else "to the right"
+        return f"{self.value(Number(abs(value.number)), 'mps', '', digits)} {side}"
 
     def _closing_against(self, terms: list[Term], values: list[Symbol], op: int, constant_first: bool) -> str:
         """'C < -200' of a closing speed as 'the gap grows by more than 2.0 m/s (it shrinks by 8.0 m/s)', not

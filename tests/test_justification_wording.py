@@ -34,7 +34,8 @@ def test_a_speed_or_distance_of_a_few_centimetres_is_not_shown_as_zero(reasoner)
     text = _text(reasoner, beside, "change_lane_right")
     assert "car 1 closes in on the ego from behind at 0.03 m/s" in text and "the gap shrinks by 0.03 m/s" in text
     assert "0.04 m behind" in text
-    assert not re.search(r"\b0\.0 m/s(?! sideways)|\b0\.0 m behind", text)  # the car moves straight ahead
+    assert not re.search(r"\b0\.0 m/s(?! sideways| to the (left|right))|\b0\.0 m behind", text)  # it moves straight ahead
+    assert "rule def.moves_into needs that 0.0 m/s to the right ≥ 0.5 m/s" in text  # a sideways speed says its side
 
 
 EXAMPLE = Scene.model_validate_json((Path(__file__).parent.parent / "docs/examples/scene.json").read_text(encoding="utf-8"))
