@@ -33,9 +33,9 @@ from .verdict import Decision, Justification, JustificationNode, Verdict
 
 VETO_DEPTH = 4  # levels of a veto's proof when no explanation was asked for
 # A rule that forbids the proposal for several reasons (three hazards) shows each: the first ones proved, the next
-# ones named with the rules they rest on, and a count of the rest (a 200-object frame may hold dozens).
-REASONS_PROVED = 3
-REASONS_NAMED = 8
+# ones named with the rules they rest on, and that there are more (a 200-object frame may hold dozens).
+REASONS_PROVED = 1
+REASONS_NAMED = 4
 
 RANK = [
     Action.turn_left,
@@ -234,18 +234,16 @@ class Reasoner:
                 tree.extend(prover.node_for(rule, env, applicable) for rule, env in prover.derivations(applicable))
         else:
             forbidden = _atom("forbidden", proposed)
-            for rule, envs in prover.instances(forbidden):
+            for rule, envs, more in prover.instances(forbidden, REASONS_NAMED):
                 if rule.info.id not in vetoing:  # one id, two bodies (acc.lane_not_clear)
                     vetoing.append(rule.info.id)
-                for k, env in enumerate(envs[:REASONS_NAMED]):
+                for k, env in enumerate(envs):
                     node = prover.node_for(rule, env, forbidden, 0 if k < REASONS_PROVED else prover.max_depth - 1)
                     tree.append(node)
                     rules.extend(r for r in rule_ids(node) if r not in rules)
-                if len(envs) > REASONS_NAMED:
-                    more = len(envs) - REASONS_NAMED
-                    tree.append(JustificationNode(
-                        literal=str(forbidden), holds=True, rule=rule.info.id,
-                        text=f"and {more} more instance{'s' if more > 1 else ''} of rule {rule.info.id}"))
+                if more:
+                    tree.append(JustificationNode(literal=str(forbidden), holds=True, rule=rule.info.id,
+                                                  text=f"and more instances of rule {rule.info.id}"))
             rules = vetoing + [r for r in rules if r not in vetoing]
         if decision is Decision.override and solved.replacement is not None:
             tree.append(prover.why(_atom("replacement", solved.replacement)))

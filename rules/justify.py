@@ -90,11 +90,13 @@ class Prover:
                 yield rule, solution
                 break
 
-    def instances(self, sym: Symbol) -> Iterator[tuple[CompiledRule, list[Env]]]:
-        """Each catalog rule deriving `sym` with every instance of it whose body holds, not only the first.
+    def instances(self, sym: Symbol, limit: int) -> Iterator[tuple[CompiledRule, list[Env], bool]]:
+        """Each catalog rule deriving `sym` with up to `limit` instances of it whose body holds, not only the first,
+        and whether it has more.
 
         A veto names all its reasons: three hazards forbid cruising three times over, and a proof of the first
-        alone would hide the red light behind the pedestrian.
+        alone would hide the red light behind the pedestrian. Counting them all replayed every object's rules on
+        dense frames (200 objects: a third of the verdict), so the search stops one past the limit.
         """
         _, name, args = self.answer.shape(sym)
         for rule in self.catalog.rules_deriving(name, len(args), args[0] if args else None):
@@ -103,13 +105,18 @@ class Prover:
                 continue
             found: list[Env] = []
             shown: set[tuple] = set()
+            more = False
             for solution in self._solve(list(rule.body), env, 0, None):
                 key = tuple(str(solution.get(id(lit))) for lit in rule.body if lit.is_atom and not lit.negated)
-                if key not in shown:  # instances that differ only in bound values no literal shows read alike
-                    shown.add(key)
-                    found.append(solution)
+                if key in shown:  # instances that differ only in bound values no literal shows read alike
+                    continue
+                if len(found) == limit:
+                    more = True
+                    break
+                shown.add(key)
+                found.append(solution)
             if found:
-                yield rule, found
+                yield rule, found, more
 
     def deriving_rules(self, sym: Symbol) -> list[str]:
         """Ids of the rules with an instance that derives `sym`, an atom of the model, as `derivations` finds them.

@@ -44,7 +44,7 @@ def test_a_veto_proves_every_hazard_that_forbids_the_proposal_not_only_the_first
     assert "brake.red_light" in verdict.rules and "brake.red_light" in verdict.justification.summary
 
 
-def test_a_veto_with_many_reasons_proves_the_first_names_the_next_and_counts_the_rest(reasoner):
+def test_a_veto_with_many_reasons_proves_the_first_names_the_next_and_says_there_are_more(reasoner):
     objects = [obj("pedestrian", 0, 4 + 1.5 * k, lane=1) for k in range(12)]
     verdict = reasoner.decide(scene(speed=12, objects=objects), "cruise")
     hazards = [n for n in verdict.justification.tree if n.rule == "cruise.hazard"]
@@ -52,7 +52,7 @@ def test_a_veto_with_many_reasons_proves_the_first_names_the_next_and_counts_the
     proved, named = hazards[:engine.REASONS_PROVED], hazards[engine.REASONS_PROVED:engine.REASONS_NAMED]
     assert all(child.children for node in proved for child in node.children)  # each hazard shown with its reasons
     assert all(child.rule == "brake.obstacle_ahead" and not child.children for node in named for child in node.children)
-    assert hazards[-1].text == f"and {12 - engine.REASONS_NAMED} more instances of rule cruise.hazard"
+    assert hazards[-1].text == "and more instances of rule cruise.hazard"
 
 
 def test_an_exception_that_rules_a_rule_out_is_tagged_with_its_own_rule():
