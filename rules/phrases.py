@@ -230,9 +230,9 @@ class Phrasebook:
             except Unbound:
                 values.append(None)
         numbers = [v.number for v in values if v is not None and v.type == SymbolType.Number]
-        sideways = [self._sideways_variable(t, formats) is not None for t in terms]
-        if any(sideways) and len(numbers) == len(values) and not (fmt == "across" and any(
-                not term_vars(t) and v.number == 0 for t, v in zip(terms, values))):
+        sideways = any(self._sideways_variable(t, formats) is not None for t in terms)
+        if sideways and len(numbers) == len(values) and not (
+                fmt == "across" and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values))):
             # '-VX >= S' as '0.0 m/s to the left ≥ 0.5 m/s': a sideways speed says its side, not a sign
             digits = _digits_to_tell_apart(numbers, "mps")
             shown = [self._sideways(term, value, formats, digits) for term, value in zip(terms, values)]
@@ -318,10 +318,9 @@ class Phrasebook:
         negated = self._sideways_variable(term, formats)
         if negated is None:
             return self.value(value, "mps", "", digits)
-        rightward = value.number >= 0 if not negated else value.number < 0
+        # VX is rightward when positive, -VX when negative; a zero reads on the side the comparison is about
+        rightward = value.number < 0 if negated else value.number >= 0
         side = "to the right" if rightward else "to the left"
-        if value.number == 0:
-            side = "to the left" if negated else "to the right"
         return f"{self.value(Number(abs(value.number)), 'mps', '', digits)} {side}"
 
     def _closing_against(self, terms: list[Term], values: list[Symbol], op: int, constant_first: bool) -> str:
