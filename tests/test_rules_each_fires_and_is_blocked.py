@@ -691,6 +691,18 @@ def test_a_lane_change_leaves_the_time_headway_to_a_vehicle_at_its_speed_and_les
     assert "moving into the lane of car 1 needs a headway gap of 0.0 m to it  [def.headway_gap]" in text
 
 
+def test_a_lane_change_the_route_needs_to_one_side_leaves_a_change_to_the_other_side_the_headway_gap():
+    """def.lane_change_needed names the lane: a merge to the right takes the gap needed there, a zip merge, but a
+    change to the left is by choice and keeps the headway (0.8 s at 25 m/s is too short)."""
+    def change(side: str, x: float, lane: int):
+        merging_right = scene(speed=25, limit=35, lane=2, lanes=3, intent="merge_into_right_lane",
+                              objects=[obj("car", x, 20, lane=lane, vy=25)])
+        return decide(merging_right, f"change_lane_{side}")
+
+    assert change("right", 3.5, 3).decision.value == "approve"
+    left = change("left", -3.5, 1)
+    assert left.decision.value == "override" and "cll.lane_taken" in left.rules
+
 at_green_to_turn_left = {"speed": 0, "intent": "enter_left_lane", "light": "green", "other_lanes": ("oncoming",),
                          "intersection": {"type": "signaled", "stage": "at", "distance": 0}}
 
