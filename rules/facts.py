@@ -26,6 +26,7 @@ MAX_PARAM_TIME_S = 60.0
 MAX_PARAM_DECEL = 100.0  # m/s², ten times gravity
 MAX_PARAM_SPEED = 50.0  # m/s: a closing speed (up to twice MAX_SPEED_MS) raised by accel_step, times a minute, still fits
 _TIMES = frozenset({"reaction_s", "headway_s", "turn_gap_s"})
+_DECELERATIONS = frozenset({"decel", "heavy_decel"})
 _SPEEDS = frozenset({"stopped_speed", "drift_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop"})
 
 
@@ -34,7 +35,7 @@ def _largest(name: str) -> float:
         return MAX_PARAM_TIME_S
     if name in _SPEEDS:
         return MAX_PARAM_SPEED
-    return MAX_PARAM_DECEL if name == "decel" else MAX_RANGE_M
+    return MAX_PARAM_DECEL if name in _DECELERATIONS else MAX_RANGE_M
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,7 @@ class Params:
 
     reaction_s: float = 1.0  # perception + actuation latency before braking starts
     decel: float = 6.0  # m/s^2, firm braking on a dry road
+    heavy_decel: float = 4.5  # m/s^2, a loaded truck's or bus's full braking (FMVSS 121: 250 ft from 60 mph, 4.7 m/s^2)
     min_gap: float = 10.0  # m, AV-CSR's fixed gap: the floor of every gap
     headway_s: float = 1.0  # time gap kept to a vehicle ahead when following
     swerve_dist: float = 20.0  # m, AV-CSR's look-ahead for swerving around objects

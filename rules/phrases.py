@@ -55,6 +55,7 @@ _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8
 _SETTINGS = {
     "reaction_ms": ("reaction time", "s", 1000), "headway_ms": ("headway kept", "s", 1000),
     "turn_gap_ms": ("time a turn takes to clear", "s", 1000), "decel": ("firm braking deceleration", "m/s²", 100),
+    "heavy_decel": ("full braking deceleration of a truck or bus", "m/s²", 100),
     "accel_step": ("speed one step of accelerating adds", "m/s", 100),
     "overtake_dist": ("distance within which a slower vehicle ahead is overtaken", "m", 100),
     "move_over_dist": ("distance within which an emergency vehicle or a stopped school bus is given room", "m", 100),

@@ -51,6 +51,8 @@ CASES = {
         scene(other_lanes=("cross_left",), objects=[obj("car", 3.9, 8, lane=1, kind="cross_left", velocity={"x": 12.0, "y": 0.0})]),
         scene(other_lanes=("cross_left",), objects=[obj("car", 3.0, 8, lane=1, kind="cross_left", velocity={"x": 0.3, "y": 0.0})]),
     ),
+    "def.heavy_headway_gap": (scene(speed=30, lanes=2, lane=2, objects=[obj("truck", -3.5, -30, lane=1, vy=30)]),
+                              scene(speed=30, lanes=2, lane=2, objects=[obj("car", -3.5, -30, lane=1, vy=30)])),
     "def.pulls_away_clear": (scene(speed=13, objects=[obj("car", 0, 6, lane=1, vy=18)]),
                              scene(speed=13, objects=[obj("car", 0, 6, lane=1, vy=14)])),
     "def.line_far_ahead": (
