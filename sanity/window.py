@@ -174,7 +174,8 @@ WINDOW_PREDICATES = frozenset({
     ("misread_before", 2), ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
     ("light_flashing_frames", 2), ("light_flashing_time", 2), ("light_flashes", 1), ("light_seen_recently", 1),
     ("sign_seen_recently", 1), ("obj_size", 3), ("overlaps", 2), ("predicted_conflict", 3), ("obj_source_before", 2),
-    ("remembered", 2), ("remembered_object", 2), ("remembered_pos", 3), ("track_frames", 2), ("track_time", 2),
+    ("remembered", 2), ("remembered_object", 2), ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2),
+    ("track_time", 2),
     ("remembered_lane", 3), ("remembered_velocity", 3), ("remembered_source", 2), ("sensor_still_reads", 4),
     ("sensor_reads_past", 4), ("reported_before", 2), ("ran_beside", 2), ("remembered_conflict", 3),
     ("lights_frames", 2), ("lights_time", 2),
@@ -800,6 +801,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         kept.add(oid)
         out.append(f"remembered({oid},{int(round(age * 1000))}).remembered_object({oid},{obj.cls.value}).")
         out.append(f"remembered_pos({oid},{cm(x)},{cm(y)}).track_frames({oid},{tracked}).")
+        out.append(f"last_seen_ahead({oid},{cm(obj.position.y)}).")  # where it was when lost: a phantom is judged there
         # from its first frame in the window to its last, or as many frames as its tracker has followed it
         out.append(f"track_time({oid},{max(clock.lasted(seen_in[oid][0], seen), (obj.track_age or 0) * clock.frame_ms)}).")
         if obj.lane is not None and obj.lane.kind is not LaneKind.current:
