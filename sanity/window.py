@@ -449,13 +449,21 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
         runs = runs[:last]
     elif runs and runs[-1].value == primary:  # the current reading's own run
         runs.pop()
-    before = _believed(runs, confirm)
+    # a misread stop sign says nothing of the limit before the current reading (san.stop.misread_limit): taken for
+    # the limit read before, it would outweigh the real sign read past the intersection
+    before = _believed([run._replace(value=None) if _misread_in(past[run.first], run.value, signalled[run.first]) else run
+                        for run in runs], confirm)
     if before is not None:
         run = runs[before]
         # with its run, so that the rules can tell a settled limit from a one-frame lower reading
         out.append(f"prior_limit({run.value}).prior_run({run.value},{run.frames})."
                    f"prior_time({run.value},{clock.lasted(run.first, run.last)}).")
     return out
+
+
+def _misread_in(frame: _Summary, value: Optional[int], signalled: bool) -> bool:
+    """Whether the rules took the sign that read `value` in this frame for a stop sign."""
+    return any(v == value and not (signalled and e == LINE_EVIDENCE) for v, e in frame.misread)
 
 
 # --- lights and signs ---------------------------------------------------------
