@@ -97,6 +97,7 @@ class _Summary:
     school_sign: bool
     dark: bool  # traffic lights in view, none of them lit
     speed: int  # the ego's, cm/s
+    at_line: bool  # the ego at an intersection's stop line (stage "at")
     objects: dict[int, DetectedObject]  # by id
     ids: frozenset[int]
     confirmed: tuple[tuple[int, frozenset[Source]], ...]  # objects a range sensor saw, with those sensors
@@ -118,6 +119,7 @@ class _Summary:
             school_sign=any(s.kind is SignKind.school_zone for s in scene.signs),
             dark=_dark(scene),
             speed=cm(scene.ego.speed),
+            at_line=scene.intersection is not None and scene.intersection.stage is IntersectionStage.at,
             objects={o.id: o for o in scene.objects},
             ids=frozenset(o.id for o in scene.objects),
             confirmed=tuple((oid, sources) for oid, sources in confirming if sources),
@@ -170,7 +172,7 @@ class Bodies:
 # scenario file): what the catalog loader takes frames to give besides the scene's (rules.facts.SCENE_PREDICATES).
 WINDOW_PREDICATES = frozenset({
     ("signal_dark", 0), ("window_frames", 1), ("window_param", 2), ("light_seen_on_approach", 0),
-    ("slowest_recent_speed", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2), ("reading_time", 2),
+    ("slowest_recent_speed", 1), ("slowest_at_line", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2), ("reading_time", 2),
     ("misread_before", 2), ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
     ("light_flashing_frames", 2), ("light_flashing_time", 2), ("light_flashes", 1), ("light_seen_recently", 1),
     ("sign_seen_recently", 1), ("obj_size", 3), ("overlaps", 2), ("predicted_conflict", 3), ("obj_source_before", 2),
@@ -227,6 +229,9 @@ class WindowProvider:
             out.extend(_sign_facts(now, past))
             out.extend(_memory_facts(scene, now, window, past, c, clock, bodies))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
+            at_line = [p.speed for p in past if p.at_line]  # a stop in a queue short of the line is no stop at it
+            if at_line:
+                out.append(f"slowest_at_line({min(at_line)}).")
         return "".join(out)
 
     def _summary(self, scene: Scene) -> _Summary:
