@@ -254,7 +254,6 @@ class Reasoner:
                 literal="not recommended(_)", holds=True, kind="absent",
                 text="there is no evidence that any action is recommended: the monitor brakes, the most cautious action"))
 
-        summary = _summary(decision, proposed, action, recommended, rules, len(vetoing))
         notes = solved.answer.of("noted", 1)
         brief = (Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=self._static_atoms)
                  if notes and explain else prover)
@@ -273,6 +272,8 @@ class Reasoner:
                     tree.append(JustificationNode(literal=str(atom), holds=True, text=prover.phrases.atom(atom, rule_id),
                                                   rule=rule_id))
             rules.extend(r for r in found if r not in rules)
+        # after the notes: the one line names every rule the verdict cites (the audit lists it alone)
+        summary = _summary(decision, proposed, action, recommended, rules, len(vetoing))
         justification = Justification(summary=summary, tree=tree)
         justification.text = render_text(justification)
         return Verdict(

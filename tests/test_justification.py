@@ -749,3 +749,12 @@ def test_the_provers_arithmetic_is_clingos_32_bit_arithmetic_undefined_where_cli
     else:
         with pytest.raises(Undefined):
             evaluate(term, {})
+
+
+@pytest.mark.parametrize("proposed", ["cruise", "accelerate", "change_lane_left"])
+def test_the_one_line_summary_names_every_rule_the_verdict_cites(proposed):
+    """The audit lists a verdict by its summary alone: the sanity layer's rules, added last, are named there too."""
+    doubted_limit = scene(speed=10.0, limit=85 * MPH, objects=[obj("car", -3.5, 2, lane=1)], lanes=2, lane=2)
+    verdict = Reasoner().decide(doubted_limit, proposed)
+    assert "san.limit.implausible" in verdict.rules
+    assert all(rule in verdict.justification.summary for rule in verdict.rules), (verdict.rules, verdict.justification.summary)
