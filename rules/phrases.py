@@ -154,7 +154,8 @@ class Phrasebook:
             setting = args[0].name
             label, unit, scale = _setting(setting)
             n = args[1].number
-            return f"the {label} is {n / scale:.{_setting_digits(n, scale)}f} {unit}".rstrip()
+            shown = f"the {label} is {n / scale:.{_setting_digits(n, scale)}f} {unit}".rstrip()
+            return shown + self._in_sign_unit(n) if unit == "m/s" else shown  # a margin of '2.24 m/s (5 mph)'
         template = self.catalog.templates.get((name, len(args)))
         if template is None:
             inner = ", ".join("_" if a is None else str(a) for a in args)

@@ -53,6 +53,10 @@ CASES = {
     ),
     "def.heavy_headway_gap": (scene(speed=30, lanes=2, lane=2, objects=[obj("truck", -3.5, -30, lane=1, vy=30)]),
                               scene(speed=30, lanes=2, lane=2, objects=[obj("car", -3.5, -30, lane=1, vy=30)])),
+    "cll.lead_signals_left": (scene(lanes=2, lane=2, objects=[obj("car", 0, 20, lane=2, vy=5, indicator="left")]),
+                              scene(lanes=2, lane=2, objects=[obj("car", 0, 20, lane=2, vy=5, indicator="right")])),
+    "clr.lead_signals_right": (scene(lanes=2, lane=1, objects=[obj("car", 0, 20, lane=1, vy=5, indicator="right")]),
+                               scene(lanes=2, lane=1, objects=[obj("car", 0, 20, lane=1, vy=5, indicator="left")])),
     "def.pulls_away_clear": (scene(speed=13, objects=[obj("car", 0, 6, lane=1, vy=18)]),
                              scene(speed=13, objects=[obj("car", 0, 6, lane=1, vy=14)])),
     "def.line_far_ahead": (

@@ -126,3 +126,41 @@ def test_moving_to_the_kerb_side_lane_past_a_slower_truck_is_allowed_in_the_us_a
     assert US.decide(sc, "change_lane_right").decision.value == "approve"
     uk = UK.decide(mirror_scene(sc), "change_lane_left")
     assert uk.decision.value == "override" and "jur.uk.no_overtaking_on_the_left" in uk.rules
+
+
+def test_holding_speed_past_a_slower_car_on_the_right_is_an_undertake_in_the_uk():
+    """Highway Code 268: the ego at 30 m/s in lane 1 would pass a car doing 22 m/s in lane 2, 10 m ahead, on its
+    left; it slows to match instead. Within the speed margin of its speed the lanes move alike: no undertake."""
+    def beside(vy: float):
+        return scene(speed=30.0, zone="highway", limit=31.0, lanes=2, lane=1, objects=[obj(1, "car", 3.5, 10.0, 2, vy=vy)])
+
+    held = UK.decide(beside(22.0), "cruise")
+    assert held.decision.value == "override" and held.action.value == "brake"
+    assert "jur.uk.no_overtaking_on_the_left" in held.vetoed_by
+    assert UK.decide(beside(29.0), "cruise").decision.value == "approve"
+
+
+def test_a_car_signalling_a_right_turn_may_be_passed_on_its_left_in_the_uk():
+    """Highway Code 163: overtaking on the left is allowed when the vehicle in front signals to turn right."""
+    turning = obj(1, "car", 0.0, 30.0, 2, vy=3.0, indicator="right")
+    sc = scene(speed=14.0, limit=15.6, lanes=2, lane=2, objects=[turning])
+    assert UK.decide(sc, "change_lane_left").decision.value == "approve"
+    plain = scene(speed=14.0, limit=15.6, lanes=2, lane=2, objects=[obj(1, "car", 0.0, 30.0, 2, vy=3.0)])
+    assert "jur.uk.no_overtaking_on_the_left" in UK.decide(plain, "change_lane_left").rules
+
+
+@pytest.mark.parametrize("reasoner, side, proposed", [(US, "left", "change_lane_left"), (UK, "right", "change_lane_right")])
+def test_the_ego_does_not_overtake_a_car_signalling_towards_the_passing_side(reasoner, side, proposed):
+    """Highway Code 167; US manuals: a car ahead signalling towards the passing side is about to turn across it."""
+    lane = 2 if side == "left" else 1
+    signalling = obj(1, "car", 0.0, 30.0, lane, vy=3.0, indicator=side)
+    verdict = reasoner.decide(scene(speed=13.0, limit=13.4, lanes=2, lane=lane, objects=[signalling]), proposed)
+    assert verdict.decision.value == "override"
+    assert f"{'cll' if side == 'left' else 'clr'}.lead_signals_{side}" in verdict.vetoed_by
+
+
+def test_a_speed_setting_reads_in_the_unit_of_the_packs_signs_too():
+    """The margin over the limit is shown as a driver reads limits: '2.24 m/s (5 mph)'."""
+    over = scene(speed=15.2, zone="city", limit=13.41)
+    text = UK.decide(over, "cruise", explain=True).justification.text
+    assert "the margin allowed over the limit is 2.24 m/s (5 mph)" in text
