@@ -57,6 +57,7 @@ CASES = {
                               scene(lanes=2, lane=2, objects=[obj("car", 0, 20, lane=2, vy=5, indicator="right")])),
     "clr.lead_signals_right": (scene(lanes=2, lane=1, objects=[obj("car", 0, 20, lane=1, vy=5, indicator="right")]),
                                scene(lanes=2, lane=1, objects=[obj("car", 0, 20, lane=1, vy=5, indicator="left")])),
+    "po.towards_kerb": (scene(lanes=2, lane=1, intent="pull_over"), scene(lanes=2, lane=2, intent="pull_over")),
     "def.pulls_away_clear": (scene(speed=13, objects=[obj("car", 0, 6, lane=1, vy=18)]),
                              scene(speed=13, objects=[obj("car", 0, 6, lane=1, vy=14)])),
     "def.line_far_ahead": (

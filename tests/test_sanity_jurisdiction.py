@@ -164,3 +164,9 @@ def test_a_speed_setting_reads_in_the_unit_of_the_packs_signs_too():
     over = scene(speed=15.2, zone="city", limit=13.41)
     text = UK.decide(over, "cruise", explain=True).justification.text
     assert "the margin allowed over the limit is 2.24 m/s (5 mph)" in text
+
+
+@pytest.mark.parametrize("reasoner, lane, towards", [(US, 1, "change_lane_right"), (UK, 2, "change_lane_left")])
+def test_a_route_that_asks_to_pull_over_moves_the_ego_towards_the_kerb_lane_first(reasoner, lane, towards):
+    verdict = reasoner.decide(scene(speed=10.0, lanes=2, lane=lane, intent="pull_over"), "pull_over")
+    assert verdict.decision.value == "override" and verdict.action.value == towards
