@@ -223,13 +223,18 @@ def failsafe_verdict(
     Bad input always brakes; a late or failed decision takes the most cautious
     action known to be permitted for this vehicle, else brakes. In shadow mode the
     monitor judges and never enforces: the proposed action stands (a veto) and the
-    fail-safe action is only recommended. A proposal that could not be read has no
+    fail-safe action is only recommended; where the two are one, the summary says so
+    instead of vetoing what it would do. A proposal that could not be read has no
     action to keep, so there the fail-safe action stands, and the summary says why.
     """
     safe = Action.brake if rule == RULE_BAD_INPUT else most_cautious(permitted)
     if shadow and proposed is not None:
         decision, action = Decision.veto, proposed
-        summary = f"fail-safe veto of {proposed.value} (shadow mode, not enforced; would {safe.value}): {reason}"
+        summary = (
+            # the planner proposed the fail-safe action itself: "veto of brake ... would brake" contradicted itself
+            f"fail-safe {safe.value}, as proposed (shadow mode): {reason}" if proposed is safe
+            else f"fail-safe veto of {proposed.value} (shadow mode, not enforced; would {safe.value}): {reason}"
+        )
     else:
         decision, action = Decision.override, safe
         summary = f"fail-safe {safe.value}: {reason}"

@@ -15,9 +15,10 @@ from discern.monitor.audit.aggregate import Odometer, latency_summary
 from discern.monitor.audit.timefmt import iso, parse_time
 from discern.monitor.status import StatusCounters, percentile
 from discern.monitor.client import Monitor
-from discern.monitor.config import LogSettings
+from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import McapLogWriter, RejectedInput, vehicle_topic
+from discern.monitor.server import MonitorServer
 from discern.rules.engine import Reasoner
 from discern.rules.scene import Proposal
 from tests.audit_logs import (
@@ -28,11 +29,13 @@ from tests.audit_logs import (
     SHADOW_FRAMES,
     SLOW_FRAMES,
     audit,
+    free_port,
     highway,
     monitor_logs,
     serve_log,
     write_log,
 )
+from tests.monitor_process import wait_until
 from tests.scenes import scene
 
 
@@ -72,7 +75,7 @@ def test_lists_every_veto_override_and_failsafe_with_rules_and_justification(cap
     kinds = {min(l.find(k, l.index(" frame ")) for k in ("override", "veto", "failsafe") if k in l) for l in lines}
     assert len(kinds) == 1
     assert sum("[monitor.deadline]" in l for l in lines) == SLOW_FRAMES
-    assert "1 refused input (logged on /discern/<vehicle>/rejected)" in out
+    assert "1 refused input (the monitor status's errors)" in out
 
 
 def test_filters_by_vehicle_rule_verdict_and_time(capsys, tmp_path, all_logs):
@@ -306,7 +309,8 @@ def test_the_html_reports_per_rule_table_says_which_cited_rule_this_versions_cat
     code, _, err = audit(capsys, str(log), "--html", str(page), "--workers", "1", "-q")
     assert code == 0, err
     html = page.read_text()
-    assert "<td>acc.retired_rule</td><td class=n>1</td><td>(no rule of this version&#x27;s catalog" in html
+    # forbade 1, also cited 0
+    assert "<td>acc.retired_rule</td><td class=n>1</td><td class=n>0</td><td>(no rule of this version&#x27;s" in html
 
 
 def test_a_shown_time_is_the_millisecond_its_record_falls_in_so_given_back_it_keeps_the_record(
@@ -485,3 +489,80 @@ def test_until_in_epoch_seconds_however_written_runs_to_the_end_of_its_last_digi
     writer.close()
     frames = export(capsys, tmp_path, str(tmp_path / "log"), "--until", until)["frames"]
     assert frames == (3 if until == "1.8e9" else 1)  # 1.8e9 is written to 10^8 s, some three years
+
+
+def test_disagreements_count_per_rule_for_the_rules_that_forbade_the_proposal_and_apart_for_those_also_cited(
+    capsys, tmp_path, reasoner
+):
+    """Counted for every rule a verdict cited, a sanity note that forbade nothing (san.memory.red_light) led the
+    table for vetoes other rules made. A verdict logged before vetoed_by was counts for every rule, and says so."""
+    writer = McapLogWriter(LogSettings(directory=tmp_path / "log"), "per_rule")
+    cited = (
+        (["acc.at_limit", "san.limit.debounce"], ["acc.at_limit"]),
+        (["acc.at_limit", "acc.lane_not_clear", "san.limit.debounce"], ["acc.at_limit", "acc.lane_not_clear"]),
+        (["acc.hazard", "san.memory.red_light"], None),  # logged without vetoed_by
+    )
+    for f, (rules, vetoed_by) in enumerate(cited):
+        p = Proposal(vehicle="car_a", action="accelerate", scene=highway(f))
+        verdict = reasoner.decide(p.scene, p.action, vehicle="car_a").model_copy(
+            update={"rules": rules, "vetoed_by": vetoed_by or []})
+        logged = verdict.model_dump(mode="json", exclude={"vetoed_by"} if vetoed_by is None else set())
+        writer.write(vehicle_topic("car_a", "proposal"), "proposal", p, log_time_ns=10**18 + f * 10**8)
+        writer.write(vehicle_topic("car_a", "verdict"), "verdict", json.dumps(logged).encode(),
+                     log_time_ns=10**18 + f * 10**8 + 1)
+    writer.close()
+    log = str(tmp_path / "log")
+    doc = export(capsys, tmp_path, log)
+    assert doc["per_rule"] == {"acc.at_limit": 2, "acc.lane_not_clear": 1, "acc.hazard": 1, "san.memory.red_light": 1}
+    assert doc["per_rule_also_cited"] == {"san.limit.debounce": 2} and doc["per_rule_unattributed"] == 1
+    assert [d["vetoed_by"] for d in doc["disagreements"]] == [["acc.at_limit"], ["acc.at_limit", "acc.lane_not_clear"],
+                                                              None]
+    code, out, err = audit(capsys, log, "--workers", "1", "-q")
+    assert code == 0, err
+    table = out.split("Disagreements per rule:\n")[1].split("\n\n")[0]
+    assert "  forbade  also cited  rule\n        2           0  acc.at_limit\n" in table
+    assert "\n        0           2  san.limit.debounce\n" in table
+    assert "1 disagreement logged without vetoed_by (by a monitor before 2026-11-27) counted as forbidden" in table
+    # --rule still matches any rule a verdict cites, a sanity note included
+    assert len(export(capsys, tmp_path, log, "--rule", "san.*")["disagreements"]) == 3
+
+
+def test_the_audit_counts_as_refused_every_input_the_monitors_status_counts_as_an_error_and_lists_invalid_keys(
+    capsys, tmp_path
+):
+    """A duplicate frame id is refused as bad input but logged on .../proposal, not .../rejected: the audit said 0
+    refused where the status said 1. A put on a wildcard key (logged under @invalid) went unlisted per vehicle."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    settings = MonitorConfig(monitor_id="refusals", zenoh=ZenohSettings(listen=[endpoint]), workers=1,
+                             budget_ms=1000.0, shadow=True, log=LogSettings(directory=tmp_path / "log"))
+    with MonitorServer(settings) as server:
+        with Monitor("car_a", connect=[endpoint], timeout=10.0) as car_a:
+            assert not car_a.check(highway(1), "cruise").failsafe
+            duplicate = car_a.check(highway(1), "brake")
+            assert duplicate.failsafe and "duplicate frame 1" in duplicate.error
+            assert list(car_a.session.get("discern/car_b/check", payload=b'{"action": ', timeout=10.0))
+            car_a.session.put("discern/*/proposal", Proposal(action="cruise", scene=highway(2)).model_dump_json())
+            wait_until(lambda: server.status().errors == 3)
+        errors = server.status().errors_by_kind
+    assert errors == {"order": 1, "json": 1, "vehicle": 1}
+    doc = export(capsys, tmp_path, str(tmp_path / "log"))
+    assert doc["refused_inputs"] == 3
+    refused = {v["vehicle"]: (v["frames"], v["refused_inputs"]) for v in doc["per_vehicle"]}
+    assert refused == {"car_a": (2, 1), "car_b": (1, 1), "@invalid": (0, 1)}
+    _, out, _ = audit(capsys, str(tmp_path / "log"), "--workers", "1", "-q")
+    assert "3 refused inputs (the monitor status's errors)" in out
+    assert "@invalid (of 0 frames, 0.00 km, 1 refused input)" in out.split("Disagreements per vehicle:\n")[1]
+
+
+def test_the_latency_line_of_a_single_verdict_says_verdict(capsys, tmp_path, reasoner):
+    log = write_log(tmp_path / "log", [("car_a", highway(1), "accelerate", 10**18, 10**18 + 10**6)], reasoner)
+    _, out, _ = audit(capsys, str(log), "--workers", "1", "-q")
+    assert " over 1 verdict\n" in out
+
+
+def test_the_csv_shows_a_proposed_action_never_read_as_the_terminal_does(capsys, tmp_path, all_logs):
+    out = tmp_path / "audit.csv"
+    code, text, err = audit(capsys, *all_logs, "--csv", str(out), "--workers", "1")
+    assert code == 0, err
+    [row] = [r for r in csv.DictReader(out.open()) if "malformed JSON" in r["error"]]
+    assert row["proposed"] == "?" and "  ? -> brake  " in next(l for l in text.splitlines() if "malformed JSON" in l)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import gc
 import shutil
 import json
@@ -14,6 +15,7 @@ from discern.monitor.audit import replay as replay_module
 from discern.monitor.audit.aggregate import Aggregates, audit_logs
 from discern.monitor.audit.frames import PENDING_PER_VEHICLE, plan_tasks
 from discern.monitor.audit.replay import ReplayCatalog, replay_logs
+from discern.monitor.audit.timefmt import iso
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings
 from discern.monitor.log import log_metadata
@@ -96,6 +98,18 @@ def test_replay_with_an_edited_rule_reports_each_changed_decision_side_by_side(c
     assert f"{len(changes)} decisions would change" in text
     assert "    recorded: override cruise [acc.at_limit]  override accelerate with cruise" in text
     assert "    replayed: approve accelerate [dec.permitted]  approve accelerate: permitted" in text
+
+
+def test_the_replays_csv_gives_each_changes_log_time_in_nanoseconds_as_the_audits_does(
+    capsys, tmp_path, logs, tolerant
+):
+    out = tmp_path / "replay.csv"
+    code, doc, _ = replay(capsys, tmp_path, str(logs["shadow"]), "--rules", str(tolerant), "--csv", str(out),
+                          "--workers", "1")
+    assert code == 1
+    rows = list(csv.DictReader(out.open()))
+    assert [int(r["log_time_ns"]) for r in rows] == [c["log_time_ns"] for c in doc["changes"]]
+    assert all(iso(int(r["log_time_ns"])) == r["time"] for r in rows) and len(rows) == SHADOW_FRAMES
 
 
 def test_a_quiet_replay_leaves_out_each_change_and_keeps_the_changes_by_transition(capsys, tmp_path, logs, tolerant):

@@ -520,6 +520,31 @@ def test_a_file_missing_its_closing_magic_is_truncated_not_complete(tmp_path):
         assert f.recovered_bytes == len(data) - 8
 
 
+def test_a_file_missing_its_closing_magic_has_its_summary_read_from_its_footer_not_called_damaged(tmp_path):
+    """mcap's reader looks for the footer a whole magic before the end: short of it, it read garbage there, and the
+    summary the footer points to was reported unreadable, a damaged file, where only the closing magic is cut."""
+    write_session(tmp_path)
+    [whole] = tmp_path.glob("*.mcap")
+    data = whole.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    for missing in range(1, 9):
+        cut.write_bytes(data[:-missing])
+        report = RecoveryReport()
+        list(read_log(cut, report))
+        [f] = report.files
+        assert f.damaged == [] and "cannot be read" not in report.summary(), (missing, f.damaged)
+    # what the summary indexes is still checked: a chunk whose opcode is damaged is named, not passed over unseen
+    data, chunks = write_chunked(tmp_path / "chunked", 6)
+    start, end = chunks[2]
+    damaged = bytearray(data[:-4])
+    damaged[start] = 0x7F
+    cut.write_bytes(bytes(damaged))
+    report = RecoveryReport()
+    assert [r.proposal.scene.frame_id for r in read_log(cut, report)] == [0, 1, 3, 4, 5]
+    [f] = report.files
+    assert [(d.offset, d.kind) for d in f.damaged] == [(start, "chunk")] and f.state == "truncated"
+
+
 def test_a_file_cut_short_is_said_so_in_plain_words_wherever_the_cut_falls(tmp_path):
     write_session(tmp_path, frames=2)
     [whole] = tmp_path.glob("*.mcap")

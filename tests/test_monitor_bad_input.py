@@ -13,7 +13,7 @@ from discern.monitor.client import Monitor
 from discern.monitor.config import ZenohSettings
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import read_log
-from discern.monitor.protocol import CAUTION_ORDER, most_cautious, peek_frame
+from discern.monitor.protocol import CAUTION_ORDER, RULE_BAD_INPUT, failsafe_verdict, most_cautious, peek_frame
 from discern.monitor.server import EXCERPT_BYTES
 from discern.rules.scene import Action, Proposal
 from discern.rules.verdict import Decision, Verdict
@@ -297,6 +297,16 @@ def test_failsafe_picks_the_most_cautious_permitted_action():
     assert most_cautious([Action.accelerate]) is Action.accelerate
     assert most_cautious([]) is Action.brake
     assert CAUTION_ORDER[0] is Action.brake and len(set(CAUTION_ORDER)) == len(Action)
+
+
+def test_a_shadow_failsafe_for_a_proposal_of_the_failsafe_action_itself_reads_as_no_veto_of_it():
+    """A refused duplicate that proposed brake read "fail-safe veto of brake (...; would brake)"."""
+    reason = "frame_id: duplicate frame 87, the last frame received for this vehicle was 87"
+    same = failsafe_verdict("car", reason, RULE_BAD_INPUT, proposed=Action.brake, shadow=True)
+    assert same.justification.summary == f"fail-safe brake, as proposed (shadow mode): {reason}"
+    assert same.action is Action.brake and same.recommended is Action.brake and same.failsafe
+    other = failsafe_verdict("car", reason, RULE_BAD_INPUT, proposed=Action.cruise, shadow=True)
+    assert other.justification.summary.startswith("fail-safe veto of cruise (shadow mode, not enforced; would brake)")
 
 
 def test_a_proposal_with_a_byte_order_mark_is_judged_as_discern_check_reads_the_file_and_logged_without_it(

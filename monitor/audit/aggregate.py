@@ -148,7 +148,8 @@ class Disagreement:
     proposed: Optional[str]
     executed: str
     recommended: Optional[str]
-    rules: list[str]
+    rules: list[str]  # every rule the verdict cites
+    vetoed_by: Optional[list[str]]  # those that forbade the proposal; None where the log predates vetoed_by
     summary: str
     scenario: str
     latency_ms: Optional[float]
@@ -251,6 +252,7 @@ class Tally:
                     executed=verdict.action.value,
                     recommended=verdict.recommended.value if verdict.recommended else None,
                     rules=list(verdict.rules),
+                    vetoed_by=list(verdict.vetoed_by) if "vetoed_by" in verdict.model_fields_set else None,
                     summary=verdict.justification.summary,
                     scenario=scenario,
                     latency_ms=verdict.latency_ms,
@@ -285,12 +287,20 @@ class Tally:
 
 @dataclass
 class Aggregates:
-    """The figures of the report, computed once from a finished tally."""
+    """The figures of the report, computed once from a finished tally.
 
-    per_rule: list[tuple[str, int]]
+    Per rule, a disagreement counts for the rules that forbade its proposal (`vetoed_by`), not for every rule
+    it cites: a sanity note or a rule a proof used forbade nothing, and counted with the rest it led the table
+    for vetoes others made. Those are counted apart, as also cited. A verdict logged before `vetoed_by` was
+    (2026-11-27) says not which of its rules forbade: it counts for every rule it cites, as `unattributed`.
+    """
+
+    per_rule: list[tuple[str, int, int]]  # rule, disagreements it forbade, those citing it without forbidding
+    unattributed: int  # disagreements logged without vetoed_by, counted for every rule they cite
     per_pair: list[tuple[str, int]]
     per_scenario: list[tuple[str, int, int]]  # kind, disagreements, frames
-    per_vehicle: list[tuple[str, int, int, float]]  # vehicle, disagreements, frames, km
+    # vehicle, disagreements, frames, km, refused inputs; also a key that names no vehicle (@invalid), refused only
+    per_vehicle: list[tuple[str, int, int, float, int]]
     per_kind: dict[str, int]
     over_time: list[tuple[int, int, dict[str, int]]]  # bucket start ns, bucket width ns, count per kind
     km: float
@@ -302,21 +312,29 @@ class Aggregates:
     @classmethod
     def of(cls, tally: Tally, buckets: int = 48) -> "Aggregates":
         rows = tally.disagreements
-        per_rule: Counter = Counter()
+        forbade: Counter = Counter()
+        cited: Counter = Counter()
         for d in rows:
-            per_rule.update(set(d.rules))
+            vetoed_by = set(d.rules if d.vetoed_by is None else d.vetoed_by)
+            forbade.update(vetoed_by)
+            cited.update(set(d.rules) - vetoed_by)
         per_scenario = Counter(d.scenario for d in rows)
         per_vehicle = Counter(d.vehicle for d in rows)
+        refused = tally.counts.refused_by_vehicle
         odo = tally.odometer
         n = len(rows)
         return cls(
-            per_rule=per_rule.most_common(),
+            per_rule=sorted(((r, forbade[r], cited[r]) for r in forbade | cited), key=lambda r: (-r[1], -r[2], r[0])),
+            unattributed=sum(d.vetoed_by is None for d in rows),
             per_pair=Counter(d.pair for d in rows).most_common(),
             per_scenario=sorted(
                 ((k, per_scenario[k], f) for k, f in tally.scenario_frames.items()), key=lambda r: (-r[1], -r[2], r[0])
             ),
             per_vehicle=sorted(
-                ((v, per_vehicle[v], f, odo.vehicle_km(v)) for v, f in tally.vehicle_frames.items()),
+                (
+                    (v, per_vehicle[v], tally.vehicle_frames[v], odo.vehicle_km(v), refused[v])
+                    for v in tally.vehicle_frames.keys() | refused.keys()
+                ),
                 key=lambda r: (-r[1], r[0]),
             ),
             per_kind={k.value: sum(1 for d in rows if d.kind is k) for k in Kind},

@@ -5,6 +5,12 @@ The monitor logs a proposal and its verdict on two channels
 the pair is matched here by vehicle and frame id. A proposal refused before it
 parsed has no proposal record: its frame carries the verdict alone.
 
+The inputs the monitor refused (its status's `errors`) are counted per vehicle:
+each payload that was no proposal by its record on `.../rejected`, and each
+proposal refused for its frame order (a duplicate frame id, a frame out of
+order), which parsed and is logged on `.../proposal`, by its `monitor.bad_input`
+verdict.
+
 Files continue one another only when one monitor process wrote them in turn:
 same directory and monitor id, the same run id in their names (older logs,
 named without one: not two processes in their `discern` metadata) and the
@@ -21,15 +27,15 @@ had, however short the files. Only that span of the lead-in is decoded.
 
 from __future__ import annotations
 
-from collections import deque
-from dataclasses import dataclass
+from collections import Counter, deque
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
 from discern.monitor.log import (
     LOG_NAME, LogRecord, RecoveryReport, first_log_time_ns, log_files, log_metadata, read_log
 )
-from discern.monitor.protocol import InputError
+from discern.monitor.protocol import RULE_BAD_INPUT, InputError
 from discern.monitor.vehicle_state import VehicleState
 from discern.rules.scene import Proposal, Scene
 from discern.rules.verdict import Verdict
@@ -64,7 +70,7 @@ class PairingCounts:
     records: int = 0
     proposals: int = 0
     verdicts: int = 0
-    rejected: int = 0
+    refused_by_vehicle: Counter = field(default_factory=Counter)  # the inputs the monitor refused, per vehicle
     status: int = 0
     unanswered: int = 0  # proposals left without a verdict at the end of their file
     carried: int = 0  # verdicts paired with a proposal an audited lead-in file counted: not unanswered after all
@@ -72,6 +78,10 @@ class PairingCounts:
     def merge(self, other: "PairingCounts") -> None:
         for name in self.__dataclass_fields__:
             setattr(self, name, getattr(self, name) + getattr(other, name))
+
+    @property
+    def refused(self) -> int:
+        return sum(self.refused_by_vehicle.values())
 
 
 class Pairing:
@@ -116,7 +126,7 @@ class Pairing:
             self.counts.verdicts += 1
             return self._frame(record)
         if kind == "rejected":
-            self.counts.rejected += self._counts(record)
+            self._refused(record)
         elif kind == "status":
             self.counts.status += 1
         return None
@@ -128,6 +138,10 @@ class Pairing:
 
     def _counts(self, record: LogRecord) -> bool:
         return self.counted(record.vehicle, record.log_time_ns)
+
+    def _refused(self, record: LogRecord) -> None:
+        if self._counts(record):
+            self.counts.refused_by_vehicle[record.vehicle] += 1
 
     def _unanswered(self, proposal: LogRecord) -> bool:
         """Whether a proposal given up on counts here: not one of the lead-in's, its own task's to count (no task's,
@@ -144,6 +158,8 @@ class Pairing:
                 self.counts.carried += self._counts(proposal_record)
             frame.proposal = proposal_record.proposal
             frame.arrived_ns = proposal_record.log_time_ns
+            if RULE_BAD_INPUT in verdict.rules:  # refused for its frame order: no record on .../rejected says so
+                self._refused(record)
             if self.window_s is not None:
                 frame.history = self._admit(vehicle, frame.proposal.scene, proposal_record.log_time_ns)
         return frame

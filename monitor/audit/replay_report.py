@@ -13,6 +13,7 @@ from .timefmt import iso
 
 CSV_FIELDS = [
     "time",
+    "log_time_ns",  # as in the audit's CSV: exact, and what --since and --until take back
     "vehicle",
     "frame_id",
     "scenario",
@@ -91,6 +92,7 @@ def _row(c: Change) -> dict:
     r, p = c.recorded, c.replayed
     return {
         "time": iso(c.time_ns),
+        "log_time_ns": c.time_ns,
         "vehicle": c.vehicle,
         "frame_id": c.frame_id,
         "scenario": c.scenario,

@@ -75,8 +75,8 @@ def gaps_line(tally: Tally) -> str:
     extra = []
     if tally.unanswered:
         extra.append(plural(tally.unanswered, "proposal") + " without a logged verdict")
-    if tally.counts.rejected:
-        extra.append(plural(tally.counts.rejected, "refused input") + " (logged on /discern/<vehicle>/rejected)")
+    if tally.counts.refused:
+        extra.append(plural(tally.counts.refused, "refused input") + " (the monitor status's errors)")
     return "; ".join(extra)
 
 
@@ -100,7 +100,7 @@ def totals_lines(tally: Tally, agg: Aggregates) -> list[str]:
     if lat["samples"]:
         lines.append(
             f"latency: p50 {lat['p50_ms']:.2f} ms, p90 {lat['p90_ms']:.2f} ms, p99 {lat['p99_ms']:.2f} ms, "
-            f"max {lat['max_ms']:.2f} ms over {lat['samples']} verdicts"
+            f"max {lat['max_ms']:.2f} ms over {plural(lat['samples'], 'verdict')}"
         )
     return lines
 
@@ -114,18 +114,43 @@ def render_text(tally: Tally, agg: Aggregates, filters: Filters, listing: bool =
     lines += totals_lines(tally, agg)
     if listing:
         lines += _listing(tally.disagreements)
+    lines += _per_rule_lines(agg)
     for title, items in (
-        ("per rule", agg.per_rule),
         ("per action pair (proposed -> executed)", agg.per_pair),
         # with the frames of the kind and of the vehicle, as docs/audit.md says: a count alone is no rate
         ("per scenario kind", [(f"{k} (of {plural(f, 'frame')})", n) for k, n, f in agg.per_scenario if n]),
-        ("per vehicle", [(f"{v} (of {plural(f, 'frame')}, {km:.2f} km)", n) for v, n, f, km in agg.per_vehicle]),
+        ("per vehicle", [(_vehicle(v, f, km, r), n) for v, n, f, km, r in agg.per_vehicle]),
     ):
         if items:
             lines.append("")
             lines.append(f"Disagreements {title}:")
             lines += [f"  {n:>6}  {key}" for key, n in items]
     return "\n".join(lines) + "\n"
+
+
+def _vehicle(vehicle: str, frames: int, km: float, refused: int) -> str:
+    refusals = f", {plural(refused, 'refused input')}" if refused else ""
+    return f"{vehicle} (of {plural(frames, 'frame')}, {km:.2f} km{refusals})"
+
+
+def unattributed_line(agg: Aggregates) -> str:
+    """What the per-rule counts could not tell apart: verdicts logged before they named the rules that forbade."""
+    if not agg.unattributed:
+        return ""
+    return (f"{plural(agg.unattributed, 'disagreement')} logged without vetoed_by (by a monitor before 2026-11-27) "
+            "counted as forbidden by every rule cited")
+
+
+PER_RULE_KEY = ("forbade: the disagreements whose proposal the rule forbade (the verdict's vetoed_by); also cited: "
+                "those whose verdict cites it otherwise (a rule its proof used, a sanity note)")
+
+
+def _per_rule_lines(agg: Aggregates) -> list[str]:
+    if not agg.per_rule:
+        return []
+    lines = ["", "Disagreements per rule:", f"  {'forbade':>7}  {'also cited':>10}  rule"]
+    lines += [f"  {n:>7}  {cited:>10}  {rule}" for rule, n, cited in agg.per_rule]
+    return lines + [f"  ({note})" for note in (PER_RULE_KEY, unattributed_line(agg)) if note]
 
 
 def _listing(rows: list[Disagreement]) -> list[str]:
@@ -166,7 +191,8 @@ def render_csv(tally: Tally) -> str:
     writer = csv.DictWriter(out, fieldnames=CSV_FIELDS, lineterminator="\n")
     writer.writeheader()
     for d in tally.disagreements:
-        writer.writerow(spreadsheet_safe(_row(d)))
+        # no proposed action read: '?', as the terminal and the HTML show it (the JSON has null)
+        writer.writerow(spreadsheet_safe({**_row(d), "proposed": d.proposed or "?"}))
     return out.getvalue()
 
 
@@ -207,21 +233,25 @@ def render_json(tally: Tally, agg: Aggregates, filters: Filters) -> str:
         "frames": tally.frames,
         "decisions": {d: tally.decisions[d] for d in ("approve", *(k.value for k in Kind))},  # zeros too
         "unanswered_proposals": tally.unanswered,
-        "refused_inputs": tally.counts.rejected,
+        "refused_inputs": tally.counts.refused,
         "first_log_time": iso(tally.first_ns) if tally.first_ns is not None else None,
         "last_log_time": iso(tally.last_ns) if tally.last_ns is not None else None,
         "odometry": {"km": agg.km, "driving_hours": agg.hours, "per_hour": agg.per_hour, "per_km": agg.per_km},
         "latency_ms": agg.latency,
         "per_kind": agg.per_kind,
-        "per_rule": dict(agg.per_rule),
+        "per_rule": {rule: n for rule, n, _ in agg.per_rule if n},  # the rules that forbade the proposal
+        "per_rule_also_cited": {rule: cited for rule, _, cited in agg.per_rule if cited},
+        "per_rule_unattributed": agg.unattributed,
         "per_action_pair": dict(agg.per_pair),
         "per_scenario": [{"scenario": k, "disagreements": n, "frames": f} for k, n, f in agg.per_scenario],
-        "per_vehicle": [{"vehicle": v, "disagreements": n, "frames": f, "km": km} for v, n, f, km in agg.per_vehicle],
+        "per_vehicle": [{"vehicle": v, "disagreements": n, "frames": f, "km": km, "refused_inputs": r}
+                        for v, n, f, km, r in agg.per_vehicle],
         "over_time": [
             {"start": iso(start), "seconds": width / 1e9, **counts} for start, width, counts in agg.over_time
         ],
         "disagreements": [
-            {**_row(d), "rules": d.rules, "verdict_json": json.loads(d.verdict_json)} for d in tally.disagreements
+            {**_row(d), "rules": d.rules, "vetoed_by": d.vetoed_by, "verdict_json": json.loads(d.verdict_json)}
+            for d in tally.disagreements
         ],
     }
     return json.dumps(doc, indent=2) + "\n"
@@ -333,7 +363,8 @@ def render_html(tally: Tally, agg: Aggregates, filters: Filters, rule_text: dict
     parts += [f"<p class='meta'>{escape(n)}</p>" for n in notes]
     parts.append(f"<h2>Summary</h2><div class='cards'>{''.join(cards)}</div>")
     parts.append("<h2>Timeline of disagreements</h2>" + plots.timeline(agg.over_time))
-    parts.append("<h2>Disagreements per rule</h2>" + plots.bars(agg.per_rule, "Disagreements per rule"))
+    forbade = [(rule, n) for rule, n, _ in agg.per_rule if n]
+    parts.append("<h2>Disagreements per rule</h2>" + plots.bars(forbade, "Disagreements per rule"))
     parts.append(
         "<h2>Latency distribution</h2>"
         + plots.histogram(
@@ -345,7 +376,9 @@ def render_html(tally: Tally, agg: Aggregates, filters: Filters, rule_text: dict
     )
     parts.append(
         "<h2>Per rule</h2>"
-        + table(["rule", "disagreements", "says"], [[r, n, rule_text.get(r, RETIRED)] for r, n in agg.per_rule], {1})
+        + "".join(f"<p class='meta'>{escape(note)}</p>" for note in (PER_RULE_KEY, unattributed_line(agg)) if note)
+        + table(["rule", "forbade", "also cited", "says"],
+                [[r, n, cited, rule_text.get(r, RETIRED)] for r, n, cited in agg.per_rule], {1, 2})
     )
     parts.append(
         "<h2>Per action pair (proposed &rarr; executed)</h2>"
@@ -362,9 +395,9 @@ def render_html(tally: Tally, agg: Aggregates, filters: Filters, rule_text: dict
     parts.append(
         "<h2>Per vehicle</h2>"
         + table(
-            ["vehicle", "disagreements", "frames", "km"],
-            [[v, n, f, f"{km:.2f}"] for v, n, f, km in agg.per_vehicle],
-            {1, 2, 3},
+            ["vehicle", "disagreements", "frames", "km", "refused inputs"],
+            [[v, n, f, f"{km:.2f}", r] for v, n, f, km, r in agg.per_vehicle],
+            {1, 2, 3, 4},
         )
     )
     busy = [(s, w, c) for s, w, c in agg.over_time if any(c.values())]

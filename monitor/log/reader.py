@@ -29,9 +29,9 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator, Optional, Union
 
 from mcap.opcode import Opcode
-from mcap.reader import make_reader
-from mcap.records import Channel, Chunk, Footer, Header, Message, MessageIndex, Metadata, Schema
+from mcap.records import Channel, Chunk, ChunkIndex, Footer, Header, Message, MessageIndex, Metadata, Schema, Statistics
 from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.summary import Summary
 from pydantic import ValidationError
 
 from discern.rules.scene import SCHEMA_VERSION, Proposal
@@ -311,7 +311,7 @@ def _read_file(
             )
             return
         recovery.closed = _ends_closed(fd, size)
-        summary = _Summary(path)
+        summary = _Summary(path, size)
         decoder = _ChannelDecoder(path, recovery, vehicles, summary.declare)
         f.seek(len(MAGIC))
         records = _records(f)
@@ -497,13 +497,28 @@ def _records(f) -> Iterator:
     return StreamReader(f, skip_magic=True, emit_chunks=True, record_size_limit=RECORD_SIZE_LIMIT).records
 
 
+def _plain_records(f) -> Iterator:
+    """The records of `f` from where it stands, a chunk's broken up."""
+    return StreamReader(f, skip_magic=True, record_size_limit=RECORD_SIZE_LIMIT).records
+
+
 def _ends_closed(fd: int, size: int) -> bool:
     """Whether the file ends with a footer record and the closing magic, as a cleanly closed file does."""
-    if size < 2 * len(MAGIC) + FOOTER_BYTES:
-        return False
-    tail = os.pread(fd, FOOTER_BYTES + len(MAGIC), size - FOOTER_BYTES - len(MAGIC))
-    opcode, length = struct.unpack_from("<BQ", tail)
-    return tail[-len(MAGIC):] == MAGIC and opcode == Opcode.FOOTER and length == FOOTER_BYTES - RECORD_HEADER
+    return size >= 2 * len(MAGIC) + FOOTER_BYTES and _footer_at(fd, size) == size - FOOTER_BYTES - len(MAGIC)
+
+
+def _footer_at(fd: int, size: int) -> Optional[int]:
+    """Where the footer record that ends the file starts (None: no footer ends it): before the closing magic, or
+    before what is left of it. A file cut inside its closing magic still has its summary where its footer says."""
+    for kept in range(len(MAGIC), -1, -1):
+        at = size - FOOTER_BYTES - kept
+        if at < len(MAGIC):
+            continue
+        tail = os.pread(fd, FOOTER_BYTES + kept, at)
+        opcode, length = struct.unpack_from("<BQ", tail)
+        if opcode == Opcode.FOOTER and length == FOOTER_BYTES - RECORD_HEADER and tail[FOOTER_BYTES:] == MAGIC[:kept]:
+            return at
+    return None
 
 
 def _resume_at(fd: int, offset: int, size: int, summary: "_Summary") -> tuple[Optional[int], str]:
@@ -521,24 +536,51 @@ def _resume_at(fd: int, offset: int, size: int, summary: "_Summary") -> tuple[Op
 
 
 class _Summary:
-    """A file's summary section, read only when damage calls for it (None when it has none or it is damaged too)."""
+    """A file's summary section, read only when damage calls for it (None when it has none or it is damaged too).
 
-    def __init__(self, path: Path):
-        self.path = path
-        self._summary = None
+    Found from the footer that ends the file, as mcap's reader finds it, but also where the closing magic is
+    cut short: mcap's reader looks for the footer a whole magic before the end, and read garbage there.
+    """
+
+    def __init__(self, path: Path, size: int):
+        self.path, self.size = path, size
+        self._summary: Optional[Summary] = None
         self._read = False
         self.error: Optional[str] = None  # why it could not be read
 
-    def get(self):
+    def get(self) -> Optional[Summary]:
         if not self._read:
             self._read = True
             try:
                 with open(self.path, "rb") as f:
-                    self._summary = make_reader(f).get_summary()
+                    self._summary = self._read_summary(f.fileno(), _Snapshot(f, self.size))
             except Exception as exc:  # cut short, or its summary is damaged as well
                 self._summary = None
                 self.error = _describe(exc)
         return self._summary
+
+    def _read_summary(self, fd: int, f: "_Snapshot") -> Optional[Summary]:
+        at = _footer_at(fd, self.size)
+        if at is None:
+            return None
+        f.seek(at)
+        footer = next(_plain_records(f))
+        if footer.summary_start == 0:
+            return None
+        f.seek(footer.summary_start)
+        summary = Summary()
+        for record in _plain_records(f):
+            if isinstance(record, Footer):
+                return summary
+            if isinstance(record, Statistics):
+                summary.statistics = record
+            elif isinstance(record, Schema):
+                summary.schemas[record.id] = record
+            elif isinstance(record, Channel):
+                summary.channels[record.id] = record
+            elif isinstance(record, ChunkIndex):
+                summary.chunk_indexes.append(record)
+        raise ValueError("the summary runs to the end of the file without its footer")
 
     def chunk_offsets(self) -> list[int]:
         summary = self.get()
