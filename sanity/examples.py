@@ -268,6 +268,12 @@ def _examples() -> list[Example]:
                 "the ego drives 20 m/s.",
                 (scene(speed=20.0, limit=None, map_speed_limit=85 * MPH),), Action.accelerate,
                 (scene(speed=20.0, limit=None, map_speed_limit=45 * MPH),)),
+        Example("san.limit.map_implausibly_low", "On a highway the map gives 5 mph (a wrong map tile) while the camera "
+                "reads 70 mph; the ego drives 30 m/s with a truck 6 m behind.",
+                (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=5 * MPH,
+                       objects=[obj(2, "truck", 0.0, -6.0, 1, vy=30.0)]),), Action.cruise,
+                (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=55 * MPH,
+                       objects=[obj(2, "truck", 0.0, -6.0, 1, vy=30.0)]),)),
         Example("san.limit.fallback_zone", "The taped 85 mph city sign, with no map and nothing read before.",
                 city_85, Action.accelerate, (scene(speed=16.0, limit=85 * MPH, map_speed_limit=15.0),)),
         Example("san.limit.zone_default", "Nothing tells the limit in a city; the ego drives 16 m/s.",
