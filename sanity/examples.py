@@ -326,6 +326,10 @@ def _examples() -> list[Example]:
         Example("san.radar.phantom_caution", "The possible phantom is in the ego's lane within the gap needed.",
                 (scene(**hw, objects=[radar_car, phantom]),), Action.accelerate,
                 (scene(**hw, objects=[radar_car, {**phantom, "position": {"x": 0.0, "y": 30.0}}]),)),
+        Example("san.radar.ranged_past", "The possible phantom in the ego's lane, 16 m ahead, and the front radar reads "
+                "clear road to 60 m.",
+                (scene(**hw, objects=[radar_car, phantom], sensors=[sensor("front", 60.0)]),), Action.cruise,
+                (scene(**hw, objects=[radar_car, phantom], sensors=[sensor("front", 10.0)]),)),
         Example("san.caution.slow_down", "Caution for a possible phantom calls for slowing down.",
                 (scene(**hw, objects=[radar_car, phantom]),), Action.cruise, (scene(**hw, objects=[radar_car]),)),
         Example("san.caution.no_speeding_up", "Caution for a possible phantom forbids accelerating.",
