@@ -132,6 +132,28 @@ def _train(*argv, cwd):
                           capture_output=True, text=True, timeout=300, cwd=cwd)
 
 
+def test_a_merge_run_at_its_default_length_records_that_its_episodes_end_past_the_merge(tmp_path):
+    """merge-v0 has no duration: writing run.json failed with KeyError 'duration' after the episodes had run."""
+    import json
+
+    assert cli_main(["eval", "highway", "--episodes", "1", "--env", "merge-v0", "--faults", "none", "--variants",
+                     "planner", "--no-judge", "--quiet", "--out", str(tmp_path)]) == 0
+    environment = json.loads((tmp_path / "run.json").read_text())["environment"]
+    assert (environment["id"], environment["duration_s"], environment["past_x_m"]) == ("merge-v0", None, 370.0)
+
+
+def test_a_duration_ends_merge_episodes_as_it_ends_highway_ones():
+    """merge-v0 never truncates: --duration was recorded in run.json but the episodes ran to the merge all the same."""
+    from discern.adapters.highway.envs import make_env
+
+    env = make_env("merge-v0", duration=2)
+    env.reset(seed=0)
+    try:
+        assert [env.step(1)[2:4] for _ in range(2)] == [(False, False), (False, True)]  # IDLE: not terminated, cut at 2 s
+    finally:
+        env.close()
+
+
 def test_training_needs_an_out_path_and_replaces_the_shipped_weights_only_with_force(tmp_path):
     """--out defaulted to a path relative to the working directory, which its help called the packaged weights."""
     from discern.scenarios.highway.planner import default_weights
