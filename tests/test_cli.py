@@ -543,6 +543,19 @@ def test_demo_refuses_a_kitti_folder_named_on_purpose_that_is_not_there(tmp_path
     assert capsys.readouterr().err == f"discern: error: --kitti {missing}: not a directory of AV-CSR frame files\n"
 
 
+def test_the_demo_clears_only_its_own_logs_of_an_earlier_run(tmp_path):
+    """It deleted every *.mcap in out/log, where the README's `discern serve --log-dir out/log` keeps the user's."""
+    from discern.monitor.demo import clear_logs, own_logs
+
+    own = tmp_path / "discern-demo-20261128T101010-0123abcd-0000.mcap"
+    users = [tmp_path / "discern-myhost-4242-20261128T101010-89abcdef-0000.mcap", tmp_path / "drive.mcap"]
+    for path in (own, *users):
+        path.write_bytes(b"")
+    assert own_logs(tmp_path) == [own]
+    clear_logs(tmp_path)
+    assert sorted(tmp_path.iterdir()) == sorted(users)
+
+
 def test_check_says_a_json_file_nested_too_deeply_is_no_scene(tmp_path, capsys):
     deep = tmp_path / "deep.json"
     deep.write_text("[" * 100_000)
