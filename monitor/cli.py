@@ -98,10 +98,11 @@ def cmd_check(args: argparse.Namespace) -> int:
                             "decides its frames and checks their expected verdicts")
         kind = "proposal" if "scene" in data else "scene"
         if kind == "proposal":
-            if args.proposed:  # the command line's action stands in for the file's, whatever that was
-                text = json.dumps({**data, "action": args.proposed})
+            # The whole file is checked, its own action too, as the monitor would check it: --proposed only
+            # judges another action in a message the monitor takes.
             proposal = Proposal.model_validate_json(text, **JSON_AS_SCHEMA)
-            scene, action, vehicle = proposal.scene, proposal.action, proposal.vehicle
+            scene, vehicle = proposal.scene, proposal.vehicle
+            action = Action(args.proposed) if args.proposed else proposal.action
         else:
             if not args.proposed:
                 raise UserError(f"{args.scene}: a bare scene needs --proposed ACTION")
@@ -278,7 +279,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="judge a proposed action in a scene and explain the verdict")
     check.add_argument("scene", type=path_text, help="scene JSON (or a proposal JSON with action and scene)")
-    check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action; with a proposal file, judged instead of the file's own (what if it had proposed this?)")
+    check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action; with a proposal file, judged instead of the file's own (what if it had "
+                       "proposed this?), which must still be valid")
     check.add_argument("--explain", choices=["text", "json", "html"], default="text")
     check.add_argument("--out", type=path_text, help="write the output to this file")
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")
