@@ -122,8 +122,11 @@ def register(subparsers) -> None:
     _zenoh_arguments(router, listen_default=DEFAULT_ENDPOINT, modes=False)
     router.set_defaults(func=cmd_router)
 
-    planner = subparsers.add_parser("planner-example", help="an example planner asking the monitor each frame")
-    from .example_planner import add_arguments
+    from .example_planner import EXIT_STATUS, add_arguments
+
+    planner = subparsers.add_parser("planner-example", help="an example planner asking the monitor each frame",
+                                    description="An example planner: drives a made-up highway scene and asks the "
+                                    "monitor about a proposed action each frame.", epilog=EXIT_STATUS)
 
     add_arguments(planner)
     planner.set_defaults(func=cmd_planner_example)
