@@ -19,7 +19,7 @@ from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
 
-from .config import MAX_PAYLOAD_BYTES, path_text
+from .config import MAX_PAYLOAD_BYTES, check_max_payload_bytes, path_text
 from .protocol import MAX_ERRORS_NAMED
 
 # Parts that add subcommands through a `register(subparsers)` function.
@@ -89,6 +89,10 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    try:
+        check_max_payload_bytes(args.max_payload_bytes)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
     if Path(args.scene).suffix == ".pl":
         raise UserError(f"{args.scene}: AV-CSR frames, not a scene: run them with `discern scenarios run {args.scene}`")
     text, data = _read_json(args.scene, args.max_payload_bytes)
@@ -281,7 +285,9 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("scene", type=path_text, help="scene JSON (or a proposal JSON with action and scene)")
     check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action; with a proposal file, judged instead of the file's own (what if it had "
                        "proposed this?), which must still be valid")
-    check.add_argument("--explain", choices=["text", "json", "html"], default="text")
+    check.add_argument("--explain", choices=["text", "json", "html"], default="text",
+                       help="print the verdict with its justification as text, as a JSON verdict or as a "
+                       "self-contained HTML page (default: %(default)s)")
     check.add_argument("--out", type=path_text, help="write the output to this file")
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")
     check.add_argument("--rules", type=path_text, help="use the driving rules in this directory instead of the shipped ones")
@@ -294,7 +300,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     catalog = sub.add_parser("catalog", help="list the rules with their English and sources")
     catalog.add_argument("--all", action="store_true", help="include definitions and entity rules")
-    catalog.add_argument("--json", action="store_true")
+    catalog.add_argument("--json", action="store_true",
+                         help="print the rules as a JSON list, one object per rule (id, English, source, file...)")
     catalog.add_argument("--rules", type=path_text, help="list the driving rules in this directory instead of the shipped ones")
     catalog.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack to list with the catalog")
     catalog.set_defaults(func=cmd_catalog)
@@ -304,7 +311,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = scen_sub.add_parser("run", help="run scenario JSON files or AV-CSR .pl frames, or directories of them")
     run.add_argument("paths", nargs="+", type=path_text, metavar="PATH", help="a scenario .json, an AV-CSR .pl, or a directory")
     run.add_argument("--explain", action="store_true", help="print every verdict's justification")
-    run.add_argument("--repeats", type=_repeats, default=5, help="timing repeats per KITTI frame (median), at least 1")
+    run.add_argument("--repeats", type=_repeats, default=5, help="timing repeats per KITTI frame (median), at least 1 (default: %(default)s)")
     run.add_argument("--rules", type=path_text, help="use the driving rules in this directory")
     run.set_defaults(func=cmd_scenarios)
 

@@ -426,8 +426,10 @@ def test_a_report_that_cannot_be_written_is_refused_before_the_logs_are_read(cap
         (["{log}", "--replay", "--until", ""], "--until: time '' is neither ISO 8601"),
         (["{log}", "--vehicle", ""], "--vehicle is empty: it would match nothing"),
         (["{log}", "--rule", " "], "--rule is empty: it would match nothing"),
-        (["{log}", "--replay", "--window", "inf"], "--window must be a finite number above 0 s and at most 60 s, got inf"),
-        (["{log}", "--replay", "--window", "0"], "--window must be a finite number above 0 s and at most 60 s, got 0.0"),
+        (["{log}", "--replay", "--window", "inf"], "--window must be a finite number at least 1.5 s and at most 60 s, got inf"),
+        (["{log}", "--replay", "--window", "0"], "--window must be a finite number at least 1.5 s and at most 60 s, got 0.0"),
+        # as the monitor's --window-s: shorter, every flash is judged afresh, which no monitor decides with
+        (["{log}", "--replay", "--window", "1"], "--window must be a finite number at least 1.5 s and at most 60 s, got 1.0"),
         (["{log}", "--html", "/nonexistent/dir/report.html"], "cannot write /nonexistent/dir/report.html"),
     ],
 )

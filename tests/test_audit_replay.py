@@ -118,11 +118,19 @@ def test_replay_rebuilds_the_history_the_monitor_decided_with(capsys, tmp_path, 
 
     code, same, _ = replay(capsys, tmp_path, str(logs["memory"]), "--workers", "1")
     assert code == 0 and same["changes"] == []
-    # the same frames with no history: the pedestrian is forgotten at once
-    code, forgetful, _ = replay(capsys, tmp_path, str(logs["memory"]), "--window", "0.01", "--workers", "1")
-    assert code == 1
-    assert {c["frame_id"] for c in forgetful["changes"]} == {d["frame_id"] for d in remembered}
-    assert {(c["recorded_decision"], c["replayed_decision"]) for c in forgetful["changes"]} == {("override", "approve")}
+    # the same frames with no history, a window no monitor runs with (nor the CLI's --window takes): the pedestrian is
+    # forgotten at once
+    forgetful = replay_logs([str(logs["memory"])], window_s=0.01).tally.changes
+    assert {c.frame_id for c in forgetful} == {d["frame_id"] for d in remembered}
+    assert {(c.recorded["decision"], c.replayed["decision"]) for c in forgetful} == {("override", "approve")}
+
+
+def test_a_replay_names_a_history_window_other_than_the_monitors_default(capsys, tmp_path, logs):
+    """--window 3 changed what was decided, but the headline named the rules and parameters only."""
+    code, doc, text = replay(capsys, tmp_path, str(logs["memory"]), "--window", "3", "--workers", "1", "-q")
+    assert doc["window_s"] == 3.0 and " and a 3 s history window in " in text
+    code, doc, text = replay(capsys, tmp_path, str(logs["memory"]), "--workers", "1", "-q")
+    assert doc["window_s"] == 2.0 and "history window" not in text
 
 
 def test_a_filtered_replay_says_which_frames_it_replayed(capsys, tmp_path, logs, tolerant):

@@ -527,6 +527,13 @@ def test_an_out_path_that_cannot_be_written_is_one_error_line(tmp_path, capsys, 
     assert capsys.readouterr().err == f"discern: error: --out {path}: {message}\n"
 
 
+@pytest.mark.parametrize("value", ["-1", "0", "1023"])
+def test_check_refuses_a_payload_limit_the_monitor_refuses(tmp_path, capsys, value):
+    """`check --max-payload-bytes -1` was taken, and refused every file as larger than -1 bytes."""
+    assert main(["check", write(tmp_path, good_dict()), "--proposed", "cruise", "--max-payload-bytes", value]) == 2
+    assert capsys.readouterr().err == f"discern: error: --max-payload-bytes must be at least 1024, got {value}\n"
+
+
 def test_demo_refuses_no_episodes_before_running_anything(tmp_path, capsys, monkeypatch):
     from discern.monitor import demo
 
@@ -670,9 +677,9 @@ def test_check_refuses_a_file_past_the_monitors_payload_limit_without_reading_it
     assert main(["check", "/dev/zero", "--proposed", "brake"]) == 2
     assert capsys.readouterr().err == ("discern: error: /dev/zero: larger than 1048576 bytes, the monitor's limit "
                                        "for a proposal (--max-payload-bytes)\n")
-    path = write(tmp_path, good_dict())
-    assert main(["check", path, "--proposed", "brake", "--max-payload-bytes", "100"]) == 2
-    assert "larger than 100 bytes" in capsys.readouterr().err
+    path = write(tmp_path, json.dumps(good_dict()) + " " * 2000)
+    assert main(["check", path, "--proposed", "brake", "--max-payload-bytes", "1024"]) == 2
+    assert "larger than 1024 bytes" in capsys.readouterr().err
 
 
 def test_check_refuses_a_scene_note_with_a_terminal_escape_or_past_its_length_instead_of_printing_it(tmp_path, capsys):

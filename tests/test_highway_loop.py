@@ -403,3 +403,16 @@ def test_the_judge_counts_holding_a_speed_above_the_limit_as_speeding_and_slowin
     assert not proposal_was_safe(env, IDLE, 30.0)
     assert proposal_was_safe(env, SLOWER, 30.0)
     assert proposal_was_safe(env, IDLE, 40.0)  # below a higher limit, holding the speed is fine
+
+
+def test_the_fault_rates_help_gives_the_defaults_a_fault_set_runs_at(capsys):
+    """The help gave no defaults; it names perception.DEFAULT_RATES without importing highway-env, so it could drift."""
+    from discern.adapters.highway.perception import DEFAULT_RATES
+
+    with pytest.raises(SystemExit):
+        cli_main(["eval", "highway", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    for flag, key in (("--miss-rate", "miss_rate"), ("--phantom-rate", "phantom_rate"), ("--sign-rate", "sign_rate"),
+                      ("--sign-value", "sign_value"), ("--noise", "noise")):
+        described = help_text.rsplit(f"{flag} {flag.lstrip('-').replace('-', '_').upper()}", 1)[1].split(" --", 1)[0]
+        assert f"(default: {DEFAULT_RATES[key]:g}" in described, (flag, described)

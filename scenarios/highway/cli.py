@@ -53,18 +53,23 @@ def _options(parser: argparse.ArgumentParser) -> None:
         "(e.g. --faults none signs,missed; default: %(default)s)",
     )
     parser.add_argument("--variants", default="planner,discern,rss", help="comma list of planner, discern, rss (default: %(default)s)")
-    parser.add_argument("--seed", type=int, default=0, help="first episode seed offset; also seeds the faults")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="first episode seed offset; also seeds the faults (default: %(default)s)")
     parser.add_argument("--fault-seed", type=int, default=None,
                         help="seeds the faults instead of --seed: --seed 3 --fault-seed 0 --episodes 1 runs the "
                              "fourth episode of a --seed 0 run alone, faults and all")
     parser.add_argument("--env", default="highway-fast-v0", help="highway-fast-v0 (default), highway-v0 or merge-v0")
     parser.add_argument("--duration", type=float, default=None, help="episode length in seconds (env default)")
-    parser.add_argument("--miss-rate", type=float, default=None, help="camera miss chance per vehicle and frame")
-    parser.add_argument("--phantom-rate", type=float, default=None, help="phantom chance per frame")
-    parser.add_argument("--sign-rate", type=float, default=None, help="chance each sign is misread")
-    parser.add_argument("--sign-value", type=float, default=None, help="limit read off a misread sign, m/s")
+    # the defaults are perception.DEFAULT_RATES' (not imported here: it needs highway-env, which `discern` may lack)
+    parser.add_argument("--miss-rate", type=float, default=None,
+                        help="camera miss chance per vehicle and frame (default: 0.05 where a set names missed or dropped)")
+    parser.add_argument("--phantom-rate", type=float, default=None, help="phantom chance per frame (default: 0.1 where a set names phantoms)")
+    parser.add_argument("--sign-rate", type=float, default=None,
+                        help="chance each sign is misread (default: 0.5 where a set names signs)")
+    parser.add_argument("--sign-value", type=float, default=None, help="limit read off a misread sign, m/s (default: 80)")
     parser.add_argument(
-        "--noise", type=float, default=None, help="distance noise, metres: std NOISE*(0.2 + range/50 m), 1.2*NOISE at 50 m"
+        "--noise", type=float, default=None, help="distance noise, metres: std NOISE*(0.2 + range/50 m), 1.2*NOISE at 50 m (default: 1 where a set "
+        "names noise)"
     )
     parser.add_argument(
         "--param",
