@@ -84,7 +84,7 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
     except (CatalogError, ValueError) as exc:
         raise UserError(str(exc)) from None
     for warning in reasoner.catalog.warnings:  # what loads but likely never fires as meant: a misspelt predicate
-        print(f"discern: warning: {warning}", file=sys.stderr)
+        print(f"discern {args.command}: warning: {warning}", file=sys.stderr)
     return reasoner
 
 
@@ -229,7 +229,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
                 print(f"\n{row.frame.scenario} frame {row.frame.frame}:\n{_indented(row.verdict.justification.text)}")
             ok = all(r.agrees is not False for r in rows)  # a frame without expected_action is not scored
         for reason in unreadable_frames:
-            print(f"discern: error: {reason}", file=sys.stderr)
+            print(f"discern {args.command}: error: {reason}", file=sys.stderr)
         if unreadable_frames and len(frame_files) > 1:
             print(f"{len(unreadable_frames)} of {len(frame_files)} AV-CSR files not read")
     if scenario_files:
@@ -250,7 +250,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
         failed = sum(not o.passed for o in outcomes)
         history = sum(o.passed and not o.checked for o in outcomes)
         for reason in unreadable:
-            print(f"discern: error: {reason}", file=sys.stderr)
+            print(f"discern {args.command}: error: {reason}", file=sys.stderr)
         cannot = f", {len(unreadable)} file{'s' if len(unreadable) > 1 else ''} not read" if unreadable else ""
         kept = f", {history} history frame{'s' if history != 1 else ''} (nothing expected)" if history else ""
         print(f"{len(outcomes) - failed - history} passed, {failed} failed{kept}{cannot}")
@@ -330,8 +330,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args.argv = list(sys.argv[1:] if argv is None else argv)  # as given: for a subcommand that records what ran it
     try:
         return args.func(args)
-    except UserError as exc:
-        print(f"discern: error: {exc}", file=sys.stderr)
+    except UserError as exc:  # as argparse names its own errors: `discern check: error: ...`
+        print(f"discern {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130

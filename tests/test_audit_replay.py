@@ -420,7 +420,7 @@ def refused_rules(capsys, tmp_path, logs, text: str) -> tuple[Path, str]:
 
 def test_a_rules_directory_without_driving_rules_is_refused_as_check_refuses_it(capsys, tmp_path, logs):
     lp, err = refused_rules(capsys, tmp_path, logs, "%! rule def.only\n%! says A definition.\n%! source test\nthing(a).\n")
-    assert err == (f"discern audit: rules catalog: rules directory {lp.parent} defines no driving rules "
+    assert err == (f"discern audit: error: rules catalog: rules directory {lp.parent} defines no driving rules "
                    "(no `%! rule` other than def.* and ent.*)\n")
 
 
@@ -430,12 +430,12 @@ def test_a_rules_file_that_cannot_be_read_is_named(capsys, tmp_path, logs):
     (rules / "zz.lp").symlink_to(tmp_path / "gone.lp")
     code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(rules), "--workers", "1")
     assert code == 2 and out == ""
-    assert err == f"discern audit: rules catalog: {rules / 'zz.lp'}: cannot read: No such file or directory\n"
+    assert err == f"discern audit: error: rules catalog: {rules / 'zz.lp'}: cannot read: No such file or directory\n"
 
 
 def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
     lp, err = refused_rules(capsys, tmp_path, logs, "%! rule x.bad\n%! says Nothing.\n%! source none\nforbidden(A) :- action(A\n")
-    assert err.startswith(f"discern audit: rules catalog: {lp}: cannot parse: ")
+    assert err.startswith(f"discern audit: error: rules catalog: {lp}: cannot parse: ")
     assert f"{lp}:5:1" in err and "syntax error" in err
     assert "Traceback" not in err
 
@@ -462,7 +462,7 @@ def test_a_misspelt_rule_annotation_in_an_edited_catalog_is_refused_naming_its_f
     text = ("%! rule x.a\n%! says A.\n%! source s\nforbidden(accelerate) :- action(accelerate).\n"
             "%! rules x.b\n%! says B.\n%! source s\nforbidden(brake) :- action(brake).\n")
     lp, err = refused_rules(capsys, tmp_path, logs, text)
-    assert err.startswith(f"discern audit: rules catalog: {lp}:5: not an annotation: '%! rules x.b'")
+    assert err.startswith(f"discern audit: error: rules catalog: {lp}:5: not an annotation: '%! rules x.b'")
     assert "Traceback" not in err
 
 

@@ -105,10 +105,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         return _run(args)
     except UsageError as exc:
-        print(f"discern audit: {exc}", file=sys.stderr)
+        print(f"discern audit: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except BrokenProcessPool as exc:
-        print(f"discern audit: a worker process died ({exc}); --workers 1 runs in this process", file=sys.stderr)
+        print(f"discern audit: error: a worker process died ({exc}); --workers 1 runs in this process", file=sys.stderr)
         return EXIT_USAGE
 
 
