@@ -6,6 +6,7 @@ import argparse
 import math
 import os
 import sys
+from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -163,10 +164,11 @@ def _run_eval(args: argparse.Namespace) -> int:
             )
         except ValueError as exc:
             problems.append(str(exc))
-    labels = [f.label() for f in fault_sets]
+    # the same kinds and rates in another order are the same set: its episodes would run twice, in two rows
+    unordered = [replace(f, order=()) for f in fault_sets]
     problems += [
-        f"--faults gives more than one set that comes out as {label!r} with these rates: their rows would merge"
-        for label in sorted({l for l in labels if labels.count(l) > 1})
+        f"--faults gives more than one set that comes out as {f.label()!r} with these rates: the same episodes twice"
+        for f in dict.fromkeys(fault_sets[unordered.index(u)] for u in unordered if unordered.count(u) > 1)
     ]
     if not problems:
         problems += _folder_problems((("--out", args.out), ("--record", args.record)))
