@@ -287,6 +287,24 @@ def test_scenarios_run_takes_single_files_of_either_kind_and_explains_each_verdi
     assert f"{frames.stem} frame 1:\n        approve accelerate: permitted" in out
 
 
+@pytest.mark.parametrize("example, command", [("scene.json", "--proposed ACTION"), ("proposal.json", "")])
+def test_scenarios_run_says_a_scene_or_proposal_is_one_for_check(capsys, example, command):
+    """A scene given to `scenarios run` printed ten schema errors, and no word of what the file was."""
+    path = ROOT / "docs" / "examples" / example
+    assert main(["scenarios", "run", str(path)]) == 2
+    kind = example.removesuffix(".json")
+    assert capsys.readouterr().err == (f"discern scenarios: error: {path}: a {kind}, not a scenario file: "
+                                       f"`discern check {path}{' ' + command if command else ''}` judges it\n")
+
+
+def test_scenarios_run_names_the_first_problems_of_a_file_and_counts_the_rest(tmp_path, capsys):
+    """Every problem was listed, however many: `check` and the monitor name five, then `... and N more`."""
+    data = {"name": 3, "frames": "x", **{f"extra_{i}": i for i in range(6)}}
+    assert main(["scenarios", "run", write(tmp_path, data, "many.json")]) == 2
+    problems = capsys.readouterr().err.splitlines()[1:]
+    assert len(problems) == 6 and problems[-1] == "... and 5 more"
+
+
 def test_scenarios_run_fails_when_any_expectation_fails(tmp_path, capsys):
     data = json.loads((ROOT / "scenarios" / "rules" / "acc.cut_in.json").read_text())
     data["frames"][0]["expect"]["action"] = "cruise"
