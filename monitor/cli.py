@@ -19,7 +19,7 @@ from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
 
-from .config import MAX_PAYLOAD_BYTES, path_text
+from .config import MAX_PAYLOAD_BYTES, check_max_payload_bytes, path_text
 from .protocol import MAX_ERRORS_NAMED
 
 # Parts that add subcommands through a `register(subparsers)` function.
@@ -84,11 +84,15 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
     except (CatalogError, ValueError) as exc:
         raise UserError(str(exc)) from None
     for warning in reasoner.catalog.warnings:  # what loads but likely never fires as meant: a misspelt predicate
-        print(f"discern: warning: {warning}", file=sys.stderr)
+        print(f"discern {args.command}: warning: {warning}", file=sys.stderr)
     return reasoner
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    try:
+        check_max_payload_bytes(args.max_payload_bytes)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
     if Path(args.scene).suffix == ".pl":
         raise UserError(f"{args.scene}: AV-CSR frames, not a scene: run them with `discern scenarios run {args.scene}`")
     text, data = _read_json(args.scene, args.max_payload_bytes)
@@ -98,10 +102,11 @@ def cmd_check(args: argparse.Namespace) -> int:
                             "decides its frames and checks their expected verdicts")
         kind = "proposal" if "scene" in data else "scene"
         if kind == "proposal":
-            if args.proposed:  # the command line's action stands in for the file's, whatever that was
-                text = json.dumps({**data, "action": args.proposed})
+            # The whole file is checked, its own action too, as the monitor would check it: --proposed only
+            # judges another action in a message the monitor takes.
             proposal = Proposal.model_validate_json(text, **JSON_AS_SCHEMA)
-            scene, action, vehicle = proposal.scene, proposal.action, proposal.vehicle
+            scene, vehicle = proposal.scene, proposal.vehicle
+            action = Action(args.proposed) if args.proposed else proposal.action
         else:
             if not args.proposed:
                 raise UserError(f"{args.scene}: a bare scene needs --proposed ACTION")
@@ -224,7 +229,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
                 print(f"\n{row.frame.scenario} frame {row.frame.frame}:\n{_indented(row.verdict.justification.text)}")
             ok = all(r.agrees is not False for r in rows)  # a frame without expected_action is not scored
         for reason in unreadable_frames:
-            print(f"discern: error: {reason}", file=sys.stderr)
+            print(f"discern {args.command}: error: {reason}", file=sys.stderr)
         if unreadable_frames and len(frame_files) > 1:
             print(f"{len(unreadable_frames)} of {len(frame_files)} AV-CSR files not read")
     if scenario_files:
@@ -245,7 +250,7 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
         failed = sum(not o.passed for o in outcomes)
         history = sum(o.passed and not o.checked for o in outcomes)
         for reason in unreadable:
-            print(f"discern: error: {reason}", file=sys.stderr)
+            print(f"discern {args.command}: error: {reason}", file=sys.stderr)
         cannot = f", {len(unreadable)} file{'s' if len(unreadable) > 1 else ''} not read" if unreadable else ""
         kept = f", {history} history frame{'s' if history != 1 else ''} (nothing expected)" if history else ""
         print(f"{len(outcomes) - failed - history} passed, {failed} failed{kept}{cannot}")
@@ -278,8 +283,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="judge a proposed action in a scene and explain the verdict")
     check.add_argument("scene", type=path_text, help="scene JSON (or a proposal JSON with action and scene)")
-    check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action; with a proposal file, judged instead of the file's own (what if it had proposed this?)")
-    check.add_argument("--explain", choices=["text", "json", "html"], default="text")
+    check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action; with a proposal file, judged instead of the file's own (what if it had "
+                       "proposed this?), which must still be valid")
+    check.add_argument("--explain", choices=["text", "json", "html"], default="text",
+                       help="print the verdict with its justification as text, as a JSON verdict or as a "
+                       "self-contained HTML page (default: %(default)s)")
     check.add_argument("--out", type=path_text, help="write the output to this file")
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")
     check.add_argument("--rules", type=path_text, help="use the driving rules in this directory instead of the shipped ones")
@@ -292,7 +300,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     catalog = sub.add_parser("catalog", help="list the rules with their English and sources")
     catalog.add_argument("--all", action="store_true", help="include definitions and entity rules")
-    catalog.add_argument("--json", action="store_true")
+    catalog.add_argument("--json", action="store_true",
+                         help="print the rules as a JSON list, one object per rule (id, English, source, file...)")
     catalog.add_argument("--rules", type=path_text, help="list the driving rules in this directory instead of the shipped ones")
     catalog.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack to list with the catalog")
     catalog.set_defaults(func=cmd_catalog)
@@ -302,7 +311,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = scen_sub.add_parser("run", help="run scenario JSON files or AV-CSR .pl frames, or directories of them")
     run.add_argument("paths", nargs="+", type=path_text, metavar="PATH", help="a scenario .json, an AV-CSR .pl, or a directory")
     run.add_argument("--explain", action="store_true", help="print every verdict's justification")
-    run.add_argument("--repeats", type=_repeats, default=5, help="timing repeats per KITTI frame (median), at least 1")
+    run.add_argument("--repeats", type=_repeats, default=5, help="timing repeats per KITTI frame (median), at least 1 (default: %(default)s)")
     run.add_argument("--rules", type=path_text, help="use the driving rules in this directory")
     run.set_defaults(func=cmd_scenarios)
 
@@ -321,8 +330,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args.argv = list(sys.argv[1:] if argv is None else argv)  # as given: for a subcommand that records what ran it
     try:
         return args.func(args)
-    except UserError as exc:
-        print(f"discern: error: {exc}", file=sys.stderr)
+    except UserError as exc:  # as argparse names its own errors: `discern check: error: ...`
+        print(f"discern {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130

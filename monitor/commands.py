@@ -27,6 +27,7 @@ from .config import (
     LOG_ROTATE_MIN_S,
     MAX_PAYLOAD_BYTES,
     MIB,
+    MIN_PAYLOAD_BYTES,
     STATUS_PERIOD_MAX_S,
     STATUS_PERIOD_MIN_S,
     LogSettings,
@@ -57,7 +58,8 @@ def register(subparsers) -> None:
         help=f"decision budget, above 0 and at most {BUDGET_MAX_MS:g}; later = fail-safe (default: 50)",
     )
     serve.add_argument("--window-s", type=float, default=2.0, help="per-vehicle history window (default: 2)")
-    serve.add_argument("--max-payload-bytes", type=int, default=MAX_PAYLOAD_BYTES, help="larger proposals are refused")
+    serve.add_argument("--max-payload-bytes", type=int, default=MAX_PAYLOAD_BYTES,
+                       help=f"larger proposals are refused; at least {MIN_PAYLOAD_BYTES} (default: %(default)s)")
     serve.add_argument("--workers", type=int, default=1, help="decision worker processes (default: 1)")
     serve.add_argument("--shadow", action="store_true", help="shadow mode: veto, never override")
     serve.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
@@ -122,8 +124,11 @@ def register(subparsers) -> None:
     _zenoh_arguments(router, listen_default=DEFAULT_ENDPOINT, modes=False)
     router.set_defaults(func=cmd_router)
 
-    planner = subparsers.add_parser("planner-example", help="an example planner asking the monitor each frame")
-    from .example_planner import add_arguments
+    from .example_planner import EXIT_STATUS, add_arguments
+
+    planner = subparsers.add_parser("planner-example", help="an example planner asking the monitor each frame",
+                                    description="An example planner: drives a made-up highway scene and asks the "
+                                    "monitor about a proposed action each frame.", epilog=EXIT_STATUS)
 
     add_arguments(planner)
     planner.set_defaults(func=cmd_planner_example)

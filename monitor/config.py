@@ -224,6 +224,18 @@ def check_number(flag: str, value, low: float, high: float = math.inf, *, unit: 
     raise ValueError(f"{flag} must be a finite number {bounds}, got {value}")
 
 
+def check_window(flag: str, seconds) -> None:
+    """A history window the monitor can run with: serve's --window-s, and a replay's --window, which decides as such
+    a monitor would."""
+    check_number(flag, seconds, WINDOW_MIN_S, WINDOW_MAX_S, unit=" s")
+
+
+def check_max_payload_bytes(value) -> None:
+    """A payload limit the monitor can run with: serve's, and `discern check`'s, which refuses what the monitor would."""
+    if not (isinstance(value, int) and not isinstance(value, bool) and value >= MIN_PAYLOAD_BYTES):
+        raise ValueError(f"--max-payload-bytes must be at least {MIN_PAYLOAD_BYTES}, got {value}")
+
+
 @dataclass
 class LogSettings:
     """Where the MCAP log goes and how it is cut."""
@@ -249,6 +261,7 @@ class LogSettings:
 
 
 MAX_PAYLOAD_BYTES = 1024 * 1024  # --max-payload-bytes by default, for the monitor and for `discern check`
+MIN_PAYLOAD_BYTES = 1024  # less holds no scene with a few objects
 
 
 @dataclass
@@ -280,12 +293,11 @@ class MonitorConfig:
         if not valid_id(self.monitor_id):
             raise ValueError(f"monitor id {self.monitor_id!r} must match {ID_RULE}")
         check_number("--budget-ms", self.budget_ms, 0, BUDGET_MAX_MS, unit=" ms", above=True)
-        check_number("--window-s", self.window_s, WINDOW_MIN_S, WINDOW_MAX_S, unit=" s")
+        check_window("--window-s", self.window_s)
         check_number("--status-period-s", self.status_period_s, STATUS_PERIOD_MIN_S, STATUS_PERIOD_MAX_S, unit=" s")
         if self.log is not None:
             self.log.validate()
-        if self.max_payload_bytes < 1024:
-            raise ValueError(f"--max-payload-bytes must be at least 1024, got {self.max_payload_bytes}")
+        check_max_payload_bytes(self.max_payload_bytes)
         if self.jurisdiction not in JURISDICTIONS:
             raise ValueError(f"unknown jurisdiction {self.jurisdiction!r}: choose from {', '.join(JURISDICTIONS)}")
         problems = Params.overrides(list(self.params))[1]

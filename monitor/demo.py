@@ -60,16 +60,35 @@ def _endpoint() -> str:
         return f"tcp/127.0.0.1:{free.getsockname()[1]}"
 
 
-def sidecar(out: Path) -> Path:
+# The demo's monitor logs into a folder of its own under --out, as this monitor id: `discern serve --log-dir out/log`
+# (the README's) is the user's, and the audit of step 4 reads only the demo's frames.
+LOG_DIR = "demo-log"
+MONITOR_ID = "demo"
+
+
+def own_logs(log_dir: Path) -> list[Path]:
+    """The demo monitor's log files in `log_dir`: any other file there is someone else's, to keep and not to audit."""
+    from .log.writer import LOG_NAME
+
+    return sorted(p for p in log_dir.glob("*.mcap") if (named := LOG_NAME.match(p.name)) and named.group(1) == MONITOR_ID)
+
+
+def clear_logs(log_dir: Path) -> None:
+    """Delete the demo's own logs of an earlier run, and nothing else."""
+    for old in own_logs(log_dir):
+        old.unlink()
+
+
+def sidecar(out: Path) -> list[Path]:
     """A real `discern serve` process (peer mode, loopback, no router) judging an example planner."""
     banner("3. The sidecar: an example planner asks `discern serve` over zenoh; everything goes to MCAP")
     from .example_planner import run
 
-    log_dir = out / "log"
-    for old in log_dir.glob("*.mcap"):  # the demo's own logs from an earlier run
-        old.unlink()
+    log_dir = out / LOG_DIR
+    clear_logs(log_dir)
     endpoint = _endpoint()
-    command = [sys.executable, "-m", "discern.monitor.commands", "serve", "--listen", endpoint, "--log-dir", str(log_dir)]
+    command = [sys.executable, "-m", "discern.monitor.commands", "serve", "--id", MONITOR_ID, "--listen", endpoint,
+               "--log-dir", str(log_dir)]
     env = dict(os.environ, PYTHONUNBUFFERED="1", RUST_LOG="error")
     monitor = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
     ready = threading.Event()
@@ -101,12 +120,12 @@ def sidecar(out: Path) -> Path:
             print("the monitor did not stop within 30 s of SIGTERM: killed", file=sys.stderr)
             monitor.kill()
             monitor.wait()
-    logs = sorted(log_dir.glob("*.mcap"))
+    logs = own_logs(log_dir)
     print(f"\nMCAP log: {', '.join(str(p) for p in logs)}")
-    return log_dir
+    return logs
 
 
-def audit(log_dir: Path, out: Path) -> None:
+def audit(logs: list[Path], out: Path) -> None:
     banner("4. The offline audit of that log: every disagreement, per rule, with an HTML report")
     from .audit import cli as audit_cli
 
@@ -114,7 +133,7 @@ def audit(log_dir: Path, out: Path) -> None:
     audit_cli.register(parser.add_subparsers())
     report = out / "audit.html"
     # Step 3 showed the first disagreements; the totals and tables here, every disagreement in the CSV and HTML.
-    args = parser.parse_args(["audit", str(log_dir), "--html", str(report), "--csv", str(out / "audit.csv"), "--quiet"])
+    args = parser.parse_args(["audit", *map(str, logs), "--html", str(report), "--csv", str(out / "audit.csv"), "--quiet"])
     audit_cli.run(args)
 
 
@@ -151,8 +170,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     reasoner = Reasoner()
     ok = paper(reasoner, Path(args.kitti) if args.kitti is not None else KITTI)
     verdict(reasoner)
-    log_dir = sidecar(out)
-    audit(log_dir, out)
+    audit(sidecar(out), out)
     loop = closed_loop(out, args.episodes)
     return 0 if ok and loop == 0 else 1
 
@@ -161,6 +179,8 @@ def register(sub) -> None:
     demo = sub.add_parser("demo", help="run the main job: paper table, a verdict, the sidecar, the closed loop")
     demo.add_argument("--kitti", type=path_text, default=None,
                       help=f"directory of the paper's AV-CSR frame files (default: {KITTI}; without them the demo fails)")
-    demo.add_argument("--out", default="out", help="directory for logs, reports and plots")
-    demo.add_argument("--episodes", type=int, default=3, help="closed-loop episodes per variant and fault set")
+    demo.add_argument("--out", default="out",
+                      help=f"directory for logs ({LOG_DIR}/), reports and plots (default: %(default)s)")
+    demo.add_argument("--episodes", type=int, default=3,
+                      help="closed-loop episodes per variant and fault set (default: %(default)s)")
     demo.set_defaults(func=cmd_demo)

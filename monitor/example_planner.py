@@ -23,6 +23,11 @@ from .client import Monitor
 from .config import DEFAULT_ENDPOINT, without_rust_locations
 
 LANE_WIDTH = 3.5
+# A fail-safe is the monitor's answer when it decided nothing within its budget (50 ms by default) or none answered:
+# on a busy machine some frames get one, since the monitor waits for a core (docs/protocol.md).
+EXIT_STATUS = ("exit status: 0 every verdict came from the rules; 1 some were fail-safe (monitor.deadline: no decision "
+               "within the monitor's budget, which a loaded machine misses now and then; monitor.no_answer: no monitor "
+               "answered); 2 a usage error")
 
 
 def highway_scene(frame_id: int, n_objects: int = 8, *, lanes: int = 3, seed: int = 0, dt: float = 0.05) -> Scene:
@@ -123,12 +128,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--connect", action="append", metavar="ENDPOINT", help=f"monitor or router endpoint (default: {DEFAULT_ENDPOINT})"
     )
-    parser.add_argument("--style", choices=("query", "pubsub"), default="query", help="query/reply or publish/subscribe")
+    parser.add_argument("--style", choices=("query", "pubsub"), default="query",
+                        help="query/reply or publish/subscribe (default: %(default)s)")
     parser.add_argument("--explain", action="store_true", help="ask for and print the full justification")
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m discern.monitor.example_planner", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m discern.monitor.example_planner", description=__doc__.split("\n")[0],
+                                     epilog=EXIT_STATUS)
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:

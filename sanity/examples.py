@@ -8,6 +8,7 @@ each one with the engine's own justification, regenerated with
 
 from __future__ import annotations
 
+import argparse
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -506,16 +507,37 @@ EXAMPLES = _examples()
 
 
 def write_into(path: Path) -> None:
-    """Replace the examples block of a markdown file with freshly generated examples."""
+    """Replace the examples block of a markdown file with freshly generated examples.
+
+    Raises ValueError for a file without the block, OSError for one that cannot be read or written.
+    """
     text = path.read_text(encoding="utf-8")
     start, end = text.find(BEGIN), text.find(END)
     if start < 0 or end < start:
-        raise SystemExit(f"{path}: no examples block ({BEGIN} ... {END})")
+        raise ValueError(f"{path}: no examples block ({BEGIN} ... {END})")
     path.write_text(text[: start + len(BEGIN)] + "\n\n" + markdown(EXAMPLES) + "\n" + text[end:], encoding="utf-8")
 
 
-if __name__ == "__main__":
-    if len(sys.argv) > 1:
-        write_into(Path(sys.argv[1]))
-    else:
+def main(argv: Optional[list[str]] = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m discern.sanity.examples",
+        description="One worked example per sanity and jurisdiction rule, each with the engine's justification, "
+        "as markdown: written into a file's examples block, or to stdout.")
+    parser.add_argument("markdown", nargs="?", type=Path, metavar="FILE",
+                        help="a markdown file whose examples block (from the line " + BEGIN.replace("%", "%%")
+                        + " to " + END + ") is replaced, e.g. docs/sanity.md; without it, the examples go to stdout")
+    args = parser.parse_args(argv)
+    if args.markdown is None:
         sys.stdout.write(markdown(EXAMPLES))
+        return 0
+    try:
+        write_into(args.markdown)
+    except OSError as exc:
+        parser.error(f"{args.markdown}: {exc.strerror or exc}")
+    except ValueError as exc:
+        parser.error(str(exc))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

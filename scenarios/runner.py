@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Optional
 
 from pydantic import ValidationError
 
+from discern.monitor.protocol import MAX_ERRORS_NAMED
 from discern.rules.engine import Reasoner
 from discern.rules.scene import describe_errors
 from discern.rules.verdict import Verdict
@@ -54,11 +56,27 @@ def load(path: Path) -> Scenario:
     try:
         return Scenario.load(path)
     except ValidationError as exc:
-        raise ScenarioError(f"{path}:\n{describe_errors(exc)}") from None
+        # the first problems, as `discern check` and the monitor name them: a scene given here fails on every field
+        raise ScenarioError(_other_kind(path) or f"{path}:\n{describe_errors(exc, limit=MAX_ERRORS_NAMED)}") from None
     except OSError as exc:
         raise ScenarioError(f"{path}: {exc.strerror}") from None
     except UnicodeDecodeError as exc:
         raise ScenarioError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+
+
+def _other_kind(path: Path) -> Optional[str]:
+    """What to do with a scene or a proposal given as a scenario file, which `discern check` judges; None for others."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        return None
+    if not isinstance(data, dict) or "frames" in data:
+        return None
+    if "scene" in data:  # as `discern check` tells the two apart
+        return f"{path}: a proposal, not a scenario file: `discern check {path}` judges it"
+    if "ego" in data:
+        return f"{path}: a scene, not a scenario file: `discern check {path} --proposed ACTION` judges it"
+    return None
 
 
 def run(scenario: Scenario, reasoner: Reasoner) -> list[FrameOutcome]:

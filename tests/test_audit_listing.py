@@ -367,7 +367,7 @@ def test_a_report_that_would_overwrite_a_log_is_refused_before_the_logs_are_read
         spelt = f"{tmp_path}/run/../run/a.mcap"
         code, out, err = audit(capsys, str(run), *mode, "--json", spelt, "--workers", "1")
         assert code == 2 and out == "", err
-        assert err.strip() == f"discern audit: --json {spelt}: the report would overwrite the log {first}"
+        assert err.strip() == f"discern audit: error: --json {spelt}: the report would overwrite the log {first}"
         # `discern audit --csv run/*.mcap`: the shell made the first log the CSV, the second one the log read
         code, out, err = audit(capsys, *mode, "--csv", str(first), str(second), "--workers", "1")
         assert code == 2 and out == "", err
@@ -403,7 +403,7 @@ def test_a_report_that_cannot_be_written_is_refused_before_the_logs_are_read(cap
     for mode in ([], ["--replay"]):
         code, out, err = audit(capsys, str(logs["fleet"]), *mode, "--csv", str(written), "--html", str(nowhere))
         assert code == 2 and out == "" and not written.exists(), err
-        assert err.strip() == f"discern audit: cannot write {nowhere}: No such file or directory"
+        assert err.strip() == f"discern audit: error: cannot write {nowhere}: No such file or directory"
     code, out, err = audit(capsys, str(logs["fleet"]), "--csv", str(written), "--json", str(written))
     assert code == 2 and out == "" and not written.exists()
     assert f"--csv and --json name the same file {written}" in err
@@ -430,8 +430,10 @@ def test_a_report_that_cannot_be_written_is_refused_before_the_logs_are_read(cap
         (["{log}", "--replay", "--until", ""], "--until: time '' is neither ISO 8601"),
         (["{log}", "--vehicle", ""], "--vehicle is empty: it would match nothing"),
         (["{log}", "--rule", " "], "--rule is empty: it would match nothing"),
-        (["{log}", "--replay", "--window", "inf"], "--window must be a finite number above 0 s and at most 60 s, got inf"),
-        (["{log}", "--replay", "--window", "0"], "--window must be a finite number above 0 s and at most 60 s, got 0.0"),
+        (["{log}", "--replay", "--window", "inf"], "--window must be a finite number at least 1.5 s and at most 60 s, got inf"),
+        (["{log}", "--replay", "--window", "0"], "--window must be a finite number at least 1.5 s and at most 60 s, got 0.0"),
+        # as the monitor's --window-s: shorter, every flash is judged afresh, which no monitor decides with
+        (["{log}", "--replay", "--window", "1"], "--window must be a finite number at least 1.5 s and at most 60 s, got 1.0"),
         (["{log}", "--html", "/nonexistent/dir/report.html"], "cannot write /nonexistent/dir/report.html"),
     ],
 )
@@ -469,7 +471,7 @@ def test_the_example_planners_scene_time_follows_its_frame_rate(tmp_path):
 def test_with_no_log_named_it_reads_where_discern_serve_logs_by_default(capsys, tmp_path, monkeypatch, logs):
     monkeypatch.chdir(tmp_path)
     code, _, err = audit(capsys)
-    assert code == 2 and err.strip() == ("discern audit: discern-log: no such file or directory "
+    assert code == 2 and err.strip() == ("discern audit: error: discern-log: no such file or directory "
                                          "(the log `discern serve` writes by default; name the logs to read)")
     (tmp_path / "discern-log").mkdir()
     shutil.copy(logs["slow"], tmp_path / "discern-log")

@@ -208,7 +208,7 @@ def test_a_directory_named_like_a_log_inside_a_log_directory_is_walked_and_an_em
     for mode in ([], ["--replay"]):
         code, out, err = audit(capsys, str(run), *mode, "--workers", "1")
         assert code == 2 and out == ""
-        assert err == f"discern audit: {run / 'none.mcap'}: directory holds no *.mcap files\n"
+        assert err == f"discern audit: error: {run / 'none.mcap'}: directory holds no *.mcap files\n"
 
 
 def verdict_chunk_spans(path: Path) -> list[tuple[int, int]]:

@@ -132,11 +132,19 @@ def test_replay_rebuilds_the_history_the_monitor_decided_with(capsys, tmp_path, 
 
     code, same, _ = replay(capsys, tmp_path, str(logs["memory"]), "--workers", "1")
     assert code == 0 and same["changes"] == []
-    # the same frames with no history: the pedestrian is forgotten at once
-    code, forgetful, _ = replay(capsys, tmp_path, str(logs["memory"]), "--window", "0.01", "--workers", "1")
-    assert code == 1
-    assert {c["frame_id"] for c in forgetful["changes"]} == {d["frame_id"] for d in remembered}
-    assert {(c["recorded_decision"], c["replayed_decision"]) for c in forgetful["changes"]} == {("override", "approve")}
+    # the same frames with no history, a window no monitor runs with (nor the CLI's --window takes): the pedestrian is
+    # forgotten at once
+    forgetful = replay_logs([str(logs["memory"])], window_s=0.01).tally.changes
+    assert {c.frame_id for c in forgetful} == {d["frame_id"] for d in remembered}
+    assert {(c.recorded["decision"], c.replayed["decision"]) for c in forgetful} == {("override", "approve")}
+
+
+def test_a_replay_names_a_history_window_other_than_the_monitors_default(capsys, tmp_path, logs):
+    """--window 3 changed what was decided, but the headline named the rules and parameters only."""
+    code, doc, text = replay(capsys, tmp_path, str(logs["memory"]), "--window", "3", "--workers", "1", "-q")
+    assert doc["window_s"] == 3.0 and " and a 3 s history window in " in text
+    code, doc, text = replay(capsys, tmp_path, str(logs["memory"]), "--workers", "1", "-q")
+    assert doc["window_s"] == 2.0 and "history window" not in text
 
 
 def test_a_filtered_replay_says_which_frames_it_replayed(capsys, tmp_path, logs, tolerant):
@@ -426,7 +434,7 @@ def refused_rules(capsys, tmp_path, logs, text: str) -> tuple[Path, str]:
 
 def test_a_rules_directory_without_driving_rules_is_refused_as_check_refuses_it(capsys, tmp_path, logs):
     lp, err = refused_rules(capsys, tmp_path, logs, "%! rule def.only\n%! says A definition.\n%! source test\nthing(a).\n")
-    assert err == (f"discern audit: rules catalog: rules directory {lp.parent} defines no driving rules "
+    assert err == (f"discern audit: error: rules catalog: rules directory {lp.parent} defines no driving rules "
                    "(no `%! rule` other than def.* and ent.*)\n")
 
 
@@ -436,12 +444,12 @@ def test_a_rules_file_that_cannot_be_read_is_named(capsys, tmp_path, logs):
     (rules / "zz.lp").symlink_to(tmp_path / "gone.lp")
     code, out, err = audit(capsys, "--replay", str(logs["fleet"]), "--rules", str(rules), "--workers", "1")
     assert code == 2 and out == ""
-    assert err == f"discern audit: rules catalog: {rules / 'zz.lp'}: cannot read: No such file or directory\n"
+    assert err == f"discern audit: error: rules catalog: {rules / 'zz.lp'}: cannot read: No such file or directory\n"
 
 
 def test_a_broken_rules_directory_is_named(capsys, tmp_path, logs):
     lp, err = refused_rules(capsys, tmp_path, logs, "%! rule x.bad\n%! says Nothing.\n%! source none\nforbidden(A) :- action(A\n")
-    assert err.startswith(f"discern audit: rules catalog: {lp}: cannot parse: ")
+    assert err.startswith(f"discern audit: error: rules catalog: {lp}: cannot parse: ")
     assert f"{lp}:5:1" in err and "syntax error" in err
     assert "Traceback" not in err
 
@@ -468,7 +476,7 @@ def test_a_misspelt_rule_annotation_in_an_edited_catalog_is_refused_naming_its_f
     text = ("%! rule x.a\n%! says A.\n%! source s\nforbidden(accelerate) :- action(accelerate).\n"
             "%! rules x.b\n%! says B.\n%! source s\nforbidden(brake) :- action(brake).\n")
     lp, err = refused_rules(capsys, tmp_path, logs, text)
-    assert err.startswith(f"discern audit: rules catalog: {lp}:5: not an annotation: '%! rules x.b'")
+    assert err.startswith(f"discern audit: error: rules catalog: {lp}:5: not an annotation: '%! rules x.b'")
     assert "Traceback" not in err
 
 

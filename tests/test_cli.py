@@ -200,7 +200,7 @@ def test_a_rules_file_that_cannot_be_read_is_named_without_a_traceback(tmp_path,
     scenario = ROOT / "scenarios" / "rules" / "acc.cut_in.json"
     argv = [a.format(good=write(tmp_path, good_dict()), dir=rules, scenario=scenario) for a in command]
     assert main(argv) == 2
-    assert capsys.readouterr().err == f"discern: error: {rules / 'zz.lp'}: cannot read: {UNREADABLE[kind]}\n"
+    assert capsys.readouterr().err == f"discern {argv[0]}: error: {rules / 'zz.lp'}: cannot read: {UNREADABLE[kind]}\n"
 
 
 @pytest.mark.parametrize("kind", UNREADABLE)
@@ -211,7 +211,7 @@ def test_scenarios_run_names_a_frame_file_in_a_directory_that_cannot_be_read(avc
     shutil.copytree(avcsr_dir, frames)
     unreadable(frames / "zz.pl", kind)
     assert main(["scenarios", "run", str(frames), "--repeats", "1"]) == 2
-    assert capsys.readouterr().err == f"discern: error: {frames / 'zz.pl'}: cannot read: {UNREADABLE[kind]}\n"
+    assert capsys.readouterr().err == f"discern scenarios: error: {frames / 'zz.pl'}: cannot read: {UNREADABLE[kind]}\n"
 
 
 def test_catalog_lists_rules_with_english_and_source(capsys):
@@ -263,12 +263,15 @@ def test_check_param_past_its_bound_is_refused_rather_than_wrapped_into_a_permis
     assert capsys.readouterr().out.startswith("override cruise with brake")
 
 
-def test_check_names_a_bad_proposal_as_a_proposal_and_proposed_stands_in_for_its_action(tmp_path, capsys):
+def test_check_names_a_bad_proposal_as_a_proposal_with_proposed_or_without(tmp_path, capsys):
+    """--proposed once replaced an action of 'fly' before the check: a message the monitor refuses was accepted."""
     data = {"action": "fly", "scene": json.loads(scene(speed=10, limit=15).model_dump_json(by_alias=True))}
     path = write(tmp_path, data, "proposal.json")
-    assert main(["check", path]) == 2
-    assert "invalid proposal:\naction: unknown value 'fly'" in capsys.readouterr().err
-    assert main(["check", path, "--proposed", "cruise"]) == 0
+    for proposed in ([], ["--proposed", "cruise"]):
+        assert main(["check", path, *proposed]) == 2
+        assert "invalid proposal:\naction: unknown value 'fly'" in capsys.readouterr().err
+    data["action"] = "brake"
+    assert main(["check", write(tmp_path, data, "proposal.json"), "--proposed", "cruise"]) == 0
     assert capsys.readouterr().out.startswith("approve cruise")
 
 
@@ -282,6 +285,24 @@ def test_scenarios_run_takes_single_files_of_either_kind_and_explains_each_verdi
     # --explain: each verdict's proof under its line, the scenario's and the paper frames' alike
     assert "            - car 1 is heading into lane 2 within the gap it needs, because  [def.lane_claimed]" in out
     assert f"{frames.stem} frame 1:\n        approve accelerate: permitted" in out
+
+
+@pytest.mark.parametrize("example, command", [("scene.json", "--proposed ACTION"), ("proposal.json", "")])
+def test_scenarios_run_says_a_scene_or_proposal_is_one_for_check(capsys, example, command):
+    """A scene given to `scenarios run` printed ten schema errors, and no word of what the file was."""
+    path = ROOT / "docs" / "examples" / example
+    assert main(["scenarios", "run", str(path)]) == 2
+    kind = example.removesuffix(".json")
+    assert capsys.readouterr().err == (f"discern scenarios: error: {path}: a {kind}, not a scenario file: "
+                                       f"`discern check {path}{' ' + command if command else ''}` judges it\n")
+
+
+def test_scenarios_run_names_the_first_problems_of_a_file_and_counts_the_rest(tmp_path, capsys):
+    """Every problem was listed, however many: `check` and the monitor name five, then `... and N more`."""
+    data = {"name": 3, "frames": "x", **{f"extra_{i}": i for i in range(6)}}
+    assert main(["scenarios", "run", write(tmp_path, data, "many.json")]) == 2
+    problems = capsys.readouterr().err.splitlines()[1:]
+    assert len(problems) == 6 and problems[-1] == "... and 5 more"
 
 
 def test_scenarios_run_fails_when_any_expectation_fails(tmp_path, capsys):
@@ -327,7 +348,7 @@ def test_scenarios_run_runs_every_readable_file_and_names_each_broken_one(tmp_pa
     assert main(["scenarios", "run", str(tmp_path)]) == 2
     out, err = capsys.readouterr()
     assert "pass  acc.cut_in #0" in out and "1 passed, 0 failed, 2 files not read" in out
-    assert f"discern: error: {tmp_path / 'a_broken.json'}:" in err and f"discern: error: {tmp_path / 'b_empty.json'}:" in err
+    assert f"discern scenarios: error: {tmp_path / 'a_broken.json'}:" in err and f"discern scenarios: error: {tmp_path / 'b_empty.json'}:" in err
 
 
 def test_a_scenario_file_of_an_unknown_jurisdiction_is_named_and_the_others_still_run(tmp_path, capsys):
@@ -337,7 +358,7 @@ def test_a_scenario_file_of_an_unknown_jurisdiction_is_named_and_the_others_stil
     assert main(["scenarios", "run", str(tmp_path)]) == 2
     out, err = capsys.readouterr()
     assert "pass  acc.cut_in #0" in out and "1 passed, 0 failed, 1 file not read" in out
-    assert f"discern: error: {tmp_path / 'a_mars.json'}:\njurisdiction: unknown jurisdiction 'mars': choose from us, uk" in err
+    assert f"discern scenarios: error: {tmp_path / 'a_mars.json'}:\njurisdiction: unknown jurisdiction 'mars': choose from us, uk" in err
 
 
 @pytest.mark.parametrize("name, message", [
@@ -506,7 +527,7 @@ def test_a_rules_directory_without_driving_rules_is_refused(tmp_path, capsys, fi
         (rules / name).write_text(text)
     assert main(["check", write(tmp_path, good_dict()), "--proposed", "cruise", "--rules", str(rules)]) == 2
     out, err = capsys.readouterr()
-    assert out == "" and err == f"discern: error: rules directory {rules} {message}\n"
+    assert out == "" and err == f"discern check: error: rules directory {rules} {message}\n"
 
 
 @pytest.mark.parametrize("command, target, message", [
@@ -521,7 +542,14 @@ def test_an_out_path_that_cannot_be_written_is_one_error_line(tmp_path, capsys, 
     good = write(tmp_path, good_dict())
     path = tmp_path / target
     assert main([a.format(good=good, target=path) for a in command]) == 2
-    assert capsys.readouterr().err == f"discern: error: --out {path}: {message}\n"
+    assert capsys.readouterr().err == f"discern {command[0]}: error: --out {path}: {message}\n"
+
+
+@pytest.mark.parametrize("value", ["-1", "0", "1023"])
+def test_check_refuses_a_payload_limit_the_monitor_refuses(tmp_path, capsys, value):
+    """`check --max-payload-bytes -1` was taken, and refused every file as larger than -1 bytes."""
+    assert main(["check", write(tmp_path, good_dict()), "--proposed", "cruise", "--max-payload-bytes", value]) == 2
+    assert capsys.readouterr().err == f"discern check: error: --max-payload-bytes must be at least 1024, got {value}\n"
 
 
 def test_demo_refuses_no_episodes_before_running_anything(tmp_path, capsys, monkeypatch):
@@ -529,7 +557,7 @@ def test_demo_refuses_no_episodes_before_running_anything(tmp_path, capsys, monk
 
     monkeypatch.setattr(demo, "paper", lambda *a: pytest.fail("the demo ran before refusing --episodes 0"))
     assert main(["demo", "--episodes", "0", "--out", str(tmp_path / "out")]) == 2
-    assert capsys.readouterr().err == "discern: error: --episodes must be at least 1, got 0\n"
+    assert capsys.readouterr().err == "discern demo: error: --episodes must be at least 1, got 0\n"
     assert not (tmp_path / "out").exists()
 
 
@@ -540,7 +568,20 @@ def test_demo_refuses_a_kitti_folder_named_on_purpose_that_is_not_there(tmp_path
     monkeypatch.setattr(demo, "paper", lambda *a: pytest.fail("the demo ran before refusing --kitti"))
     missing = tmp_path / "kiti"
     assert main(["demo", "--kitti", str(missing), "--out", str(tmp_path / "out")]) == 2
-    assert capsys.readouterr().err == f"discern: error: --kitti {missing}: not a directory of AV-CSR frame files\n"
+    assert capsys.readouterr().err == f"discern demo: error: --kitti {missing}: not a directory of AV-CSR frame files\n"
+
+
+def test_the_demo_clears_only_its_own_logs_of_an_earlier_run(tmp_path):
+    """It deleted every *.mcap in out/log, where the README's `discern serve --log-dir out/log` keeps the user's."""
+    from discern.monitor.demo import clear_logs, own_logs
+
+    own = tmp_path / "discern-demo-20261128T101010-0123abcd-0000.mcap"
+    users = [tmp_path / "discern-myhost-4242-20261128T101010-89abcdef-0000.mcap", tmp_path / "drive.mcap"]
+    for path in (own, *users):
+        path.write_bytes(b"")
+    assert own_logs(tmp_path) == [own]
+    clear_logs(tmp_path)
+    assert sorted(tmp_path.iterdir()) == sorted(users)
 
 
 def test_check_says_a_json_file_nested_too_deeply_is_no_scene(tmp_path, capsys):
@@ -548,14 +589,14 @@ def test_check_says_a_json_file_nested_too_deeply_is_no_scene(tmp_path, capsys):
     deep.write_text("[" * 100_000)
     assert main(["check", str(deep), "--proposed", "cruise"]) == 2
     [line] = capsys.readouterr().err.splitlines()
-    assert line == f"discern: error: {deep}: JSON nested too deeply to be a scene"
+    assert line == f"discern check: error: {deep}: JSON nested too deeply to be a scene"
 
 
 def test_check_names_a_number_of_thousands_of_digits_without_a_traceback(tmp_path, capsys):
     path = write(tmp_path, json.dumps(good_dict())[:-1] + ', "frame_id": 1' + "0" * 5000 + "}")
     assert main(["check", path, "--proposed", "cruise"]) == 2
     [line] = capsys.readouterr().err.splitlines()
-    assert line == f"discern: error: {path}: a number in the JSON has too many digits to be a scene's"
+    assert line == f"discern check: error: {path}: a number in the JSON has too many digits to be a scene's"
 
 
 def test_scenarios_run_with_own_rules_loads_them_once_for_all_files(tmp_path, monkeypatch):
@@ -647,16 +688,16 @@ def test_check_into_a_full_disk_is_one_error_line_and_a_nonzero_exit():
                                  str(ROOT / "docs" / "examples" / "scene.json"), "--proposed", "brake"],
                                 stdout=full, stderr=subprocess.PIPE, text=True, timeout=60)
     assert result.returncode == 2
-    assert result.stderr == "discern: error: cannot write the output: No space left on device\n"
+    assert result.stderr == "discern check: error: cannot write the output: No space left on device\n"
 
 
 def test_check_refuses_a_file_past_the_monitors_payload_limit_without_reading_it_all(tmp_path, capsys):
     assert main(["check", "/dev/zero", "--proposed", "brake"]) == 2
-    assert capsys.readouterr().err == ("discern: error: /dev/zero: larger than 1048576 bytes, the monitor's limit "
+    assert capsys.readouterr().err == ("discern check: error: /dev/zero: larger than 1048576 bytes, the monitor's limit "
                                        "for a proposal (--max-payload-bytes)\n")
-    path = write(tmp_path, good_dict())
-    assert main(["check", path, "--proposed", "brake", "--max-payload-bytes", "100"]) == 2
-    assert "larger than 100 bytes" in capsys.readouterr().err
+    path = write(tmp_path, json.dumps(good_dict()) + " " * 2000)
+    assert main(["check", path, "--proposed", "brake", "--max-payload-bytes", "1024"]) == 2
+    assert "larger than 1024 bytes" in capsys.readouterr().err
 
 
 def test_check_refuses_a_scene_note_with_a_terminal_escape_or_past_its_length_instead_of_printing_it(tmp_path, capsys):
@@ -683,7 +724,7 @@ def test_a_misspelt_predicate_in_a_rules_directory_is_warned_of_on_stderr_naming
     argv = [a.format(rules=rules, good=write(tmp_path, good_dict())) for a in command]
     assert main(argv) == 0
     out, err = capsys.readouterr()
-    assert out and err == (f"discern: warning: {rules / '35_trucks.lp'}:4: acc.truck_ahead: nothing gives large_vehicles/1: "
+    assert out and err == (f"discern {argv[0]}: warning: {rules / '35_trucks.lp'}:4: acc.truck_ahead: nothing gives large_vehicles/1: "
                            "no catalog fact, rule or frame fact, and no '%! pred' declares it"
                            " (did you mean emergency_vehicle/1?)\n")
 

@@ -48,11 +48,11 @@ def test_recorded_verdicts_name_the_episodes_vehicle_as_their_topic_and_proposal
     """They said "vehicle": "ego" under /discern/discern_missed-signs_10000/verdict: the audit could not tell whose."""
     from discern.monitor.log.reader import read_log
 
-    faults = Faults.preset("signs,missed", miss_rate=0.9)  # missed@0.9,signs: a vehicle id has no '@' or '.'
+    faults = Faults.preset("signs,missed", miss_rate=0.9)  # signs,missed@0.9: a vehicle id has no '@' or '.'
     evaluate(1, [faults], ["discern"], Setup(duration=2, record=str(tmp_path)), progress=False)
     records = list(read_log(sorted(tmp_path.glob("*.mcap"))))
     verdicts = [r for r in records if r.kind == "verdict"]
-    vehicle = "discern_missed-0p9-signs_10000"
+    vehicle = "discern_signs-missed-0p9_10000"
     assert verdicts and {r.vehicle for r in records if r.kind in ("proposal", "verdict")} == {vehicle}
     assert {r.verdict.vehicle for r in verdicts} == {r.proposal.vehicle for r in records if r.kind == "proposal"} == {
         vehicle}
@@ -130,6 +130,37 @@ def _train(*argv, cwd):
 
     return subprocess.run([sys.executable, "-m", "discern.scenarios.highway.train", *map(str, argv)],
                           capture_output=True, text=True, timeout=300, cwd=cwd)
+
+
+def test_a_fault_set_is_labelled_in_the_order_the_command_line_named_its_kinds(tmp_path, capsys):
+    """`--faults signs,missed` was shown as missed,signs in the table, summary.txt and summary.csv."""
+    assert cli_main(["eval", "highway", "--episodes", "1", "--faults", "signs,missed", "--variants", "planner",
+                     "--quiet", "--duration", "1", "--out", str(tmp_path)]) == 0
+    assert "signs,missed  planner" in capsys.readouterr().out
+    assert "signs,missed  planner" in (tmp_path / "summary.txt").read_text()
+    assert [row["faults"] for row in csv.DictReader((tmp_path / "summary.csv").open())] == ["signs,missed"]
+
+
+def test_a_merge_run_at_its_default_length_records_that_its_episodes_end_past_the_merge(tmp_path):
+    """merge-v0 has no duration: writing run.json failed with KeyError 'duration' after the episodes had run."""
+    import json
+
+    assert cli_main(["eval", "highway", "--episodes", "1", "--env", "merge-v0", "--faults", "none", "--variants",
+                     "planner", "--no-judge", "--quiet", "--out", str(tmp_path)]) == 0
+    environment = json.loads((tmp_path / "run.json").read_text())["environment"]
+    assert (environment["id"], environment["duration_s"], environment["past_x_m"]) == ("merge-v0", None, 370.0)
+
+
+def test_a_duration_ends_merge_episodes_as_it_ends_highway_ones():
+    """merge-v0 never truncates: --duration was recorded in run.json but the episodes ran to the merge all the same."""
+    from discern.adapters.highway.envs import make_env
+
+    env = make_env("merge-v0", duration=2)
+    env.reset(seed=0)
+    try:
+        assert [env.step(1)[2:4] for _ in range(2)] == [(False, False), (False, True)]  # IDLE: not terminated, cut at 2 s
+    finally:
+        env.close()
 
 
 def test_training_needs_an_out_path_and_replaces_the_shipped_weights_only_with_force(tmp_path):

@@ -87,7 +87,7 @@ def test_short_evaluation_compares_planner_and_discern_on_the_same_episodes():
     )
     assert [(r.faults, r.variant, r.seed) for r in results] == [
         (faults, variant, seed)
-        for faults in ("none", "missed,signs@1")
+        for faults in ("none", "signs@1,missed")
         for variant in ("planner", "discern")
         for seed in (10_000, 10_001)
     ]
@@ -101,7 +101,7 @@ def test_demo_prints_the_comparison_table_with_and_without_faults(tmp_path, caps
     code = demo(tmp_path, episodes=1, duration=6)
     out = capsys.readouterr().out
     assert code == 0
-    assert "coll/km" in out and "discern" in out and "rss" in out and "missed,signs" in out
+    assert "coll/km" in out and "discern" in out and "rss" in out and "signs,missed" in out
     planner_row = next(line for line in out.splitlines() if line.split()[1:2] == ["planner"])
     cells = planner_row.split()  # the planner alone decides nothing: no vetoes, overrides, false vetoes or time
     assert cells[8:11] == ["–", "–", "–"] and cells[-1] == "–" and "nan" not in out
@@ -144,6 +144,7 @@ def test_cli_rejects_bad_options_with_a_clear_error(capsys):
         (["--duration", "inf"], "--duration must be a number of seconds above 0 and at most 3600, got inf"),
         (["--duration", "1e300"], "--duration must be a number of seconds above 0 and at most 3600, got 1e+300"),
         (["--faults", "none", "missed", "--miss-rate", "0"], "--faults gives more than one set that comes out as 'none'"),
+        (["--faults", "signs,missed", "missed,signs"], "--faults gives more than one set that comes out as 'signs,missed'"),
         (["--seed", "-1"], "--seed must be at least 0 (the environment's seeds are), got -1"),
         (["--faults", "none", "--miss-rate", "0.9"], "--miss-rate 0.9 sets the 'missed' fault, which no --faults set injects"),
         (["--faults", "signs", "--sign-rate", "0"], "--sign-rate 0 turns the 'signs' fault off, but a --faults set names it"),
@@ -403,3 +404,16 @@ def test_the_judge_counts_holding_a_speed_above_the_limit_as_speeding_and_slowin
     assert not proposal_was_safe(env, IDLE, 30.0)
     assert proposal_was_safe(env, SLOWER, 30.0)
     assert proposal_was_safe(env, IDLE, 40.0)  # below a higher limit, holding the speed is fine
+
+
+def test_the_fault_rates_help_gives_the_defaults_a_fault_set_runs_at(capsys):
+    """The help gave no defaults; it names perception.DEFAULT_RATES without importing highway-env, so it could drift."""
+    from discern.adapters.highway.perception import DEFAULT_RATES
+
+    with pytest.raises(SystemExit):
+        cli_main(["eval", "highway", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    for flag, key in (("--miss-rate", "miss_rate"), ("--phantom-rate", "phantom_rate"), ("--sign-rate", "sign_rate"),
+                      ("--sign-value", "sign_value"), ("--noise", "noise")):
+        described = help_text.rsplit(f"{flag} {flag.lstrip('-').replace('-', '_').upper()}", 1)[1].split(" --", 1)[0]
+        assert f"(default: {DEFAULT_RATES[key]:g}" in described, (flag, described)

@@ -96,7 +96,7 @@ def test_none_and_all_are_refused_in_a_list_of_kinds_as_standing_alone(kinds):
 def test_dropped_detections_are_a_fault_of_their_own_that_all_leaves_out():
     """'missed' keeps the radar track in Discern's list (only the planner loses it); 'dropped' takes it from both."""
     dropped = Faults.preset("signs,dropped", miss_rate=0.2)
-    assert dropped.miss_drop_track and dropped.miss_rate == 0.2 and dropped.label() == "dropped@0.2,signs"
+    assert dropped.miss_drop_track and dropped.miss_rate == 0.2 and dropped.label() == "signs,dropped@0.2"
     assert not Faults.preset("missed").miss_drop_track and Faults.preset("missed").label() == "missed"
     assert not Faults.preset("all").miss_drop_track and Faults.preset("all").label() == "noise,missed,phantoms,signs"
     with pytest.raises(ValueError, match="'dropped' is 'missed' with the object gone"):

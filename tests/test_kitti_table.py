@@ -97,4 +97,4 @@ def test_a_frame_file_without_frames_is_an_error(tmp_path, capsys):
     path = tmp_path / "empty.pl"
     path.write_text("% City - nothing here\npath_intersects(sp1, op1).\n")
     assert main(["scenarios", "run", str(path)]) == 2
-    assert capsys.readouterr().err == f"discern: error: {path}: no frames: no fact names a frame T\n"
+    assert capsys.readouterr().err == f"discern scenarios: error: {path}: no frames: no fact names a frame T\n"

@@ -809,3 +809,17 @@ def test_a_red_seen_before_the_lights_went_dark_still_holds_the_ego():
     for jurisdiction in ("us", "uk"):
         verdict = _run(frames, Action.accelerate, jurisdiction)
         assert verdict.decision is Decision.override and "san.memory.red_light" in verdict.rules, jurisdiction
+
+
+def test_the_examples_command_explains_itself_and_names_a_file_it_cannot_fill_in_one_line(tmp_path, capsys):
+    """`--help` was taken for the file to write into, and ended in a FileNotFoundError traceback."""
+    with pytest.raises(SystemExit) as done:
+        examples.main(["--help"])
+    assert done.value.code == 0 and capsys.readouterr().out.startswith("usage: python -m discern.sanity.examples")
+    for name, problem in (("missing.md", "No such file or directory"), ("plain.md", "no examples block")):
+        if name == "plain.md":
+            (tmp_path / name).write_text("# no block here\n")
+        with pytest.raises(SystemExit) as done:
+            examples.main([str(tmp_path / name)])
+        err = capsys.readouterr().err
+        assert done.value.code == 2 and f"error: {tmp_path / name}: {problem}" in err and "Traceback" not in err

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import warnings
 
 import gymnasium as gym
@@ -17,10 +18,17 @@ TARGET_SPEEDS = tuple(float(v) for v in np.linspace(10.0, 40.0, 7))
 SPEED_STEP = TARGET_SPEEDS[1] - TARGET_SPEEDS[0]  # what one FASTER or SLOWER moves the target speed by
 
 SUPPORTED = ("highway-fast-v0", "highway-v0", "merge-v0")
+# merge-v0 has no duration: its episode ends on a crash or once the ego is past the merge, x > 370 m
+# (MergeEnv._is_terminated), which the slowest target speed reaches from its start at x = 30 m in 34 s.
+MERGE_END_X = 370.0
 
 
 def make_env(name: str = "highway-fast-v0", duration: float | None = None) -> gym.Env:
-    """One environment with the closed loop's action space; `duration` shortens episodes (seconds)."""
+    """One environment with the closed loop's action space; `duration` shortens episodes (seconds).
+
+    merge-v0 never truncates an episode itself: there `duration` is a step limit, so that it holds as it does on the
+    highway roads.
+    """
     if name not in SUPPORTED:
         raise ValueError(f"unsupported environment {name!r}: choose one of {', '.join(SUPPORTED)}")
     config: dict = {"action": {"type": "DiscreteMetaAction", "target_speeds": list(TARGET_SPEEDS)}}
@@ -28,7 +36,19 @@ def make_env(name: str = "highway-fast-v0", duration: float | None = None) -> gy
         config["duration"] = duration
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # merge-v0 is "out of date" but is what the issue names
-        return gym.make(name, config=config)
+        env = gym.make(name, config=config)
+    if name == "merge-v0" and duration is not None:  # highway-env's own rule: truncated once time >= duration
+        env = gym.wrappers.TimeLimit(env, max_episode_steps=math.ceil(duration / policy_period(env)))
+    return env
+
+
+def episode_end(env) -> dict:
+    """What ends the environment's episodes besides a crash: its duration (None: none) and, on merge-v0, the merge."""
+    config = env.unwrapped.config
+    end = {"duration_s": config.get("duration")}
+    if env.unwrapped.spec is not None and env.unwrapped.spec.id == "merge-v0":
+        end["past_x_m"] = MERGE_END_X
+    return end
 
 
 def config_digest(env) -> str:

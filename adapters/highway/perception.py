@@ -45,6 +45,8 @@ class Faults:
     sign_rate: float = 0.0  # per sign: chance it is misread
     sign_value: float = 80.0  # m/s read off a perturbed sign
     seed: int = 0
+    # the kinds in the order --faults named them, for the label: `signs,missed` reads as the user wrote it
+    order: tuple[str, ...] = ()
 
     @classmethod
     def preset(cls, kinds: str | list[str], seed: int = 0, **rates) -> "Faults":
@@ -78,6 +80,7 @@ class Faults:
             sign_rate=defaults["sign_rate"] if "signs" in names else 0.0,
             sign_value=defaults["sign_value"],
             seed=seed,
+            order=tuple(names),
         )
 
     def kinds(self) -> dict[str, tuple[str, float]]:
@@ -95,10 +98,12 @@ class Faults:
         }
 
     def label(self) -> str:
-        """The injected kinds, each with its rate where that is not DEFAULT_RATES' ('missed@0.9', 'signs@0.5:60' for
-        signs misread as 60 m/s): rows run at other rates must not read as the default's."""
+        """The injected kinds in the order named, each with its rate where that is not DEFAULT_RATES' ('missed@0.9',
+        'signs@0.5:60' for signs misread as 60 m/s): rows run at other rates must not read as the default's."""
         labels = []
-        for name, (key, rate) in self.kinds().items():
+        kinds = self.kinds()
+        for name in sorted(kinds, key=lambda k: self.order.index(k) if k in self.order else len(self.order)):
+            key, rate = kinds[name]
             value = name == "signs" and self.sign_value != DEFAULT_RATES["sign_value"]
             labels.append(name + (f"@{rate:g}" if value or rate != DEFAULT_RATES[key] else "")
                           + (f":{self.sign_value:g}" if value else ""))

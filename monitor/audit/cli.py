@@ -12,7 +12,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from discern.monitor.config import DEFAULT_LOG_DIR, WINDOW_MAX_S, check_number, path_text
+from discern.monitor.config import DEFAULT_LOG_DIR, check_window, path_text
 from discern.monitor.log import log_files
 from discern.rules.catalog import CatalogError, catalog_digest, load_catalog
 from discern.rules.code_digest import reasoning_code_digest
@@ -93,8 +93,8 @@ def register(subparsers) -> None:
         "--window",
         type=float,
         metavar="SECONDS",
-        help="with --replay: decide with this history window (default: the one the log recorded, else the monitor's "
-        "default)",
+        help="with --replay: decide with this history window, as the monitor's --window-s allows (default: the one the "
+        "log recorded, else the monitor's default)",
     )
     p.add_argument("-q", "--quiet", action="store_true",
                    help="leave out the line per disagreement (per change with --replay); the totals and tables stay")
@@ -105,10 +105,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         return _run(args)
     except UsageError as exc:
-        print(f"discern audit: {exc}", file=sys.stderr)
+        print(f"discern audit: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except BrokenProcessPool as exc:
-        print(f"discern audit: a worker process died ({exc}); --workers 1 runs in this process", file=sys.stderr)
+        print(f"discern audit: error: a worker process died ({exc}); --workers 1 runs in this process", file=sys.stderr)
         return EXIT_USAGE
 
 
@@ -139,8 +139,8 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
     if filters.rules or filters.kinds:
         raise UsageError("--rule and --verdict filter the audit listing; a replay takes --vehicle, --since, --until")
     if args.window is not None:
-        try:  # as the monitor's --window-s: an infinite window is no window the monitor could have run with
-            check_number("--window", args.window, 0, WINDOW_MAX_S, unit=" s", above=True)
+        try:  # as the monitor's --window-s: a replay decides as a monitor could have
+            check_window("--window", args.window)
         except ValueError as exc:
             raise UsageError(str(exc)) from None
     from . import replay_report

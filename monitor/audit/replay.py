@@ -152,6 +152,7 @@ class ReplayResult:
     workers: int
     compare_rules: bool = False
     filters: Filters = field(default_factory=Filters)
+    window_s: float = MonitorConfig.window_s  # the history window the frames were decided with
 
     @property
     def frames_per_s(self) -> float:
@@ -481,4 +482,4 @@ def replay_logs(
         _init_worker(None)  # drop the rules and caches, or a later fork inherits them
     wall = time.perf_counter() - start
     total.changes.sort(key=lambda c: (c.time_ns, c.vehicle))
-    return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))), compare_rules, filters)
+    return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))), compare_rules, filters, window)

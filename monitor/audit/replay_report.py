@@ -7,6 +7,8 @@ import io
 import json
 from html import escape
 
+from discern.monitor.config import MonitorConfig
+
 from .replay import Change, ReplayResult
 from .report import files_html, files_json, page, plural, recovery_lines, spreadsheet_safe, table, verdict_html
 from .timefmt import iso
@@ -33,8 +35,10 @@ CSV_FIELDS = [
 def headline(result: ReplayResult) -> list[str]:
     t = result.tally
     lines = ["filters: " + "; ".join(result.filters.describe())] if result.filters.describe() else []
+    # a window other than the monitor's default is a setting of the replay, named as its rules and parameters are
+    window = f" and a {result.window_s:g} s history window" if result.window_s != MonitorConfig.window_s else ""
     lines += [
-        f"replayed {t.frames} frames with {result.catalog.describe()} in {result.wall_s:.2f} s "
+        f"replayed {t.frames} frames with {result.catalog.describe()}{window} in {result.wall_s:.2f} s "
         f"({result.frames_per_s:.0f} frames/s, {result.workers} worker{'s' if result.workers != 1 else ''}; "
         f"{t.solved} solved, {t.reused} identical to a frame solved before; {t.decided} decided in full)",
     ]
@@ -124,6 +128,7 @@ def render_json(result: ReplayResult) -> str:
         "files": files_json(t.recovery),
         "catalog": list(result.catalog.dirs),
         "jurisdiction": result.catalog.jurisdiction,
+        "window_s": result.window_s,
         "frames": t.frames,
         "solved": t.solved,
         "reused": t.reused,

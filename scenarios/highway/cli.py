@@ -6,6 +6,7 @@ import argparse
 import math
 import os
 import sys
+from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -53,18 +54,23 @@ def _options(parser: argparse.ArgumentParser) -> None:
         "(e.g. --faults none signs,missed; default: %(default)s)",
     )
     parser.add_argument("--variants", default="planner,discern,rss", help="comma list of planner, discern, rss (default: %(default)s)")
-    parser.add_argument("--seed", type=int, default=0, help="first episode seed offset; also seeds the faults")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="first episode seed offset; also seeds the faults (default: %(default)s)")
     parser.add_argument("--fault-seed", type=int, default=None,
                         help="seeds the faults instead of --seed: --seed 3 --fault-seed 0 --episodes 1 runs the "
                              "fourth episode of a --seed 0 run alone, faults and all")
     parser.add_argument("--env", default="highway-fast-v0", help="highway-fast-v0 (default), highway-v0 or merge-v0")
     parser.add_argument("--duration", type=float, default=None, help="episode length in seconds (env default)")
-    parser.add_argument("--miss-rate", type=float, default=None, help="camera miss chance per vehicle and frame")
-    parser.add_argument("--phantom-rate", type=float, default=None, help="phantom chance per frame")
-    parser.add_argument("--sign-rate", type=float, default=None, help="chance each sign is misread")
-    parser.add_argument("--sign-value", type=float, default=None, help="limit read off a misread sign, m/s")
+    # the defaults are perception.DEFAULT_RATES' (not imported here: it needs highway-env, which `discern` may lack)
+    parser.add_argument("--miss-rate", type=float, default=None,
+                        help="camera miss chance per vehicle and frame (default: 0.05 where a set names missed or dropped)")
+    parser.add_argument("--phantom-rate", type=float, default=None, help="phantom chance per frame (default: 0.1 where a set names phantoms)")
+    parser.add_argument("--sign-rate", type=float, default=None,
+                        help="chance each sign is misread (default: 0.5 where a set names signs)")
+    parser.add_argument("--sign-value", type=float, default=None, help="limit read off a misread sign, m/s (default: 80)")
     parser.add_argument(
-        "--noise", type=float, default=None, help="distance noise, metres: std NOISE*(0.2 + range/50 m), 1.2*NOISE at 50 m"
+        "--noise", type=float, default=None, help="distance noise, metres: std NOISE*(0.2 + range/50 m), 1.2*NOISE at 50 m (default: 1 where a set "
+        "names noise)"
     )
     parser.add_argument(
         "--param",
@@ -158,10 +164,11 @@ def _run_eval(args: argparse.Namespace) -> int:
             )
         except ValueError as exc:
             problems.append(str(exc))
-    labels = [f.label() for f in fault_sets]
+    # the same kinds and rates in another order are the same set: its episodes would run twice, in two rows
+    unordered = [replace(f, order=()) for f in fault_sets]
     problems += [
-        f"--faults gives more than one set that comes out as {label!r} with these rates: their rows would merge"
-        for label in sorted({l for l in labels if labels.count(l) > 1})
+        f"--faults gives more than one set that comes out as {f.label()!r} with these rates: the same episodes twice"
+        for f in dict.fromkeys(fault_sets[unordered.index(u)] for u in unordered if unordered.count(u) > 1)
     ]
     if not problems:
         problems += _folder_problems((("--out", args.out), ("--record", args.record)))

@@ -11,7 +11,7 @@ from datetime import datetime
 from importlib import metadata
 from pathlib import Path
 
-from discern.adapters.highway.envs import config_digest, make_env
+from discern.adapters.highway.envs import config_digest, episode_end, make_env
 from discern.adapters.highway.perception import Faults
 
 from .evaluate import JURISDICTION, Setup
@@ -26,8 +26,7 @@ def manifest(command: list[str], args: argparse.Namespace, setup: Setup, variant
     `training`: the checkpoint's metadata (Planner.training), None for one saved without any."""
     env = make_env(setup.env, duration=setup.duration)
     try:
-        environment = {"id": setup.env, "duration_s": env.unwrapped.config["duration"],
-                       "config_sha256": config_digest(env)}
+        environment = {"id": setup.env, **episode_end(env), "config_sha256": config_digest(env)}
     finally:
         env.close()
     weights = Path(setup.weights) if setup.weights else default_weights()
