@@ -67,7 +67,8 @@ class Monitor:
     verdict of that frame on ``discern/<vehicle>/verdict``. `publish` sends without waiting.
     In either style `on_verdict` sees every monitor verdict of the vehicle once: the replies
     to `check` (before `check` returns them) and the verdicts on ``discern/<vehicle>/verdict``;
-    not the fail-safes the client makes up when no verdict comes.
+    not the fail-safes the client makes up when no verdict comes. An exception it raises is logged
+    with its traceback and changes nothing: `check` still returns the verdict.
     """
 
     def __init__(
@@ -144,8 +145,8 @@ class Monitor:
                 verdict = self._publish_and_wait(payload, labels["frame_id"], timeout)
         except zenoh.ZError as exc:  # closed meanwhile, from another thread
             verdict = f"not sent: {exc}"
-        if self.style == "query" and isinstance(verdict, Verdict) and self._on_verdict is not None:
-            self._on_verdict(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
+        if self.style == "query" and isinstance(verdict, Verdict):
+            self._notify(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
         if isinstance(verdict, Verdict):
             return verdict
         if problem is not None:  # the monitor would have refused it: say why first
@@ -299,8 +300,17 @@ class Monitor:
         if slot is not None:
             slot[1] = verdict
             slot[0].set()
-        if self._on_verdict is not None:
+        self._notify(verdict)
+
+    def _notify(self, verdict: Verdict) -> None:
+        """Hand a verdict to `on_verdict`. A bug in the planner's callback must not cost it the verdict: raised out
+        of `check`, it lost the override it had come with."""
+        if self._on_verdict is None:
+            return
+        try:
             self._on_verdict(verdict)
+        except Exception:
+            log.exception("on_verdict raised on the verdict of vehicle %r frame %s", verdict.vehicle, verdict.frame_id)
 
 
 def _about(verdict: Verdict, frame: Optional[int]) -> bool:

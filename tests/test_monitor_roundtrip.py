@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 import subprocess
 import sys
@@ -125,6 +126,22 @@ def test_on_verdict_sees_every_verdict_of_the_vehicle_once_in_query_style(client
     monitor.publish(highway_scene(3, 8), "cruise")
     assert wait_until(lambda: len(seen) >= 4)
     assert [v.frame_id for v in seen] == [0, 1, 2, 3]
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_an_on_verdict_that_raises_is_logged_and_check_still_returns_the_verdict(client, style, caplog):
+    """A bug in the planner's callback once raised out of `check` in query style, and the override was lost."""
+    def broken(verdict):
+        raise RuntimeError("bug in the planner's logging")
+
+    monitor = client(f"broken_{style}", style=style, on_verdict=broken)
+    with caplog.at_level(logging.ERROR, logger="discern.monitor.client"):
+        verdict = monitor.check(highway_scene(300, 8), "cruise")
+        assert wait_until(lambda: caplog.records)  # over publish/subscribe, logged on zenoh's thread
+    assert verdict.decision is Decision.override and not verdict.failsafe and verdict.frame_id == 300
+    [record] = caplog.records
+    assert record.getMessage() == f"on_verdict raised on the verdict of vehicle 'broken_{style}' frame 300"
+    assert record.exc_info[0] is RuntimeError
 
 
 def test_planner_example_drives_against_the_monitor(monitor):
