@@ -109,6 +109,7 @@ class Monitor:
         self._subscriber = None
         if style == "pubsub" or on_verdict is not None:
             self._subscriber = self.session.declare_subscriber(keys.verdict_key(vehicle), self._on_sample)
+        self._declared = [e for e in (self._subscriber, self._querier, self._publisher) if e is not None]
 
     def check(
         self,
@@ -161,13 +162,16 @@ class Monitor:
         self._publisher.put(self._encode(scene, action, explain)[1])
 
     def wait_for_monitor(self, timeout: float = 2.0) -> bool:
-        """True once a monitor serving this vehicle is reachable; for a planner's start-up check."""
+        """True once a monitor serving this vehicle is reachable; for a planner's start-up check. False once closed."""
         entity = self._querier if self.style == "query" else self._publisher
         deadline = time.monotonic() + timeout
-        while not entity.matching_status.matching:
-            if time.monotonic() >= deadline:
-                return False
-            time.sleep(0.02)
+        try:
+            while not entity.matching_status.matching:
+                if time.monotonic() >= deadline:
+                    return False
+                time.sleep(0.02)
+        except zenoh.ZError:  # undeclared by close(), from another thread or before
+            return False
         return True
 
     def close(self) -> None:
@@ -175,10 +179,7 @@ class Monitor:
             return
         self._closed = True
         atexit.unregister(self.close)
-        try:
-            self.session.close()
-        except zenoh.ZError:
-            pass
+        _close_session(self.session, self._declared)
 
     def __enter__(self) -> "Monitor":
         return self
@@ -311,6 +312,20 @@ class Monitor:
             self._on_verdict(verdict)
         except Exception:
             log.exception("on_verdict raised on the verdict of vehicle %r frame %s", verdict.vehicle, verdict.frame_id)
+
+
+def _close_session(session: zenoh.Session, declared: list) -> None:
+    """Undeclare what the session declared, then close it. A session closed with its publisher, querier or
+    subscriber still declared kept a shared-memory mapping (/dev/shm) open: one file descriptor per Monitor."""
+    for entity in declared:
+        try:
+            entity.undeclare()
+        except zenoh.ZError:  # already gone with the session
+            pass
+    try:
+        session.close()
+    except zenoh.ZError:
+        pass
 
 
 def _about(verdict: Verdict, frame: Optional[int]) -> bool:
