@@ -12,11 +12,11 @@ need be), exactly as the monitor itself does, so the planner's loop has one code
 
 from __future__ import annotations
 
-import atexit
 import json
 import logging
 import threading
 import time
+import weakref
 from pathlib import Path
 from typing import Callable, Iterable, Optional, Union
 
@@ -98,7 +98,10 @@ class Monitor:
             config_file=Path(config_file) if config_file else None,
         )
         self.session = zenoh.open(settings.to_zenoh())
-        atexit.register(self.close)  # an unclosed zenoh session can hang interpreter exit
+        self._declared: list = []  # what the session declares, undeclared before it closes
+        # Closes the session on close(), when the Monitor is collected unclosed, or at exit (an unclosed zenoh session
+        # can hang interpreter exit); it holds no reference to the Monitor, so that a dropped one is collected.
+        self._finalizer = weakref.finalize(self, _close_session, self.session, self._declared)
         self._closed = False
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
         self._unreadable: Optional[tuple[float, str]] = None  # when the last unreadable verdict came, and why
@@ -108,8 +111,8 @@ class Monitor:
         self._querier = self.session.declare_querier(keys.check_key(vehicle))
         self._subscriber = None
         if style == "pubsub" or on_verdict is not None:
-            self._subscriber = self.session.declare_subscriber(keys.verdict_key(vehicle), self._on_sample)
-        self._declared = [e for e in (self._subscriber, self._querier, self._publisher) if e is not None]
+            self._subscriber = self.session.declare_subscriber(keys.verdict_key(vehicle), _weakly(self._on_sample))
+        self._declared.extend(e for e in (self._subscriber, self._querier, self._publisher) if e is not None)
 
     def check(
         self,
@@ -175,11 +178,9 @@ class Monitor:
         return True
 
     def close(self) -> None:
-        if getattr(self, "_closed", True):
-            return
+        """Undeclare and close the zenoh session (once; a Monitor dropped unclosed is closed when collected)."""
         self._closed = True
-        atexit.unregister(self.close)
-        _close_session(self.session, self._declared)
+        self._finalizer()
 
     def __enter__(self) -> "Monitor":
         return self
@@ -326,6 +327,19 @@ def _close_session(session: zenoh.Session, declared: list) -> None:
         session.close()
     except zenoh.ZError:
         pass
+
+
+def _weakly(method: Callable) -> Callable:
+    """A zenoh callback that does not keep its method's Monitor alive: zenoh holds a subscriber's callback until it
+    is undeclared, and a Monitor dropped unclosed was never collected, its session never closed."""
+    ref = weakref.WeakMethod(method)
+
+    def call(*args) -> None:
+        bound = ref()
+        if bound is not None:
+            bound(*args)
+
+    return call
 
 
 def _about(verdict: Verdict, frame: Optional[int]) -> bool:
