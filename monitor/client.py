@@ -124,7 +124,9 @@ class Monitor:
     ) -> Verdict:
         """The monitor's verdict on doing `action` in `scene`; a fail-safe one if none arrives in time.
 
-        An invalid proposal is sent all the same: the monitor refuses it by name, counts it and logs it.
+        An invalid proposal is sent all the same: the monitor refuses it by name, counts it and logs it. Should the
+        monitor answer it with another fail-safe (its deadline, before it read it), the verdict is the refusal made
+        here: a fail-safe brake naming the problem, then the monitor's reason.
         Only one that cannot even be sent, a bad `timeout` or a closed Monitor gets a fail-safe made here, unasked.
         """
         try:
@@ -152,6 +154,10 @@ class Monitor:
         if self.style == "query" and isinstance(verdict, Verdict):
             self._notify(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
         if isinstance(verdict, Verdict):
+            if problem is not None and verdict.failsafe and RULE_BAD_INPUT not in verdict.rules:
+                # answered before it was read (its deadline) or not judged at all: the refusal owed comes first
+                reason = f"{problem}; and the monitor answered with a {', '.join(verdict.rules)} fail-safe: {verdict.error}"
+                return failsafe_verdict(self.vehicle, reason, RULE_BAD_INPUT, **labels)
             return verdict
         if problem is not None:  # the monitor would have refused it: say why first
             return failsafe_verdict(self.vehicle, f"{problem}; and {verdict}", RULE_BAD_INPUT, **labels)

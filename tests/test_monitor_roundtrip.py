@@ -270,6 +270,34 @@ def test_a_reply_that_is_no_verdict_on_this_proposal_is_not_acted_on_and_says_wh
     assert verdict.frame_id == 0 and verdict.error.startswith(reason)
 
 
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_an_invalid_proposal_answered_with_a_deadline_failsafe_is_refused_naming_its_problem(style):
+    """A busy monitor answers at its deadline before reading the payload: the planner was told of the deadline,
+    not of the string it had sent for a speed, which the client had found itself."""
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+    from discern.monitor.protocol import RULE_DEADLINE, encode, failsafe_verdict
+
+    deadline = encode(failsafe_verdict("busy", "no decision within the 50 ms budget", RULE_DEADLINE, frame_id=0))
+    scene = json.loads(highway_scene(0, 2).model_dump_json(by_alias=True))
+    scene["ego"]["speed"] = "25"
+    ep = endpoint(free_port())
+    busy = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
+    try:
+        busy.declare_queryable("discern/busy/check", lambda q: q.reply(q.key_expr, deadline))
+        busy.declare_subscriber("discern/busy/proposal", lambda sample: busy.put("discern/busy/verdict", deadline))
+        with Monitor("busy", connect=[ep], timeout=2.0, style=style) as client:
+            assert client.wait_for_monitor()
+            verdict = client.check(scene, "cruise")
+    finally:
+        busy.close()
+    assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.bad_input"]
+    assert verdict.frame_id == 0 and verdict.error == (
+        "schema violation: scene.ego.speed: Input should be a valid number (got '25'); "
+        "and the monitor answered with a monitor.deadline fail-safe: no decision within the 50 ms budget")
+
+
 def test_over_publish_subscribe_an_unreadable_verdict_is_the_reason_a_wait_gets_no_verdict():
     import zenoh
 
