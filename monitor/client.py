@@ -49,6 +49,7 @@ TIMEOUT_MAX_S = 2 * BUDGET_MAX_MS / 1000  # twice the longest budget a monitor m
 # for room: 5 s (its wait before closing the link) for a check of 50 ms, once a monitor stopped reading. The monitor's
 # reply takes its query's.
 CONGESTION = zenoh.CongestionControl.DROP
+CLOSED = "not sent: this Monitor is closed"
 
 
 def check_timeout(timeout) -> float:
@@ -143,7 +144,7 @@ class Monitor:
         except ValueError as exc:
             return failsafe_verdict(self.vehicle, f"not sent: {exc}", RULE_NO_ANSWER, **labels)
         if self._closed:
-            return failsafe_verdict(self.vehicle, "not sent: this Monitor is closed", RULE_NO_ANSWER, **labels)
+            return failsafe_verdict(self.vehicle, CLOSED, RULE_NO_ANSWER, **labels)
         try:
             if self.style == "query":
                 verdict = self._query(payload, timeout, labels["frame_id"])
@@ -166,9 +167,18 @@ class Monitor:
     def publish(self, scene: Union[Scene, dict], action: Union[Action, str], *, explain: bool = False) -> None:
         """Send a proposal without waiting; its verdict (a refusal, if it is invalid) goes to `on_verdict`.
 
-        Raises ValueError only for one that cannot be written as JSON at all.
+        Raises ValueError only for one that cannot be written as JSON at all, and once the Monitor is closed
+        (with the error `check` then puts in its fail-safe): never zenoh's own error.
         """
-        self._publisher.put(self._encode(scene, action, explain)[1])
+        payload = self._encode(scene, action, explain)[1]
+        try:
+            if not self._closed:
+                self._publisher.put(payload)
+                return
+        except zenoh.ZError:
+            if not self._closed:
+                raise
+        raise ValueError(CLOSED)  # closed before, or meanwhile from another thread
 
     def wait_for_monitor(self, timeout: float = 2.0) -> bool:
         """True once a monitor serving this vehicle is reachable; for a planner's start-up check. False once closed."""

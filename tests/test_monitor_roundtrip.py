@@ -106,6 +106,15 @@ def test_check_after_close_returns_a_failsafe_instead_of_raising(client, style):
     assert verdict.error == "not sent: this Monitor is closed" and verdict.frame_id == 9
 
 
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_publish_after_close_raises_a_value_error_saying_it_is_closed(client, style):
+    """It raised zenoh's own "session closed", which its docstring did not name."""
+    monitor = client(f"closed_pub_{style}", style=style)
+    monitor.close()
+    with pytest.raises(ValueError, match="^not sent: this Monitor is closed$"):
+        monitor.publish(highway_scene(9, 4), "cruise")
+
+
 def test_status_reports_counts_and_latency(client, monitor):
     client("car_s").check(highway_scene(0, 8), "cruise")
     [report] = status(monitor, "rt")
