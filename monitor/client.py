@@ -27,7 +27,7 @@ from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, SCHEMA_VERSION, Action,
 from discern.rules.verdict import Verdict
 
 from . import keys
-from .config import BUDGET_MAX_MS, DEFAULT_ENDPOINT, ZenohSettings, check_number
+from .config import BUDGET_MAX_MS, DEFAULT_ENDPOINT, ZenohSettings, check_number, without_rust_locations
 from .protocol import (
     RULE_BAD_INPUT,
     RULE_NO_ANSWER,
@@ -61,8 +61,8 @@ def check_timeout(timeout) -> float:
 class Monitor:
     """A connection to the monitor(s) serving one vehicle.
 
-    Connects to `connect` (default tcp/127.0.0.1:7447) or as the zenoh `config_file` says;
-    `mode` is peer unless given or set in the file.
+    Connects to `connect` (an endpoint or a list of them; default tcp/127.0.0.1:7447) or as the zenoh `config_file`
+    says; `mode` is peer unless given or set in the file. Raises ValueError for an endpoint zenoh cannot take.
     style="query": `check` queries ``discern/<vehicle>/check`` and takes the first reply.
     style="pubsub": `check` publishes on ``discern/<vehicle>/proposal`` and waits for the
     verdict of that frame on ``discern/<vehicle>/verdict``. `publish` sends without waiting.
@@ -76,7 +76,7 @@ class Monitor:
         self,
         vehicle: str = "ego",
         *,
-        connect: Optional[Iterable[str]] = None,
+        connect: Union[str, Iterable[str], None] = None,
         mode: Optional[str] = None,
         config_file: Optional[Union[str, Path]] = None,
         style: str = "query",
@@ -93,12 +93,18 @@ class Monitor:
         self._on_verdict = on_verdict
         if connect is None and config_file is None:
             connect = [DEFAULT_ENDPOINT]
+        elif isinstance(connect, str):  # one endpoint: iterated, its letters were taken for endpoints ('t', 'c', ...)
+            connect = [connect]
         settings = ZenohSettings(  # explicit arguments override the config file; a planner need not listen
             mode=mode,
             connect=list(connect) if connect is not None else None,
             config_file=Path(config_file) if config_file else None,
         )
-        self.session = zenoh.open(settings.to_zenoh())
+        try:
+            self.session = zenoh.open(settings.to_zenoh())
+        except zenoh.ZError as exc:  # an unknown protocol, or no router to be had in client mode
+            where = ", ".join(connect) if connect else f"the endpoints of {config_file}"
+            raise ValueError(f"cannot connect to {where}: {without_rust_locations(str(exc))}") from None
         self._declared: list = []  # what the session declares, undeclared before it closes
         # Closes the session on close(), when the Monitor is collected unclosed, or at exit (an unclosed zenoh session
         # can hang interpreter exit); it holds no reference to the Monitor, so that a dropped one is collected.

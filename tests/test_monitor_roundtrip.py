@@ -210,10 +210,14 @@ def test_without_a_monitor_the_client_returns_a_failsafe_in_time():
     assert elapsed < 2.0
 
 
-@pytest.mark.parametrize("timeout", [math.inf, math.nan, -1, 0, 1e12, True])
-def test_a_timeout_no_wait_can_take_is_refused_when_the_client_is_made(timeout):
-    with pytest.raises(ValueError, match=rf"^timeout must be a finite number above 0 s and at most 120 s, got {timeout}$"):
+@pytest.mark.parametrize("timeout, got", [
+    (math.inf, "inf"), (math.nan, "nan"), (-1, "-1"), (0, "0"), (1e12, "1000000000000.0"), (True, "True (bool)"),
+    ("0.1", "'0.1' (str)"),  # "got 0.1" did not say why 0.1 was refused
+])
+def test_a_timeout_no_wait_can_take_is_refused_when_the_client_is_made(timeout, got):
+    with pytest.raises(ValueError) as refused:
         Monitor("impatient", connect=[endpoint(free_port())], timeout=timeout)
+    assert str(refused.value) == f"timeout must be a finite number above 0 s and at most 120 s, got {got}"
 
 
 def test_a_bad_timeout_given_to_check_gets_a_failsafe_naming_it():
@@ -222,6 +226,25 @@ def test_a_bad_timeout_given_to_check_gets_a_failsafe_naming_it():
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
     assert verdict.error == "not sent: timeout must be a finite number above 0 s and at most 120 s, got -0.001"
     assert verdict.frame_id == 3 and verdict.proposed.value == "accelerate"
+
+
+def test_a_timeout_given_to_check_as_a_string_is_named_with_its_type():
+    with Monitor("impatient", connect=[endpoint(free_port())]) as monitor:
+        verdict = monitor.check(highway_scene(3, 4), "accelerate", timeout="0.1")
+    assert verdict.error == "not sent: timeout must be a finite number above 0 s and at most 120 s, got '0.1' (str)"
+
+
+def test_a_single_endpoint_given_as_a_string_is_taken_as_one(monitor):
+    """Iterated, the string's letters were taken for endpoints: "bad zenoh endpoint 't'"."""
+    with Monitor("one_endpoint", connect=monitor, timeout=5.0) as client:
+        assert client.wait_for_monitor(timeout=5.0)
+        assert not client.check(highway_scene(0, 4), "cruise").failsafe
+
+
+def test_an_endpoint_zenoh_cannot_take_is_refused_naming_it_without_rust_source_paths():
+    with pytest.raises(ValueError) as refused:
+        Monitor("unknown_protocol", connect=["udpx/1.2.3.4:5"])
+    assert str(refused.value) == "cannot connect to udpx/1.2.3.4:5: Unicast not supported for udpx protocol"
 
 
 def test_a_scene_that_cannot_be_sent_at_all_gets_a_local_failsafe_naming_the_problem():
