@@ -12,11 +12,11 @@ need be), exactly as the monitor itself does, so the planner's loop has one code
 
 from __future__ import annotations
 
-import atexit
 import json
 import logging
 import threading
 import time
+import weakref
 from pathlib import Path
 from typing import Callable, Iterable, Optional, Union
 
@@ -27,7 +27,7 @@ from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, SCHEMA_VERSION, Action,
 from discern.rules.verdict import Verdict
 
 from . import keys
-from .config import BUDGET_MAX_MS, DEFAULT_ENDPOINT, ZenohSettings, check_number
+from .config import BUDGET_MAX_MS, DEFAULT_ENDPOINT, ZenohSettings, check_number, without_rust_locations
 from .protocol import (
     RULE_BAD_INPUT,
     RULE_NO_ANSWER,
@@ -49,6 +49,7 @@ TIMEOUT_MAX_S = 2 * BUDGET_MAX_MS / 1000  # twice the longest budget a monitor m
 # for room: 5 s (its wait before closing the link) for a check of 50 ms, once a monitor stopped reading. The monitor's
 # reply takes its query's.
 CONGESTION = zenoh.CongestionControl.DROP
+CLOSED = "not sent: this Monitor is closed"
 
 
 def check_timeout(timeout) -> float:
@@ -60,21 +61,22 @@ def check_timeout(timeout) -> float:
 class Monitor:
     """A connection to the monitor(s) serving one vehicle.
 
-    Connects to `connect` (default tcp/127.0.0.1:7447) or as the zenoh `config_file` says;
-    `mode` is peer unless given or set in the file.
+    Connects to `connect` (an endpoint or a list of them; default tcp/127.0.0.1:7447) or as the zenoh `config_file`
+    says; `mode` is peer unless given or set in the file. Raises ValueError for an endpoint zenoh cannot take.
     style="query": `check` queries ``discern/<vehicle>/check`` and takes the first reply.
     style="pubsub": `check` publishes on ``discern/<vehicle>/proposal`` and waits for the
     verdict of that frame on ``discern/<vehicle>/verdict``. `publish` sends without waiting.
     In either style `on_verdict` sees every monitor verdict of the vehicle once: the replies
     to `check` (before `check` returns them) and the verdicts on ``discern/<vehicle>/verdict``;
-    not the fail-safes the client makes up when no verdict comes.
+    not the fail-safes the client makes up when no verdict comes. An exception it raises is logged
+    with its traceback and changes nothing: `check` still returns the verdict.
     """
 
     def __init__(
         self,
         vehicle: str = "ego",
         *,
-        connect: Optional[Iterable[str]] = None,
+        connect: Union[str, Iterable[str], None] = None,
         mode: Optional[str] = None,
         config_file: Optional[Union[str, Path]] = None,
         style: str = "query",
@@ -91,13 +93,22 @@ class Monitor:
         self._on_verdict = on_verdict
         if connect is None and config_file is None:
             connect = [DEFAULT_ENDPOINT]
+        elif isinstance(connect, str):  # one endpoint: iterated, its letters were taken for endpoints ('t', 'c', ...)
+            connect = [connect]
         settings = ZenohSettings(  # explicit arguments override the config file; a planner need not listen
             mode=mode,
             connect=list(connect) if connect is not None else None,
             config_file=Path(config_file) if config_file else None,
         )
-        self.session = zenoh.open(settings.to_zenoh())
-        atexit.register(self.close)  # an unclosed zenoh session can hang interpreter exit
+        try:
+            self.session = zenoh.open(settings.to_zenoh())
+        except zenoh.ZError as exc:  # an unknown protocol, or no router to be had in client mode
+            where = ", ".join(connect) if connect else f"the endpoints of {config_file}"
+            raise ValueError(f"cannot connect to {where}: {without_rust_locations(str(exc))}") from None
+        self._declared: list = []  # what the session declares, undeclared before it closes
+        # Closes the session on close(), when the Monitor is collected unclosed, or at exit (an unclosed zenoh session
+        # can hang interpreter exit); it holds no reference to the Monitor, so that a dropped one is collected.
+        self._finalizer = weakref.finalize(self, _close_session, self.session, self._declared)
         self._closed = False
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
         self._unreadable: Optional[tuple[float, str]] = None  # when the last unreadable verdict came, and why
@@ -107,7 +118,8 @@ class Monitor:
         self._querier = self.session.declare_querier(keys.check_key(vehicle))
         self._subscriber = None
         if style == "pubsub" or on_verdict is not None:
-            self._subscriber = self.session.declare_subscriber(keys.verdict_key(vehicle), self._on_sample)
+            self._subscriber = self.session.declare_subscriber(keys.verdict_key(vehicle), _weakly(self._on_sample))
+        self._declared.extend(e for e in (self._subscriber, self._querier, self._publisher) if e is not None)
 
     def check(
         self,
@@ -119,7 +131,9 @@ class Monitor:
     ) -> Verdict:
         """The monitor's verdict on doing `action` in `scene`; a fail-safe one if none arrives in time.
 
-        An invalid proposal is sent all the same: the monitor refuses it by name, counts it and logs it.
+        An invalid proposal is sent all the same: the monitor refuses it by name, counts it and logs it. Should the
+        monitor answer it with another fail-safe (its deadline, before it read it), the verdict is the refusal made
+        here: a fail-safe brake naming the problem, then the monitor's reason.
         Only one that cannot even be sent, a bad `timeout` or a closed Monitor gets a fail-safe made here, unasked.
         """
         try:
@@ -136,7 +150,7 @@ class Monitor:
         except ValueError as exc:
             return failsafe_verdict(self.vehicle, f"not sent: {exc}", RULE_NO_ANSWER, **labels)
         if self._closed:
-            return failsafe_verdict(self.vehicle, "not sent: this Monitor is closed", RULE_NO_ANSWER, **labels)
+            return failsafe_verdict(self.vehicle, CLOSED, RULE_NO_ANSWER, **labels)
         try:
             if self.style == "query":
                 verdict = self._query(payload, timeout, labels["frame_id"])
@@ -144,9 +158,13 @@ class Monitor:
                 verdict = self._publish_and_wait(payload, labels["frame_id"], timeout)
         except zenoh.ZError as exc:  # closed meanwhile, from another thread
             verdict = f"not sent: {exc}"
-        if self.style == "query" and isinstance(verdict, Verdict) and self._on_verdict is not None:
-            self._on_verdict(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
+        if self.style == "query" and isinstance(verdict, Verdict):
+            self._notify(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
         if isinstance(verdict, Verdict):
+            if problem is not None and verdict.failsafe and RULE_BAD_INPUT not in verdict.rules:
+                # answered before it was read (its deadline) or not judged at all: the refusal owed comes first
+                reason = f"{problem}; and the monitor answered with a {', '.join(verdict.rules)} fail-safe: {verdict.error}"
+                return failsafe_verdict(self.vehicle, reason, RULE_BAD_INPUT, **labels)
             return verdict
         if problem is not None:  # the monitor would have refused it: say why first
             return failsafe_verdict(self.vehicle, f"{problem}; and {verdict}", RULE_BAD_INPUT, **labels)
@@ -155,29 +173,36 @@ class Monitor:
     def publish(self, scene: Union[Scene, dict], action: Union[Action, str], *, explain: bool = False) -> None:
         """Send a proposal without waiting; its verdict (a refusal, if it is invalid) goes to `on_verdict`.
 
-        Raises ValueError only for one that cannot be written as JSON at all.
+        Raises ValueError only for one that cannot be written as JSON at all, and once the Monitor is closed
+        (with the error `check` then puts in its fail-safe): never zenoh's own error.
         """
-        self._publisher.put(self._encode(scene, action, explain)[1])
+        payload = self._encode(scene, action, explain)[1]
+        try:
+            if not self._closed:
+                self._publisher.put(payload)
+                return
+        except zenoh.ZError:
+            if not self._closed:
+                raise
+        raise ValueError(CLOSED)  # closed before, or meanwhile from another thread
 
     def wait_for_monitor(self, timeout: float = 2.0) -> bool:
-        """True once a monitor serving this vehicle is reachable; for a planner's start-up check."""
+        """True once a monitor serving this vehicle is reachable; for a planner's start-up check. False once closed."""
         entity = self._querier if self.style == "query" else self._publisher
         deadline = time.monotonic() + timeout
-        while not entity.matching_status.matching:
-            if time.monotonic() >= deadline:
-                return False
-            time.sleep(0.02)
+        try:
+            while not entity.matching_status.matching:
+                if time.monotonic() >= deadline:
+                    return False
+                time.sleep(0.02)
+        except zenoh.ZError:  # undeclared by close(), from another thread or before
+            return False
         return True
 
     def close(self) -> None:
-        if getattr(self, "_closed", True):
-            return
+        """Undeclare and close the zenoh session (once; a Monitor dropped unclosed is closed when collected)."""
         self._closed = True
-        atexit.unregister(self.close)
-        try:
-            self.session.close()
-        except zenoh.ZError:
-            pass
+        self._finalizer()
 
     def __enter__(self) -> "Monitor":
         return self
@@ -299,8 +324,44 @@ class Monitor:
         if slot is not None:
             slot[1] = verdict
             slot[0].set()
-        if self._on_verdict is not None:
+        self._notify(verdict)
+
+    def _notify(self, verdict: Verdict) -> None:
+        """Hand a verdict to `on_verdict`. A bug in the planner's callback must not cost it the verdict: raised out
+        of `check`, it lost the override it had come with."""
+        if self._on_verdict is None:
+            return
+        try:
             self._on_verdict(verdict)
+        except Exception:
+            log.exception("on_verdict raised on the verdict of vehicle %r frame %s", verdict.vehicle, verdict.frame_id)
+
+
+def _close_session(session: zenoh.Session, declared: list) -> None:
+    """Undeclare what the session declared, then close it. A session closed with its publisher, querier or
+    subscriber still declared kept a shared-memory mapping (/dev/shm) open: one file descriptor per Monitor."""
+    for entity in declared:
+        try:
+            entity.undeclare()
+        except zenoh.ZError:  # already gone with the session
+            pass
+    try:
+        session.close()
+    except zenoh.ZError:
+        pass
+
+
+def _weakly(method: Callable) -> Callable:
+    """A zenoh callback that does not keep its method's Monitor alive: zenoh holds a subscriber's callback until it
+    is undeclared, and a Monitor dropped unclosed was never collected, its session never closed."""
+    ref = weakref.WeakMethod(method)
+
+    def call(*args) -> None:
+        bound = ref()
+        if bound is not None:
+            bound(*args)
+
+    return call
 
 
 def _about(verdict: Verdict, frame: Optional[int]) -> bool:

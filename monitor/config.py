@@ -221,6 +221,8 @@ def check_number(flag: str, value, low: float, high: float = math.inf, *, unit: 
     ):
         return
     bounds = f"{'above' if above else 'at least'} {low:g}{unit}" + (f" and at most {high:g}{unit}" if high < math.inf else "")
+    if isinstance(value, bool) or not isinstance(value, (int, float)):  # "got 0.1" did not say it was the string '0.1'
+        value = f"{value!r} ({type(value).__name__})"
     raise ValueError(f"{flag} must be a finite number {bounds}, got {value}")
 
 

@@ -15,12 +15,10 @@ import sys
 import time
 from typing import Optional, Sequence
 
-import zenoh
-
 from discern.rules.scene import Action, DetectedObject, Ego, Lane, LaneKind, LaneRef, ObjectClass, Scene, Vec2, Velocity
 
 from .client import Monitor
-from .config import DEFAULT_ENDPOINT, without_rust_locations
+from .config import DEFAULT_ENDPOINT
 
 LANE_WIDTH = 3.5
 # A fail-safe is the monitor's answer when it decided nothing within its budget (50 ms by default) or none answered:
@@ -94,11 +92,7 @@ def run(
         raise ValueError(f"--frames must be at least 1, got {frames}")
     failsafes = 0
     period = 1.0 / rate_hz
-    try:
-        monitor = Monitor(vehicle, connect=list(connect), style=style, timeout=0.5)
-    except zenoh.ZError as exc:  # e.g. an unknown protocol, or no router to be had in client mode
-        raise ValueError(f"cannot connect to {', '.join(connect)}: {without_rust_locations(str(exc))}") from None
-    with monitor:
+    with Monitor(vehicle, connect=list(connect), style=style, timeout=0.5) as monitor:
         if not monitor.wait_for_monitor(timeout=3.0):
             print(f"no monitor serves vehicle {vehicle!r} at {', '.join(connect)}: expect fail-safe verdicts",
                   file=sys.stderr)

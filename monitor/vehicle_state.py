@@ -70,7 +70,8 @@ class VehicleState:
         if last is not None and scene.frame_id <= last:
             what = "duplicate" if scene.frame_id == last else "out-of-order"
             raise InputError(
-                f"frame_id: {what} frame {scene.frame_id}, the last frame received for this vehicle was {last}",
+                f"frame_id: {what} frame {scene.frame_id}, the last frame received for this vehicle was {last}"
+                + (self._untimed_hint() if scene.timestamp == 0 else ""),
                 "order",
             )
         if last is None or scene.timestamp < self.last_timestamp:  # the clock going back is a new episode too
@@ -86,6 +87,13 @@ class VehicleState:
     def expired(self, now: float) -> bool:
         """Silent for so long that its next frame starts afresh whatever it is: the state can go."""
         return now - self.last_arrival > self.window_s + EXPIRY_MARGIN_S
+
+    def _untimed_hint(self) -> str:
+        """How to avoid the refusal a planner restarted without scene timestamps gets: told only that its frame 0 was
+        out of order, it braked for a window without knowing why."""
+        return (f" (without a scene timestamp a restarted planner cannot be told from a replay, and is refused until"
+                f" it has been silent for {self.window_s:g} s: set Scene.timestamp, see docs/protocol.md"
+                f" \"Per-vehicle state\")")
 
     def _restarts(self, scene: Scene) -> bool:
         """Does the scene begin a new episode? From past the episode's first frame back to it, in id and time.

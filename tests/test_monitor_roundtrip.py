@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 import subprocess
 import sys
@@ -105,6 +106,15 @@ def test_check_after_close_returns_a_failsafe_instead_of_raising(client, style):
     assert verdict.error == "not sent: this Monitor is closed" and verdict.frame_id == 9
 
 
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_publish_after_close_raises_a_value_error_saying_it_is_closed(client, style):
+    """It raised zenoh's own "session closed", which its docstring did not name."""
+    monitor = client(f"closed_pub_{style}", style=style)
+    monitor.close()
+    with pytest.raises(ValueError, match="^not sent: this Monitor is closed$"):
+        monitor.publish(highway_scene(9, 4), "cruise")
+
+
 def test_status_reports_counts_and_latency(client, monitor):
     client("car_s").check(highway_scene(0, 8), "cruise")
     [report] = status(monitor, "rt")
@@ -125,6 +135,22 @@ def test_on_verdict_sees_every_verdict_of_the_vehicle_once_in_query_style(client
     monitor.publish(highway_scene(3, 8), "cruise")
     assert wait_until(lambda: len(seen) >= 4)
     assert [v.frame_id for v in seen] == [0, 1, 2, 3]
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_an_on_verdict_that_raises_is_logged_and_check_still_returns_the_verdict(client, style, caplog):
+    """A bug in the planner's callback once raised out of `check` in query style, and the override was lost."""
+    def broken(verdict):
+        raise RuntimeError("bug in the planner's logging")
+
+    monitor = client(f"broken_{style}", style=style, on_verdict=broken)
+    with caplog.at_level(logging.ERROR, logger="discern.monitor.client"):
+        verdict = monitor.check(highway_scene(300, 8), "cruise")
+        assert wait_until(lambda: caplog.records)  # over publish/subscribe, logged on zenoh's thread
+    assert verdict.decision is Decision.override and not verdict.failsafe and verdict.frame_id == 300
+    [record] = caplog.records
+    assert record.getMessage() == f"on_verdict raised on the verdict of vehicle 'broken_{style}' frame 300"
+    assert record.exc_info[0] is RuntimeError
 
 
 def test_planner_example_drives_against_the_monitor(monitor):
@@ -184,10 +210,14 @@ def test_without_a_monitor_the_client_returns_a_failsafe_in_time():
     assert elapsed < 2.0
 
 
-@pytest.mark.parametrize("timeout", [math.inf, math.nan, -1, 0, 1e12, True])
-def test_a_timeout_no_wait_can_take_is_refused_when_the_client_is_made(timeout):
-    with pytest.raises(ValueError, match=rf"^timeout must be a finite number above 0 s and at most 120 s, got {timeout}$"):
+@pytest.mark.parametrize("timeout, got", [
+    (math.inf, "inf"), (math.nan, "nan"), (-1, "-1"), (0, "0"), (1e12, "1000000000000.0"), (True, "True (bool)"),
+    ("0.1", "'0.1' (str)"),  # "got 0.1" did not say why 0.1 was refused
+])
+def test_a_timeout_no_wait_can_take_is_refused_when_the_client_is_made(timeout, got):
+    with pytest.raises(ValueError) as refused:
         Monitor("impatient", connect=[endpoint(free_port())], timeout=timeout)
+    assert str(refused.value) == f"timeout must be a finite number above 0 s and at most 120 s, got {got}"
 
 
 def test_a_bad_timeout_given_to_check_gets_a_failsafe_naming_it():
@@ -196,6 +226,25 @@ def test_a_bad_timeout_given_to_check_gets_a_failsafe_naming_it():
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
     assert verdict.error == "not sent: timeout must be a finite number above 0 s and at most 120 s, got -0.001"
     assert verdict.frame_id == 3 and verdict.proposed.value == "accelerate"
+
+
+def test_a_timeout_given_to_check_as_a_string_is_named_with_its_type():
+    with Monitor("impatient", connect=[endpoint(free_port())]) as monitor:
+        verdict = monitor.check(highway_scene(3, 4), "accelerate", timeout="0.1")
+    assert verdict.error == "not sent: timeout must be a finite number above 0 s and at most 120 s, got '0.1' (str)"
+
+
+def test_a_single_endpoint_given_as_a_string_is_taken_as_one(monitor):
+    """Iterated, the string's letters were taken for endpoints: "bad zenoh endpoint 't'"."""
+    with Monitor("one_endpoint", connect=monitor, timeout=5.0) as client:
+        assert client.wait_for_monitor(timeout=5.0)
+        assert not client.check(highway_scene(0, 4), "cruise").failsafe
+
+
+def test_an_endpoint_zenoh_cannot_take_is_refused_naming_it_without_rust_source_paths():
+    with pytest.raises(ValueError) as refused:
+        Monitor("unknown_protocol", connect=["udpx/1.2.3.4:5"])
+    assert str(refused.value) == "cannot connect to udpx/1.2.3.4:5: Unicast not supported for udpx protocol"
 
 
 def test_a_scene_that_cannot_be_sent_at_all_gets_a_local_failsafe_naming_the_problem():
@@ -251,6 +300,34 @@ def test_a_reply_that_is_no_verdict_on_this_proposal_is_not_acted_on_and_says_wh
         impostor.close()
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
     assert verdict.frame_id == 0 and verdict.error.startswith(reason)
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_an_invalid_proposal_answered_with_a_deadline_failsafe_is_refused_naming_its_problem(style):
+    """A busy monitor answers at its deadline before reading the payload: the planner was told of the deadline,
+    not of the string it had sent for a speed, which the client had found itself."""
+    import zenoh
+
+    from discern.monitor.config import ZenohSettings
+    from discern.monitor.protocol import RULE_DEADLINE, encode, failsafe_verdict
+
+    deadline = encode(failsafe_verdict("busy", "no decision within the 50 ms budget", RULE_DEADLINE, frame_id=0))
+    scene = json.loads(highway_scene(0, 2).model_dump_json(by_alias=True))
+    scene["ego"]["speed"] = "25"
+    ep = endpoint(free_port())
+    busy = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
+    try:
+        busy.declare_queryable("discern/busy/check", lambda q: q.reply(q.key_expr, deadline))
+        busy.declare_subscriber("discern/busy/proposal", lambda sample: busy.put("discern/busy/verdict", deadline))
+        with Monitor("busy", connect=[ep], timeout=2.0, style=style) as client:
+            assert client.wait_for_monitor()
+            verdict = client.check(scene, "cruise")
+    finally:
+        busy.close()
+    assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.bad_input"]
+    assert verdict.frame_id == 0 and verdict.error == (
+        "schema violation: scene.ego.speed: Input should be a valid number (got '25'); "
+        "and the monitor answered with a monitor.deadline fail-safe: no decision within the 50 ms budget")
 
 
 def test_over_publish_subscribe_an_unreadable_verdict_is_the_reason_a_wait_gets_no_verdict():

@@ -44,6 +44,24 @@ def test_replayed_and_old_frames_are_refused_without_touching_the_window():
     assert [s.frame_id for s in state.admit(frame(8, 1.2), now=0.2)] == [7]
 
 
+def test_a_restart_refused_for_want_of_scene_timestamps_is_told_to_set_them():
+    """A planner restarted without timestamps got 2 s of "out-of-order frame 0" brakes and no hint why."""
+    state = VehicleState(window_s=2.0)
+    for i in range(40):
+        state.admit(frame(i, 0.0), now=0.05 * i)
+    with pytest.raises(InputError) as refused:
+        state.admit(frame(0, 0.0), now=2.0)
+    assert str(refused.value) == (
+        "frame_id: out-of-order frame 0, the last frame received for this vehicle was 39 (without a scene timestamp a"
+        " restarted planner cannot be told from a replay, and is refused until it has been silent for 2 s: set"
+        ' Scene.timestamp, see docs/protocol.md "Per-vehicle state")')
+    timed = VehicleState(window_s=2.0)
+    timed.admit(frame(7, 1.0), now=0.0)
+    with pytest.raises(InputError) as late:  # a late frame of a planner that sets timestamps: nothing to set
+        timed.admit(frame(3, 0.9), now=0.1)
+    assert str(late.value) == "frame_id: out-of-order frame 3, the last frame received for this vehicle was 7"
+
+
 def test_a_vehicle_silent_longer_than_the_window_starts_afresh():
     state = VehicleState(window_s=2.0)
     state.admit(frame(500, 30.0), now=0.0)
