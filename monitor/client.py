@@ -12,6 +12,7 @@ need be), exactly as the monitor itself does, so the planner's loop has one code
 
 from __future__ import annotations
 
+import itertools
 import json
 import logging
 import threading
@@ -108,7 +109,8 @@ class Monitor:
         self._declared: list = []  # what the session declares, undeclared before it closes
         # Closes the session on close(), when the Monitor is collected unclosed, or at exit (an unclosed zenoh session
         # can hang interpreter exit); it holds no reference to the Monitor, so that a dropped one is collected.
-        self._finalizer = weakref.finalize(self, _close_session, self.session, self._declared)
+        key = next(_KEYS)
+        self._finalizer = _OPEN[key] = weakref.finalize(self, _close_session, self.session, self._declared, key)
         self._closed = False
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
         self._unreadable: Optional[tuple[float, str]] = None  # when the last unreadable verdict came, and why
@@ -337,9 +339,25 @@ class Monitor:
             log.exception("on_verdict raised on the verdict of vehicle %r frame %s", verdict.vehicle, verdict.frame_id)
 
 
-def _close_session(session: zenoh.Session, declared: list) -> None:
+_OPEN: dict[int, weakref.finalize] = {}  # the finalizers of the Monitors not closed yet, by key
+_KEYS = itertools.count()
+
+
+def _close_unclosed() -> None:
+    """Close the Monitors still open as the interpreter exits, before it waits for its threads: zenoh runs a
+    subscriber's Python callback on a thread of its own that is not a daemon, so waiting for it first hung the
+    exit of a planner that never closed its Monitor, and atexit's hooks, run after that wait, came too late."""
+    for finalizer in list(_OPEN.values()):
+        finalizer()
+
+
+threading._register_atexit(_close_unclosed)  # the hook concurrent.futures uses for the same reason
+
+
+def _close_session(session: zenoh.Session, declared: list, key: int) -> None:
     """Undeclare what the session declared, then close it. A session closed with its publisher, querier or
     subscriber still declared kept a shared-memory mapping (/dev/shm) open: one file descriptor per Monitor."""
+    _OPEN.pop(key, None)
     for entity in declared:
         try:
             entity.undeclare()

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import gc
 import os
+import subprocess
+import sys
 import weakref
 
 import pytest
@@ -50,3 +52,13 @@ def test_a_monitor_dropped_unclosed_is_collected_and_its_session_closed(style, o
         assert wait_until(lambda: not list(peer.info.peers_zid()))  # its link is gone too
     finally:
         peer.close()
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_a_planner_that_never_closes_its_monitor_still_exits(style):
+    """zenoh runs a subscriber's callback on a thread that is not a daemon: Python waited for it, before its atexit
+    hooks, so a planner process holding an unclosed pubsub Monitor at exit hung for good."""
+    script = (f"from discern.monitor.client import Monitor\n"
+              f"m = Monitor('exits', connect=[{endpoint(free_port())!r}], style={style!r})\n")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
