@@ -255,6 +255,13 @@ def _examples() -> list[Example]:
                 "At 30 m/s on a 70 mph highway a school-zone sign is read (the near miss: on a rural road).",
                 (scene(speed=30.0, zone="highway", limit=31.3, signs=[{"kind": "school_zone"}]),), Action.cruise,
                 (scene(speed=24.0, zone="road", limit=24.6, signs=[{"kind": "school_zone"}]),)),
+        Example("san.limit.school_sign_debounce", "On a rural road at 24.5 m/s, 55 mph read for three frames, a "
+                "school-zone sign is detected in the fourth frame only.",
+                tuple(scene(frame=i + 1, speed=24.5, zone="rural", limit=None,
+                            signs=[limit_sign(55)] + ([{"kind": "school_zone"}] if i == 3 else [])) for i in range(4)),
+                Action.cruise,
+                tuple(scene(frame=i + 1, speed=24.5, zone="rural", limit=None,
+                            signs=[limit_sign(55)] + ([{"kind": "school_zone"}] if i >= 1 else [])) for i in range(4))),
         Example("san.limit.zero", "In a city the camera reads a limit of 0 in every frame for a second; the ego drives 10 m/s.",
                 tuple(scene(frame=i + 1, timestamp=0.1 * i, speed=10.0, limit=None, signs=[limit_sign(0)])
                       for i in range(10)), Action.cruise,

@@ -175,7 +175,7 @@ WINDOW_PREDICATES = frozenset({
     ("slowest_recent_speed", 1), ("slowest_at_line", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2), ("reading_time", 2),
     ("misread_before", 2), ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
     ("light_flashing_frames", 2), ("light_flashing_time", 2), ("light_flashes", 1), ("light_seen_recently", 1),
-    ("sign_seen_recently", 1), ("obj_size", 3), ("overlaps", 2), ("predicted_conflict", 3), ("obj_source_before", 2),
+    ("sign_seen_recently", 1), ("school_sign_run", 1), ("school_sign_time", 1), ("obj_size", 3), ("overlaps", 2), ("predicted_conflict", 3), ("obj_source_before", 2),
     ("remembered", 2), ("remembered_object", 2), ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2),
     ("track_time", 2),
     ("remembered_lane", 3), ("remembered_velocity", 3), ("remembered_source", 2), ("sensor_still_reads", 4),
@@ -226,7 +226,7 @@ class WindowProvider:
             out.extend(_limit_facts(now, past, c.confirm_frames, clock, [a in lit for a in approach[:-1]]))
             out.extend(_light_facts(now, past, times, c, clock))
             out.extend(_dark_signal(now, past, c, clock))
-            out.extend(_sign_facts(now, past))
+            out.extend(_sign_facts(now, past, clock))
             out.extend(_memory_facts(scene, now, window, past, c, clock, bodies))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
             at_line = [p.speed for p in past if p.at_line]  # a stop in a queue short of the line is no stop at it
@@ -575,13 +575,21 @@ def _flashes(on: list[bool], times: list[float], config: WindowConfig, whole_lit
     return all(shortest <= n <= longest for n in whole) and lengths[0] <= longest and lengths[-1] <= longest
 
 
-def _sign_facts(now: _Summary, past: list[_Summary]) -> list[str]:
-    """A stop sign or a school-zone sign seen before and out of view now (the signs whose memory the rules use)."""
+def _sign_facts(now: _Summary, past: list[_Summary], clock: _Clock) -> list[str]:
+    """A stop sign or a school-zone sign seen before and out of view now (the signs whose memory the rules use); and
+    the school-zone sign's latest run of frames, whose length the rules weigh as a limit reading's."""
     out = []
     if not now.stop_sign and any(p.stop_sign for p in past):
         out.append("sign_seen_recently(stop).")
     if not now.school_sign and any(p.school_sign for p in past):
         out.append("sign_seen_recently(school_zone).")
+    seen = [f.school_sign for f in past] + [now.school_sign]
+    if any(seen):
+        last = max(i for i, shown in enumerate(seen) if shown)
+        first = last
+        while first > 0 and seen[first - 1]:
+            first -= 1
+        out.append(f"school_sign_run({last - first + 1}).school_sign_time({clock.lasted(first, last)}).")
     return out
 
 
