@@ -262,6 +262,13 @@ def _examples() -> list[Example]:
                 Action.cruise,
                 tuple(scene(frame=i + 1, speed=24.5, zone="rural", limit=None,
                             signs=[limit_sign(55)] + ([{"kind": "school_zone"}] if i >= 1 else [])) for i in range(4))),
+        Example("san.limit.low_confidence", "On a 70 mph highway (the map says 70) perception reads a 40 mph sign with 30 % "
+                "confidence in one frame; the ego drives 31 m/s with a truck 6 m behind.",
+                (scene(speed=31.0, zone="highway", limit=None, map_speed_limit=31.3,
+                       signs=[{**limit_sign(40), "confidence": 0.3}], objects=[obj(9, "truck", 0.0, -6.0, 1, vy=31.0)]),),
+                Action.cruise,
+                (scene(speed=31.0, zone="highway", limit=None, map_speed_limit=31.3,
+                       signs=[{**limit_sign(40), "confidence": 0.9}], objects=[obj(9, "truck", 0.0, -6.0, 1, vy=31.0)]),)),
         Example("san.limit.zero", "In a city the camera reads a limit of 0 in every frame for a second; the ego drives 10 m/s.",
                 tuple(scene(frame=i + 1, timestamp=0.1 * i, speed=10.0, limit=None, signs=[limit_sign(0)])
                       for i in range(10)), Action.cruise,
@@ -378,6 +385,15 @@ def _examples() -> list[Example]:
                 (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 30.2, 1, sources=("camera",))]),),
                 Action.accelerate,
                 (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 30.2, 1)]),)),
+        Example("san.world.sign_on_a_vehicle", "On a 70 mph highway a \"40\" sticker on the back of a truck 70 m ahead is "
+                "read as a speed-limit sign; the ego drives 31 m/s with another truck 6 m behind.",
+                (scene(speed=31.0, zone="highway", limit=None, map_speed_limit=31.3,
+                       signs=[{**limit_sign(40), "position": {"x": 0.0, "y": 72.0}}],
+                       objects=[obj(3, "truck", 0.0, 70.0, 1, vy=31.0), obj(9, "truck", 0.0, -6.0, 1, vy=31.0)]),),
+                Action.cruise,
+                (scene(speed=31.0, zone="highway", limit=None, map_speed_limit=31.3,
+                       signs=[{**limit_sign(40), "position": {"x": 8.0, "y": 72.0}}],
+                       objects=[obj(3, "truck", 0.0, 70.0, 1, vy=31.0), obj(9, "truck", 0.0, -6.0, 1, vy=31.0)]),)),
         Example("san.world.size", "A toy-sized car, 0.7 m long, standing 14 m ahead, that only the camera reports, while "
                 "the front radar reads clear road for 60 m; without the radar reading, the same toy is braked for.",
                 (scene(speed=8.0, limit=15.0, objects=[toy_car], sensors=[sensor("front", 60.0)]),),

@@ -90,6 +90,7 @@ class _Summary:
     readings: frozenset[int]
     primary: Optional[int]
     misread: tuple[tuple[int, str], ...]  # limits read from a picture where a stop sign belonged, with the evidence
+    on_vehicles: frozenset[int]  # limits read off signs inside a motor vehicle's outline (a sticker, an advert)
     lights: frozenset[LightColour]
     flashing: frozenset[LightColour]
     steady: frozenset[LightColour]  # colours some light of which is not flagged flashing
@@ -104,12 +105,13 @@ class _Summary:
     lit: tuple[int, ...]  # objects showing emergency lights
 
     @classmethod
-    def of(cls, scene: Scene) -> "_Summary":
+    def of(cls, scene: Scene, bodies: "Bodies") -> "_Summary":
         confirming = [(o.id, frozenset(CONFIRMING.intersection(o.sources))) for o in scene.objects]
         return cls(
             readings=frozenset(_readings(scene)),
             primary=_primary(scene),
             misread=_misread(scene),
+            on_vehicles=frozenset(value for value, _, cls in _signs_within(scene, bodies) if cls in bodies.motor),
             # a lamp of colour "none" (unlit, glare, unreadable) shows no colour: it is no light seen, and does not
             # make a red seen before any less the last colour seen (the core gives it no fact either)
             lights=frozenset(l.colour for l in scene.traffic_lights if l.colour is not LightColour.none),
@@ -173,7 +175,8 @@ class Bodies:
 WINDOW_PREDICATES = frozenset({
     ("signal_dark", 0), ("window_frames", 1), ("window_param", 2), ("light_seen_on_approach", 0),
     ("slowest_recent_speed", 1), ("slowest_at_line", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2), ("reading_time", 2),
-    ("misread_before", 2), ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
+    ("misread_before", 2), ("sign_on_vehicle_before", 1), ("sign_within", 2), ("sign_confidence", 2),
+    ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
     ("light_flashing_frames", 2), ("light_flashing_time", 2), ("light_flashes", 1), ("light_seen_recently", 1),
     ("sign_seen_recently", 1), ("school_sign_run", 1), ("school_sign_time", 1), ("obj_size", 3), ("overlaps", 2), ("predicted_conflict", 3), ("obj_source_before", 2),
     ("remembered", 2), ("remembered_object", 2), ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2),
@@ -243,7 +246,7 @@ class WindowProvider:
         """
         summary = self._summaries.get(id(scene))
         if summary is None:
-            summary = self._summaries[id(scene)] = _Summary.of(scene)
+            summary = self._summaries[id(scene)] = _Summary.of(scene, self.bodies)
             weakref.finalize(scene, self._summaries.pop, id(scene), None).atexit = False  # nothing to do at exit
         return summary
 
@@ -432,6 +435,7 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
     seen, whose stop line is no evidence of a stop sign."""
     out = sorted({f"misread_before({v},{e})." for p, lit in zip(past, signalled) for v, e in p.misread
                   if not (lit and e == LINE_EVIDENCE)})
+    out.extend(sorted({f"sign_on_vehicle_before({v})." for p in past for v in p.on_vehicles}))
     here = len(past)  # the current frame's index
     readings = [p.readings for p in past] + [now.readings]
     for value in sorted(now.readings):
@@ -454,9 +458,10 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
         runs = runs[:last]
     elif runs and runs[-1].value == primary:  # the current reading's own run
         runs.pop()
-    # a misread stop sign says nothing of the limit before the current reading (san.stop.misread_limit): taken for
-    # the limit read before, it would outweigh the real sign read past the intersection
-    before = _believed([run._replace(value=None) if _misread_in(past[run.first], run.value, signalled[run.first]) else run
+    # a misread stop sign, or a sign on a vehicle, says nothing of the limit before the current reading
+    # (san.stop.misread_limit, san.world.sign_on_a_vehicle): taken for the limit read before, it would outweigh the
+    # real sign read after it
+    before = _believed([run._replace(value=None) if _no_limit_in(past[run.first], run.value, signalled[run.first]) else run
                         for run in runs], confirm)
     if before is not None:
         run = runs[before]
@@ -466,9 +471,9 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
     return out
 
 
-def _misread_in(frame: _Summary, value: Optional[int], signalled: bool) -> bool:
-    """Whether the rules took the sign that read `value` in this frame for a stop sign."""
-    return any(v == value and not (signalled and e == LINE_EVIDENCE) for v, e in frame.misread)
+def _no_limit_in(frame: _Summary, value: Optional[int], signalled: bool) -> bool:
+    """Whether the rules took the sign that read `value` in this frame for a stop sign, or it was on a vehicle."""
+    return value in frame.on_vehicles or any(v == value and not (signalled and e == LINE_EVIDENCE) for v, e in frame.misread)
 
 
 # --- lights and signs ---------------------------------------------------------
@@ -657,8 +662,11 @@ def _to_gap(centre: float, length: float) -> float:
 
 
 def _world_facts(scene: Scene, bodies: Bodies) -> list[str]:
-    """Sizes, and camera-only vehicles that sit inside the outline of a confirmed object."""
+    """Sizes; limit signs that sit inside the outline of an object, and how sure perception was of each reading;
+    camera-only vehicles that sit inside the outline of a confirmed object."""
     out = [f"obj_size({o.id},{cm(o.size.length)},{cm(o.size.width)})." for o in scene.objects if o.size is not None]
+    out.extend(f"sign_within({value},{oid})." for value, oid, _ in _signs_within(scene, bodies))
+    out.extend(f"sign_confidence({value},{percent})." for value, percent in _confidences(scene).items())
     camera_only = [o for o in scene.objects if o.sources == [Source.camera]]
     if not camera_only:
         return out
@@ -671,6 +679,32 @@ def _world_facts(scene: Scene, bodies: Bodies) -> list[str]:
         out.extend(f"overlaps({obj.id},{oid})." for oid, ox, oy, length, width in outlines
                    if abs(x - ox) <= width / 2 and _within_length(y, oy, length))
     return out
+
+
+def _confidences(scene: Scene) -> dict[int, int]:
+    """How sure perception is of each limit value read, in percent: its surest sign's. A value also read by a sign
+    that gives no confidence, or given as the perceived limit, is left out: nothing says it is a guess."""
+    found: dict[int, int] = {}
+    unknown = {cm(scene.speed_limit)} if scene.speed_limit is not None else set()
+    for sign in scene.signs:
+        if sign.kind is not SignKind.speed_limit or sign.value is None:
+            continue
+        if sign.confidence is None:
+            unknown.add(cm(sign.value))
+        else:
+            found[cm(sign.value)] = max(found.get(cm(sign.value), 0), round(sign.confidence * 100))
+    return {value: percent for value, percent in found.items() if value not in unknown}
+
+
+def _signs_within(scene: Scene, bodies: Bodies) -> list[tuple[int, int, ObjectClass]]:
+    """(value, object id, object class) of each limit sign whose position lies inside an object's outline: a sticker
+    or an advert on a truck is read like a sign (the rules say which objects do not post limits)."""
+    signs = [s for s in scene.signs if s.kind is SignKind.speed_limit and s.value is not None and s.position is not None]
+    if not signs:
+        return []
+    return [(cm(s.value), o.id, o.cls) for s in signs for o in scene.objects
+            for length, width in [_extent(o, bodies)]
+            if abs(s.position.x - o.position.x) <= width / 2 and _within_length(s.position.y, o.position.y, length)]
 
 
 def _within_length(y: float, oy: float, length: float) -> bool:
