@@ -518,22 +518,14 @@ def test_a_file_missing_its_closing_magic_is_truncated_not_complete(tmp_path):
         assert f.state == "truncated" and not f.complete, missing
         assert f.stopped_by == f"cut short after its footer, inside the closing magic at byte {len(data) - 8}"
         assert f.recovered_bytes == len(data) - 8
-
-
-def test_a_file_missing_its_closing_magic_has_its_summary_read_from_its_footer_not_called_damaged(tmp_path):
-    """mcap's reader looks for the footer a whole magic before the end: short of it, it read garbage there, and the
-    summary the footer points to was reported unreadable, a damaged file, where only the closing magic is cut."""
-    write_session(tmp_path)
-    [whole] = tmp_path.glob("*.mcap")
-    data = whole.read_bytes()
-    cut = tmp_path / "cut.mcap"
-    for missing in range(1, 9):
-        cut.write_bytes(data[:-missing])
-        report = RecoveryReport()
-        list(read_log(cut, report))
-        [f] = report.files
+        # mcap's reader looks for the footer a whole magic before the end: short of it, it read garbage there, and
+        # the summary the footer points to was reported unreadable, a damaged file, where only the magic is cut
         assert f.damaged == [] and "cannot be read" not in report.summary(), (missing, f.damaged)
-    # what the summary indexes is still checked: a chunk whose opcode is damaged is named, not passed over unseen
+
+
+def test_a_file_missing_its_closing_magic_still_has_what_its_summary_indexes_checked(tmp_path):
+    """A chunk whose opcode is damaged is named, not passed over unseen, when the summary is read from the footer."""
+    cut = tmp_path / "cut.mcap"
     data, chunks = write_chunked(tmp_path / "chunked", 6)
     start, end = chunks[2]
     damaged = bytearray(data[:-4])
