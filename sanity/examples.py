@@ -324,9 +324,10 @@ def _examples() -> list[Example]:
                  scene(frame=2, limit=11.0, intersection=arriving)), Action.cruise,
                 (scene(frame=1, limit=11.0, intersection=arriving), scene(frame=2, limit=11.0, intersection=arriving))),
         Example("san.memory.school_zone_sign",
-                "A school-zone sign was read two frames ago on a 45 mph road and has left the view; the ego drives 15 m/s.",
-                (scene(frame=1, speed=15.0, zone="road", limit=45 * MPH, signs=[{"kind": "school_zone"}]),
-                 scene(frame=2, speed=15.0, zone="road", limit=45 * MPH)), Action.accelerate,
+                "A school-zone sign was read in three frames on a 45 mph road and has just left the view; the ego drives "
+                "15 m/s.",
+                tuple(scene(frame=i + 1, speed=15.0, zone="road", limit=45 * MPH, signs=[{"kind": "school_zone"}])
+                      for i in range(3)) + (scene(frame=4, speed=15.0, zone="road", limit=45 * MPH),), Action.accelerate,
                 (scene(frame=1, speed=15.0, zone="road", limit=45 * MPH), scene(frame=2, speed=15.0, zone="road", limit=45 * MPH))),
         # --- range sensors over the camera
         Example("san.radar.confirmed_earlier", "Only the camera reports the car ahead now, but the radar reported it a frame ago.",
