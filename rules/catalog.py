@@ -46,6 +46,7 @@ TEMPLATE_FORMATS = frozenset({
     "limit",  # a speed limit in cm/s: m/s, and the unit of the pack's signs ("15.7 m/s (35 mph)")
     "obj", "ordinal", "ms",  # "car 3"; "2nd"; milliseconds as seconds
     "frames",  # a count of frames: "1 frame", "3 frames"
+    "percent",  # a whole percentage: "30 %"
     "lane", "detail", "paren",  # "lane 2", ": reason", " (kind)": words that go when the value is unknown
     "id",  # a name the scene gave (a path id): as given, never read as a catalog word
 })

@@ -129,11 +129,11 @@ class Prover:
         if fact_rule:
             return [fact_rule]
         if sym.name in TRACED:  # clingo recorded which rules did: no body to replay
-            return [rule.info.id for rule, record in self.catalog.records(sym) if self.answer.holds(record)]
+            return list(dict.fromkeys(rule.info.id for rule, record in self.catalog.records(sym) if self.answer.holds(record)))
         sole = self._sole_rule(sym)
         if sole is not None:
             return [sole]
-        return [rule.info.id for rule, _ in self.derivations(sym)]
+        return list(dict.fromkeys(rule.info.id for rule, _ in self.derivations(sym)))  # one id, two bodies: named once
 
     def _sole_rule(self, sym: Symbol) -> Optional[str]:
         """The rule that derived `sym`, an atom of the model, when no fact gives it and every catalog rule whose head

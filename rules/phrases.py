@@ -72,7 +72,7 @@ _SETTINGS = {
 }
 _DISTANCE_UNIT = ("m", 100)  # a setting _SETTINGS does not name: a distance in cm
 _SETTING_FORMATS = {"s": "ms", "m": "m", "m/s": "mps", "m/s²": "decel"}  # a setting's unit (_SETTINGS) as a template format
-_UNKNOWN = {"obj": "some object", "m": "some distance", "mps": "some speed", "decel": "some deceleration", "limit": "some speed", "ms": "some time",
+_UNKNOWN = {"percent": "some confidence", "obj": "some object", "m": "some distance", "mps": "some speed", "decel": "some deceleration", "limit": "some speed", "ms": "some time",
             "ahead": "somewhere", "right": "somewhere", "along": "some speed", "across": "some speed",
             "closing": "some speed", "lane": "a lane", "detail": "", "paren": ""}
 _SIGN_UNITS = {"mph": 44.704}  # cm/s per unit a pack's speed_unit/1 may name
@@ -128,6 +128,8 @@ class Phrasebook:
             return f"{n / 1000:.{digits}f} s"
         if fmt == "ordinal":
             return _ordinal(n)
+        if fmt == "percent":
+            return f"{n} %"
         if fmt == "frames":
             return "1 frame" if n == 1 else f"{n} frames"
         if fmt == "obj":
@@ -430,7 +432,7 @@ _SIGNED = {  # (at zero, positive, negative); the sign of a position or speed sa
     "across": ("0.0 m/s sideways", "{} m/s to the right", "{} m/s to the left"),
 }
 _COMPARED = {"m": "m", "mps": "mps", "decel": "decel", "limit": "limit", "ms": "ms", "frames": "frames", "ordinal": "ordinal",
-             "ahead": "ahead", "right": "right", "along": "along", "across": "across", "closing": "closing"}
+             "percent": "percent", "ahead": "ahead", "right": "right", "along": "along", "across": "across", "closing": "closing"}
 _LESS, _LESS_EQ, _MORE, _MORE_EQ = (int(o) for o in (_CMP.LessThan, _CMP.LessEqual, _CMP.GreaterThan,
                                                       _CMP.GreaterEqual))
 _EQ, _NOT_EQ = int(_CMP.Equal), int(_CMP.NotEqual)
