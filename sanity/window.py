@@ -174,16 +174,15 @@ class Bodies:
 # scenario file): what the catalog loader takes frames to give besides the scene's (rules.facts.SCENE_PREDICATES).
 WINDOW_PREDICATES = frozenset({
     ("signal_dark", 0), ("window_frames", 1), ("window_param", 2), ("light_seen_on_approach", 0),
-    ("slowest_recent_speed", 1), ("slowest_at_line", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2), ("reading_time", 2),
-    ("misread_before", 2), ("sign_on_vehicle_before", 1), ("sign_within", 2), ("sign_confidence", 2),
-    ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
+    ("slowest_recent_speed", 1), ("slowest_at_line", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2),
+    ("reading_time", 2), ("misread_before", 2), ("sign_on_vehicle_before", 1), ("sign_within", 2),
+    ("sign_confidence", 2), ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
     ("light_flashing_frames", 2), ("light_flashing_time", 2), ("light_flashes", 1), ("light_seen_recently", 1),
-    ("sign_seen_recently", 1), ("school_sign_run", 1), ("school_sign_time", 1), ("obj_size", 3), ("overlaps", 2), ("predicted_conflict", 3), ("obj_source_before", 2),
-    ("remembered", 2), ("remembered_object", 2), ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2),
-    ("track_time", 2),
-    ("remembered_lane", 3), ("remembered_velocity", 3), ("remembered_source", 2), ("sensor_still_reads", 4),
-    ("sensor_reads_past", 4), ("reported_before", 2), ("ran_beside", 2), ("remembered_conflict", 3),
-    ("lights_frames", 2), ("lights_time", 2),
+    ("sign_seen_recently", 1), ("school_sign_run", 1), ("school_sign_time", 1), ("obj_size", 3), ("overlaps", 2),
+    ("predicted_conflict", 3), ("obj_source_before", 2), ("remembered", 2), ("remembered_object", 2),
+    ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2), ("track_time", 2), ("remembered_lane", 3),
+    ("remembered_velocity", 3), ("remembered_source", 2), ("sensor_still_reads", 4), ("sensor_reads_past", 4),
+    ("reported_before", 2), ("ran_beside", 2), ("remembered_conflict", 3), ("lights_frames", 2), ("lights_time", 2),
 })
 WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "track_ms"})
 
@@ -461,8 +460,8 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
     # a misread stop sign, or a sign on a vehicle, says nothing of the limit before the current reading
     # (san.stop.misread_limit, san.world.sign_on_a_vehicle): taken for the limit read before, it would outweigh the
     # real sign read after it
-    before = _believed([run._replace(value=None) if _no_limit_in(past[run.first], run.value, signalled[run.first]) else run
-                        for run in runs], confirm)
+    before = _believed([run._replace(value=None) if _no_limit_in(past[run.first], run.value, signalled[run.first])
+                        else run for run in runs], confirm)
     if before is not None:
         run = runs[before]
         # with its run, so that the rules can tell a settled limit from a one-frame lower reading
@@ -473,7 +472,8 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
 
 def _no_limit_in(frame: _Summary, value: Optional[int], signalled: bool) -> bool:
     """Whether the rules took the sign that read `value` in this frame for a stop sign, or it was on a vehicle."""
-    return value in frame.on_vehicles or any(v == value and not (signalled and e == LINE_EVIDENCE) for v, e in frame.misread)
+    return value in frame.on_vehicles or any(v == value and not (signalled and e == LINE_EVIDENCE)
+                                             for v, e in frame.misread)
 
 
 # --- lights and signs ---------------------------------------------------------
