@@ -396,14 +396,22 @@ def _scene(facts: list[tuple[Compound, int]], t: int, zone: Zone, path: Path) ->
         raise AvcsrError("\n".join(_problem(err, origins, path, t) for err in exc.errors(include_url=False))) from None
 
 
+SHOWN_FACT_CHARS = 120
+
+
 def _problem(err: dict, origins: dict[tuple, tuple[Compound, int]], path: Path, t: int) -> str:
     """A value the scene model refuses, named by the fact and line it came from: `file:6: obj_meta(...): class: ...`."""
     loc = tuple(err["loc"])
+    if err["type"] == "too_long":  # the fact that added the first item past the limit, not the list's other checks
+        loc += (err["ctx"]["max_length"],)
     for cut in range(len(loc), 0, -1):
         if loc[:cut] in origins:
             fact, line = origins[loc[:cut]]
             field = ".".join(map(str, loc[cut:]))
-            return f"{path}:{line}: {_show(fact)}: {field + ': ' if field else ''}{describe_error(err)}"
+            shown = _show(fact)
+            if len(shown) > SHOWN_FACT_CHARS:  # a list of thousands of lanes: its start names the fact
+                shown = shown[:SHOWN_FACT_CHARS] + " ..."
+            return f"{path}:{line}: {shown}: {field + ': ' if field else ''}{describe_error(err)}"
     where = ".".join(map(str, loc))
     return f"{path}: frame {t}: {where + ': ' if where else ''}{describe_error(err)}"
 

@@ -348,14 +348,14 @@ def _status_text(s) -> str:
 def cmd_router(args) -> int:
     import zenoh
 
-    from .config import check_listen_ports, listen_endpoints
+    from .config import check_listen_ports, listen_endpoints, listens_by_default
     from .router import router_config
 
     stop = _stop_on_signal()
     try:
         config = router_config(_zenoh_settings(args))
         listen = listen_endpoints(config)
-        check_listen_ports(listen)
+        check_listen_ports(listen, defaulted=listens_by_default(config))
         session = zenoh.open(config)
     except ValueError as exc:
         return _fail("router", str(exc))

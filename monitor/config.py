@@ -130,17 +130,23 @@ def _config_value(config: zenoh.Config, key: str):
 
 
 _IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
-ZENOH_DEFAULT_LISTEN = ("tcp/[::]:0", "tcp/0.0.0.0:0")  # what zenoh listens on when a configuration names nothing
 
 
-def check_listen_ports(endpoints: list[str]) -> None:
-    """Refuse port 0: zenoh would take some free port without telling which, so no one could be told to connect."""
+def listens_by_default(config: zenoh.Config) -> bool:
+    """Whether the configuration leaves listen.endpoints as zenoh's own default (port 0 for a peer)."""
+    return _config_value(config, "listen/endpoints") == _config_value(zenoh.Config(), "listen/endpoints")
+
+
+def check_listen_ports(endpoints: list[str], defaulted: bool = False) -> None:
+    """Refuse port 0: zenoh would take some free port without telling which, so no one could be told to connect.
+
+    `defaulted`: the endpoints are zenoh's default, which the error then says, as the configuration named none.
+    """
     for endpoint in endpoints:
         address = re.split(r"[?#]", endpoint, maxsplit=1)[0]  # without zenoh's ?metadata and #config
         protocol = address.partition("/")[0]
         if protocol in _IP_PROTOCOLS and address.rpartition(":")[2] == "0":
-            default = " (zenoh's own default, as the configuration names no listen.endpoints)" if (
-                endpoint in ZENOH_DEFAULT_LISTEN) else ""
+            default = " (zenoh's own default, as the configuration names no listen.endpoints)" if defaulted else ""
             raise ValueError(f"listen endpoint {endpoint!r}{default}: port 0 is not supported, as zenoh does not "
                              "say which free port it takes: name a port (--listen, or listen.endpoints)")
 

@@ -37,7 +37,7 @@ from discern.rules.engine import jurisdiction_pack
 from discern.rules.scene import Action, valid_id
 
 from . import keys
-from .config import DEFAULT_ENDPOINT, MonitorConfig, check_listen_ports, listen_endpoints
+from .config import DEFAULT_ENDPOINT, MonitorConfig, check_listen_ports, listen_endpoints, listens_by_default
 from .decision_pool import DecisionPool
 from .decision_worker import Job, Outcome, WorkerSettings
 from .log import McapLogWriter, RejectedInput, vehicle_topic
@@ -156,7 +156,7 @@ class MonitorServer:
     def _open_all(self) -> None:
         zenoh_config = self.config.zenoh.to_zenoh(default_listen=[DEFAULT_ENDPOINT])
         self.listen_endpoints = listen_endpoints(zenoh_config)
-        check_listen_ports(self.listen_endpoints)
+        check_listen_ports(self.listen_endpoints, defaulted=listens_by_default(zenoh_config))
         self.pool.start()  # workers load the rules before zenoh starts any thread
         self.session = zenoh.open(zenoh_config)
         if self.config.log is not None:

@@ -8,7 +8,7 @@ from clingo import Control, Symbol, parse_term
 
 from .catalog import TRACE_PREFIX
 from .clingo_calls import AtomReader
-from .fact_text import FACT_NAME, facts_of, facts_with_first, is_plain
+from .fact_text import fact_names, facts_of, facts_with_first, is_plain
 from .terms import Shape
 
 
@@ -185,7 +185,7 @@ class AnswerSet:
             self._scanned = True
             if self._facts and is_plain(self._facts):
                 given = self._fact_names_given
-                self._names = given if given is not None else frozenset(FACT_NAME.findall(self._facts))
+                self._names = given if given is not None else fact_names(self._facts)
         return self._names
 
     def _given_exactly(self, name: str, arity: int) -> Optional[list[str]]:

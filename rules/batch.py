@@ -21,7 +21,7 @@ from clingo import Control, Function, Number, Symbol, ast, parse_term
 
 from .answer_set import AnswerSet, first_argument, shown_atoms
 from .catalog import TRACE_PREFIX, Catalog, static_fact_refused, static_predicates
-from .fact_text import FACT_NAME, is_plain
+from .fact_text import fact_names, is_plain
 from .specialize import Specializer
 
 FRAME_PREDICATE = "discern_frame"  # discern_frame(K): frame K is in the batch
@@ -61,7 +61,7 @@ class FrameTagger:
                 self._group_facts(text, frame, facts)
             else:
                 facts.text.append(self.tag_text(text, frame))
-                facts.names.update(FACT_NAME.findall(text))
+                facts.names.update(fact_names(text))
         for name, _ in facts.groups:
             self._check(name)
         facts.names.update(name for name, _ in facts.groups)

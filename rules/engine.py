@@ -23,7 +23,7 @@ from clingo import ast
 from .answer_set import AnswerSet, show_statements
 from .batch import BatchAnswers, FrameAnswers, FrameTagger
 from .catalog import VERDICT_CONSTANTS, Catalog, load_catalog, static_fact_refused
-from .fact_text import FACT_NAME
+from .fact_text import fact_names
 from .facts import Params, scene_facts
 from .justify import Prover, rule_ids
 from .presence import PresenceSlicer
@@ -107,7 +107,7 @@ class Reasoner:
         self.catalog = catalog if catalog is not None else load_catalog(extra_files=[jurisdiction_pack(jurisdiction)])
         self.params = params
         self._param_facts = params.facts()
-        self._param_names = frozenset(FACT_NAME.findall(self._param_facts))
+        self._param_names = fact_names(self._param_facts)
         self.providers = list(providers) if providers is not None else _default_providers()
         self.slicer = PresenceSlicer(self.catalog, self._param_facts, self._param_names)
         for provider in self.providers:
@@ -161,7 +161,7 @@ class Reasoner:
 
         The facts may not give a parameter: the rules clingo grounds have the reasoner's put in (specialize.py).
         """
-        own = frozenset(FACT_NAME.findall(text))
+        own = fact_names(text)
         given = own & self._param_names
         if given:
             raise static_fact_refused(min(given))

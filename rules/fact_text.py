@@ -13,11 +13,19 @@ from __future__ import annotations
 import functools
 import re
 
-FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")  # the predicate names of fact text
+_FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")  # the predicate names of fact text without strings
+_QUOTED_OR_NAME = re.compile(r'"(?:[^"\\]|\\.)*"|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)')
 # Possessive quantifiers: the text is matched once, without backtracking (half the time).
 _IDENTIFIER = r"_*+[a-z][A-Za-z0-9_]*+"  # clingo's, without primes: `_X` and `_` are variables
 _ARGUMENT = rf"(?:-?+[1-9][0-9]*+|0|{_IDENTIFIER})"
 _PLAIN = re.compile(rf"(?:{_IDENTIFIER}(?:\({_ARGUMENT}(?:,{_ARGUMENT})*+\))?+\.)++")
+
+
+def fact_names(text: str) -> frozenset[str]:
+    """The predicate names of fact text; a '.' inside a quoted id (`ego_path("a.param")`) starts no fact."""
+    if '"' not in text:
+        return frozenset(_FACT_NAME.findall(text))
+    return frozenset(name for name in _QUOTED_OR_NAME.findall(text) if name)
 
 
 @functools.lru_cache(maxsize=4)

@@ -20,14 +20,19 @@ def _line(node: JustificationNode, again: bool = False) -> str:
     return text
 
 
+SHARED_REASONS = 3  # a list of this many reasons or more, argued before under another line, points back to it
+
+
 class _Shown:
     """The reasons a page has argued, by what they say all the way down: two reasons worded alike whose
-    own reasons differ are both shown ("50.0 m < 10.0 m" once for the gap, once for the headway)."""
+    own reasons differ are both shown ("50.0 m < 10.0 m" once for the gap, once for the headway). A long list
+    of reasons is argued once too, whatever line it came under: the 26 rules that find no hazard are the same
+    under the rule that forbids accelerating for a hazard and the one that forbids changing lanes for it."""
 
     def __init__(self) -> None:
         self._ids: dict[tuple, int] = {}  # a node's line and its children's ids -> its id: shallow to hash
         self._of: dict[int, int] = {}  # id(node) -> its id, for nodes the proof shares
-        self._argued: set[int] = set()
+        self._argued: set = set()  # the ids of the nodes argued, and the lists of reasons argued
 
     def _id(self, node: JustificationNode) -> int:
         found = self._of.get(id(node))
@@ -41,9 +46,12 @@ class _Shown:
         if not node.children:
             return False
         key = self._id(node)
-        if key in self._argued:
+        reasons = tuple(self._id(c) for c in node.children) if len(node.children) >= SHARED_REASONS else None
+        if key in self._argued or reasons in self._argued:
             return True
         self._argued.add(key)
+        if reasons is not None:
+            self._argued.add(reasons)
         return False
 
 

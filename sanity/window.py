@@ -23,8 +23,8 @@ from typing import Iterable, NamedTuple, Optional, Sequence
 from clingo import Symbol, SymbolType
 
 from discern.rules.facts import cm
-from discern.rules.scene import (DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour, ObjectClass,
-                                 Scene, SensorSide, SignKind, Source)
+from discern.rules.scene import (MAX_ID, DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour,
+                                 ObjectClass, Scene, SensorSide, SignKind, Source)
 
 CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Source.annotation}
 PICTURE = {Source.camera, Source.fused}  # sources that classify signs from a picture (def.read_from_a_picture)
@@ -857,8 +857,10 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         out.append(f"remembered({oid},{int(round(age * 1000))}).remembered_object({oid},{obj.cls.value}).")
         out.append(f"remembered_pos({oid},{cm(x)},{cm(y)}).track_frames({oid},{tracked}).")
         out.append(f"last_seen_ahead({oid},{cm(obj.position.y)}).")  # where it was when lost: a phantom is judged there
-        # from its first frame in the window to its last, or as many frames as its tracker has followed it
-        out.append(f"track_time({oid},{max(clock.lasted(seen_in[oid][0], seen), (obj.track_age or 0) * clock.frame_ms)}).")
+        # from its first frame in the window to its last, or as many frames as its tracker has followed it; a
+        # tracker's age past clingo's 32-bit integers (weeks) saturates, never wrapping into a brief track
+        lasted = max(clock.lasted(seen_in[oid][0], seen), (obj.track_age or 0) * clock.frame_ms)
+        out.append(f"track_time({oid},{min(lasted, MAX_ID)}).")
         if obj.lane is not None and obj.lane.kind is not LaneKind.current:
             # the ego's road's lanes: placed by its tracked offset (the rules), as a car cutting in moves across
             out.append(f"remembered_lane({oid},{obj.lane.kind.value},{obj.lane.id}).")

@@ -293,6 +293,13 @@ def test_the_speed_of_a_frame_is_named_by_its_fact_when_the_scene_refuses_it(tmp
     assert said == f"{tmp_path / 'f.pl'}:3: self_speed(-8, 1): Input should be greater than or equal to 0 (got -8)"
 
 
+def test_too_many_lanes_are_named_by_the_lanes_fact_shortened(tmp_path):
+    lanes = ", ".join(str(i) for i in range(1, 3001))
+    said = refused(tmp_path, BASE.replace("lanes(current, [1], 1).", f"lanes(current, [{lanes}], 1)."))
+    assert said.startswith(f"{tmp_path / 'f.pl'}:6: lanes(current, [1, 2, 3, ") and "at most 1000 items" in said
+    assert len(said) < 500, said
+
+
 @pytest.mark.parametrize("text, message", [
     ("self_speed(" + "[" * 500 + "]" * 500 + ", 1).", "f.pl:9: a term nested more than 16 deep"),
     ("self_speed(" + "9" * 5000 + ", 1).", "f.pl:9: the number 999999999999... has 5000 digits, more than 30"),

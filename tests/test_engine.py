@@ -5,10 +5,11 @@ import clingo
 import pytest
 
 from discern.rules.catalog import catalog_dirs, load_driving_rules
-from discern.rules.engine import Reasoner, jurisdiction_pack
-from discern.rules.fact_text import FACT_NAME
-from discern.rules.scene import Action
+from discern.rules.engine import Reasoner, Request, jurisdiction_pack
+from discern.rules.fact_text import fact_names
+from discern.rules.scene import Action, Scene
 from discern.rules.facts import Params, scene_facts
+from tests.conftest import REPO
 from tests.scenes import obj, scene
 
 CLASSES = ["car", "truck", "pedestrian", "bicycle", "plastic_bag", "roadblock", "unknown"]
@@ -55,7 +56,19 @@ def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program(jurisdi
 
 
 def test_fact_names_found_for_slicing_include_zero_arity_facts():
-    assert set(FACT_NAME.findall("a(1).stop_line.b(x,2).")) == {"a", "stop_line", "b"}
+    assert fact_names("a(1).stop_line.b(x,2).") == {"a", "stop_line", "b"}
+
+
+def test_fact_names_skip_dots_inside_quoted_ids():
+    assert fact_names('ego_path("a.param").obj_path(1,"x.\\".forbidden").zone(city).') == {"ego_path", "obj_path", "zone"}
+
+
+def test_path_id_that_reads_like_a_parameter_fact_is_decided_alone_and_in_a_batch(reasoner):
+    scene = Scene.model_validate_json((REPO / "docs/examples/scene.json").read_text(encoding="utf-8"))
+    dotted = scene.model_copy(update={"ego": scene.ego.model_copy(update={"predicted_path": "a.param"})})
+    alone = reasoner.decide(dotted, "cruise")
+    batched = reasoner.decide_many([Request(dotted, "cruise"), Request(scene, "cruise")])[0]
+    assert alone.decision == batched.decision == reasoner.decide(scene, "cruise").decision
 
 
 def test_recommended_action_is_always_permitted(reasoner):

@@ -157,6 +157,15 @@ def test_the_html_page_leads_with_the_decision_and_folds_what_did_not_happen(rea
     assert "<div class='decision veto'>VETO: CHANGE LANE LEFT</div>" in shadow and "shadow mode" in shadow
 
 
+def test_the_rules_that_find_no_hazard_are_listed_once_under_the_several_rules_that_need_one(reasoner):
+    """Accelerating and changing lanes are each forbidden by a hazard: the 20-odd hazard rules that do not fire are
+    the same list under both, argued once and pointed back to the second time."""
+    near = scene(speed=10, lanes=2, lane=2, intersection={"type": "four_way", "stage": "arriving", "distance": 20.0})
+    text = reasoner.decide(near, "change_lane_left", explain=True).justification.text
+    assert text.count("rule brake.red_light needs that the traffic light is red") == 1, text
+    assert "rule acc.hazard needs that there is a hazard, and there is no evidence of it, as shown above" in text
+
+
 def test_a_reason_that_comes_up_again_is_argued_once_and_then_pointed_back_to(reasoner):
     verdict = reasoner.decide(scene(speed=15, objects=[obj("pedestrian", 0, 12, lane=1)]), "accelerate", explain=True)
     text = verdict.justification.text

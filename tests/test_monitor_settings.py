@@ -110,6 +110,18 @@ def test_a_zenoh_config_naming_no_listen_endpoint_is_told_that_zenohs_default_is
         proc.lines[0]), proc.output
 
 
+def test_a_zenoh_config_naming_port_0_is_refused_without_blaming_zenohs_default(tmp_path):
+    config = tmp_path / "port0.json5"
+    config.write_text('{ listen: { endpoints: ["tcp/127.0.0.1:0"] } }\n')
+    proc = DiscernProcess("serve", "--zenoh-config", str(config), "--log-dir", str(tmp_path))
+    try:
+        code = proc.proc.wait(START_TIMEOUT_S)
+    finally:
+        proc.stop()
+    assert code == 2 and len(proc.lines) == 1, proc.output
+    assert "listen endpoint 'tcp/127.0.0.1:0': port 0 is not supported" in proc.lines[0], proc.output
+
+
 def ready_line(proc: DiscernProcess) -> str:
     return next(line for line in proc.lines if " ready; " in line)
 

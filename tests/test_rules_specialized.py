@@ -14,7 +14,7 @@ from clingo import ast
 
 from discern.rules.catalog import static_model
 from discern.rules.engine import Reasoner
-from discern.rules.fact_text import FACT_NAME
+from discern.rules.fact_text import fact_names
 from discern.rules.facts import Params
 from discern.rules.specialize import Specializer
 from tests.scenes import scene
@@ -95,7 +95,7 @@ def answer_sets(rules, static_facts, frame_facts):
     statements = []
     ast.parse_string(rules, statements.append)
     written = [s for s in statements if s.ast_type == ast.ASTType.Rule]
-    special = Specializer(static_model([], static_facts), frozenset(FACT_NAME.findall(static_facts))).program(written)
+    special = Specializer(static_model([], static_facts), fact_names(static_facts)).program(written)
     found = []
     for program in (written, special):
         control = clingo.Control(["--warn=none"])

@@ -537,6 +537,18 @@ def test_a_track_is_established_by_0_3_s_and_2_frames_at_any_frame_rate(hz, seen
     assert ("san.memory.object_permanence" in verdict.rules) is kept, (hz, seen, verdict.justification.summary)
 
 
+def test_a_pedestrian_tracked_for_weeks_is_still_remembered_when_hidden():
+    """Its tracker's age in milliseconds is past clingo's 32-bit integers: it must not wrap into a brief track."""
+    dt = 0.05
+    frames = tuple(scene(frame=i + 1, timestamp=round(dt * i, 3), speed=10.0, limit=13.4,
+                         objects=[obj(7, "pedestrian", 0.0, 25.0 - 0.5 * i, 1, vy=0.0, sources=("camera",),
+                                      track_age=2**31 - 30 + i)])
+                   for i in range(10))
+    hidden = scene(frame=11, timestamp=round(dt * 10, 3), speed=10.0, limit=13.4)
+    verdict = _decide(frames + (hidden,), Action.accelerate)
+    assert verdict.action is Action.brake and "san.memory.object_permanence" in verdict.rules, verdict.justification.summary
+
+
 def test_a_camera_only_ghost_seen_for_60_ms_at_50_hz_is_not_kept():
     ghost = obj(8, "car", 0.0, 14.0, 1, vy=0.0, sources=("camera",))
     frames = tuple(scene(frame=i + 1, timestamp=round(0.02 * i, 2), speed=12.0, limit=13.4,
