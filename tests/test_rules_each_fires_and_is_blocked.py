@@ -15,9 +15,18 @@ import pytest
 from discern.rules.catalog import catalog_dirs, load_catalog
 from discern.rules.engine import Reasoner
 from discern.rules.justify import Prover
-from tests.scenes import obj, scene
+from discern.rules.scene import Lane, Scene
+from tests.scenes import obj
+from tests.scenes import scene as base_scene
 
 REASONER = Reasoner()
+
+
+def scene(*args, more_lanes: tuple = (), **kwargs) -> Scene:
+    """tests.scenes.scene, with lanes past the one of each other kind it makes (two oncoming lanes)."""
+    made = base_scene(*args, **kwargs)
+    return made.model_copy(update={"lanes": [*made.lanes, *(Lane.model_validate(lane) for lane in more_lanes)]})
+
 
 ped_ahead = obj("pedestrian", 0, 6, lane=1)
 box_ahead = obj("roadblock", 0, 15, lane=2)
@@ -164,6 +173,28 @@ CASES = {
         scene(speed=5, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"),
               intersection={"type": "four_way", "stage": "at"},
               objects=[obj("bicycle", 2.5, 40, lane=1, kind="shoulder", vy=5)]),
+    ),
+    "def.kerb_side_user_in_lane": (
+        scene(speed=4, intent="enter_right_lane", intersection={"type": "four_way", "stage": "at"},
+              objects=[obj("bicycle", 1.7, -1, lane=1, vy=5)]),
+        scene(speed=4, intent="enter_right_lane", intersection={"type": "four_way", "stage": "at"},
+              objects=[obj("bicycle", -1.7, -1, lane=1, vy=5)]),
+    ),
+    "def.oncoming_view_hidden": (
+        scene(speed=0, intent="enter_left_lane", other_lanes=("oncoming",), more_lanes=({"kind": "oncoming", "id": 2},),
+              intersection={"type": "four_way", "stage": "at"},
+              objects=[obj("truck", -3.5, 15, lane=1, kind="oncoming", vy=0)]),
+        scene(speed=0, intent="enter_left_lane", other_lanes=("oncoming",), more_lanes=({"kind": "oncoming", "id": 2},),
+              intersection={"type": "four_way", "stage": "at"},
+              objects=[obj("car", -3.5, 15, lane=1, kind="oncoming", vy=0)]),
+    ),
+    "tl.oncoming_view_hidden": (
+        scene(speed=0, intent="enter_left_lane", other_lanes=("oncoming",), more_lanes=({"kind": "oncoming", "id": 2},),
+              intersection={"type": "four_way", "stage": "at"},
+              objects=[obj("truck", -3.5, 15, lane=1, kind="oncoming", vy=0)]),
+        scene(speed=0, intent="enter_left_lane", other_lanes=("oncoming",),
+              intersection={"type": "four_way", "stage": "at"},
+              objects=[obj("truck", -3.5, 15, lane=1, kind="oncoming", vy=0)]),
     ),
     "brake.all_way_stop_order": (
         scene(intersection={"type": "unsignaled", "stage": "at", "arrival_rank": 2}),
@@ -367,7 +398,8 @@ def test_rule_does_not_fire_when_its_condition_or_exception_fails(rule_id):
 
 
 def test_every_driving_rule_has_a_case_or_a_jurisdiction_case():
-    uk_only = {"clr.overtake", "tr.yield_oncoming", "tl.kerb_side_user", "tr.oncoming_lane_blocked"}
+    uk_only = {"clr.overtake", "tr.yield_oncoming", "tl.kerb_side_user", "tr.oncoming_lane_blocked",
+               "tr.oncoming_view_hidden"}
     ids = {r.id for r in REASONER.catalog.driving_rules() if r.file.startswith(str(catalog_dirs()[0]))}
     assert ids - set(CASES) - uk_only == set()
 
