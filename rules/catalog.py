@@ -942,8 +942,8 @@ def _check_stratified(catalog: Catalog) -> None:
     component = _components(edges)
     for rule in catalog.compiled:
         head = _node(rule.head)
-        for target, negated, _ in edges[head]:
-            if negated and component[target] == component[head]:
+        for target, negated, by in edges[head]:  # the edges of every rule with this head: the rule's own named
+            if by is rule and negated and component[target] == component[head]:
                 back = _path(edges, target, head, component)
                 raise CatalogError(
                     f"{rule.info.file}:{rule.statement.location.begin.line}: {rule.info.id}: {_node_text(head)} depends"

@@ -167,6 +167,16 @@ def test_a_broken_annotation_line_is_an_error_naming_its_file_and_line_not_credi
         load_catalog(write_rules(tmp_path, text))
 
 
+def test_a_new_rule_that_closes_a_cycle_through_forbidden_and_permitted_is_the_one_named(tmp_path):
+    """Once the first shipped rule with a head in the cycle was named, for the edge the new rule added to that head."""
+    closing = "%! rule cll.x\n%! says X.\n%! source review\nforbidden(change_lane_left) :- not permitted(cruise).\n"
+    edited = edited_catalog(tmp_path, zz_new=closing)
+    with pytest.raises(CatalogError) as refused:
+        load_driving_rules([str(edited)], [jurisdiction_pack("us")])
+    assert re.search(r"by cll\.x at \S*zz_new\.lp:4\b|zz_new\.lp:4: cll\.x:", str(refused.value)), str(refused.value)
+    assert "brake." not in str(refused.value)  # a shipped rule whose head the new rule shares closes no cycle
+
+
 @pytest.mark.parametrize("pack", ["us", "uk"])
 def test_every_shipped_catalog_loads_each_annotated_rule_under_its_own_id(pack):
     # each pack with the catalogs, as they are loaded: the two packs together set the lane changes' ranks twice

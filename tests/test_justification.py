@@ -595,7 +595,7 @@ def test_intersection_types_read_as_words(reasoner):
     sc = scene(speed=5, intent="enter_right_lane", other_lanes=("cross_right",),
                intersection={"type": "t_intersect", "stage": "at", "distance": 0.0})
     text = reasoner.decide(sc, "turn_right", explain=True).justification.text
-    assert "an intersection (T-junction) is ahead" in text and "t intersect" not in text
+    assert "the intersection ahead is a T-junction" in text and "t intersect" not in text
 
 
 def test_class_words_say_what_the_object_is(reasoner):
