@@ -62,6 +62,20 @@ CASES = {
     ),
     "def.heavy_headway_gap": (scene(speed=30, lanes=2, lane=2, objects=[obj("truck", -3.5, -30, lane=1, vy=30)]),
                               scene(speed=30, lanes=2, lane=2, objects=[obj("car", -3.5, -30, lane=1, vy=30)])),
+    "def.lane_heavy_headway": (
+        scene(speed=25, limit=31.3, zone="highway", lanes=2, lane=2, lane_ends={2: 100}, intent="merge_into_left_lane",
+              objects=[obj("truck", -3.5, -12, lane=1, vy=30)]),
+        scene(speed=25, limit=31.3, zone="highway", lanes=2, lane=2, lane_ends={2: 100}, intent="merge_into_left_lane",
+              objects=[obj("car", -3.5, -12, lane=1, vy=30)]),
+    ),
+    "cll.give_room": (
+        scene(speed=29, limit=31.3, zone="highway", lanes=2, lane=2, objects=[obj("pedestrian", 2.6, 35, vy=0)]),
+        scene(speed=29, limit=31.3, zone="highway", lanes=2, lane=2, objects=[obj("pedestrian", -2.6, 35, vy=0)]),
+    ),
+    "clr.give_room": (
+        scene(speed=29, limit=31.3, zone="highway", lanes=2, lane=1, objects=[obj("pedestrian", -2.6, 35, vy=0)]),
+        scene(speed=29, limit=31.3, zone="highway", lanes=2, lane=1, objects=[obj("pedestrian", 2.6, 35, vy=0)]),
+    ),
     "cll.lead_signals_left": (scene(lanes=2, lane=2, objects=[obj("car", 0, 20, lane=2, vy=5, indicator="left")]),
                               scene(lanes=2, lane=2, objects=[obj("car", 0, 20, lane=2, vy=5, indicator="right")])),
     "clr.lead_signals_right": (scene(lanes=2, lane=1, objects=[obj("car", 0, 20, lane=1, vy=5, indicator="right")]),
@@ -545,6 +559,38 @@ def test_a_lane_change_in_front_of_a_faster_car_leaves_it_room_to_brake_no_harde
     assert close.decision.value == "override" and "cll.lane_taken" in close.rules
     assert "moving into the lane of car 1 needs a headway gap of 121.2 m to it" in close.justification.text
     assert decide(behind(125), "change_lane_left").decision.value == "approve"
+
+
+def test_a_merge_the_route_needs_does_not_cut_in_ahead_of_a_truck_closer_than_it_needs_to_stop():
+    """A zip merge takes only the gap needed from a car, 10 m at 5 m/s closing; a truck at 30 m/s behind the ego at
+    25 m/s brakes at 4.5 m/s²: 30 + 30²/9 - 25²/12 = 77.9 m (def.heavy_headway_gap). The ego slows and merges behind."""
+    def merging(cls: str, gap: float):
+        return decide(scene(speed=25, limit=31.3, zone="highway", lanes=2, lane=2, lane_ends={2: 100},
+                            intent="merge_into_left_lane", objects=[obj(cls, -3.5, -gap, lane=1, vy=30)]),
+                      "change_lane_left")
+
+    truck = merging("truck", 12)
+    assert truck.decision.value == "override" and "cll.lane_taken" in truck.rules
+    assert truck.action.value == "brake"
+    assert merging("truck", 25).decision.value == "override"
+    assert merging("truck", 80).decision.value == "approve"
+    assert merging("car", 12).decision.value == "approve"  # the zip merge's gap needed, 10 m
+
+
+def test_a_vulnerable_road_user_just_beside_the_lane_is_given_room_by_moving_over_where_the_next_lane_is_free():
+    """Highway Code 163, 126: a pedestrian on the hard shoulder, a truck close behind; moving over beats braking from
+    29 m/s to 6.7 m/s. Where the lane away from it is taken, the ego still slows (brake.pass_vulnerable_slowly)."""
+    ped = obj("pedestrian", 2.6, 35, vy=0)
+    truck_behind = obj("truck", 0, -20, lane=2, vy=29)
+
+    def passing(*others):
+        return decide(scene(speed=29, limit=31.3, zone="highway", lanes=2, lane=2, objects=[ped, truck_behind, *others]),
+                      "cruise")
+
+    free = passing()
+    assert free.decision.value == "override" and free.action.value == "change_lane_left"
+    taken = passing(obj("car", -3.5, 5, lane=1, vy=29))
+    assert taken.decision.value == "override" and taken.action.value == "brake"
 
 
 def test_a_pedestrian_walking_into_the_egos_half_of_a_crossing_is_yielded_to_however_fast_the_ego_is():
