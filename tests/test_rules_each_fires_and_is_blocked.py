@@ -32,6 +32,8 @@ ped_ahead = obj("pedestrian", 0, 6, lane=1)
 box_ahead = obj("roadblock", 0, 15, lane=2)
 car_left_close = obj("car", -3.5, 2, lane=1)
 at_stop = {"type": "four_way", "stage": "at"}
+stopped_45m = obj("car", 0, 45, lane=2, vy=0.0)  # at 30 m/s the ego needs 105 m to stop
+stopped_110m = obj("car", 0, 110, lane=2, vy=0.0)
 
 CASES = {
     "brake.hazard": (scene(objects=[ped_ahead]), scene()),
@@ -114,6 +116,21 @@ CASES = {
     "def.step_pulls_away_clear": (scene(speed=20, limit=31.3, objects=[obj("car", 0, 12, lane=1, vy=28.0)]),
                                   scene(speed=20, limit=31.3, objects=[obj("car", 0, 12, lane=1, vy=21.0)])),
     "brake.obstacle_ahead": (scene(objects=[ped_ahead]), scene(objects=[obj("plastic_bag", 0, 6, lane=1)])),
+    "def.may_stand": (scene(objects=[obj("car", 0, 20, lane=1, indicator="hazard")]),
+                      scene(objects=[obj("car", 0, 20, lane=1, vy=10.0, indicator="hazard")])),
+    "def.closing_may_stand": (scene(objects=[obj("car", 0, 20, lane=1, indicator="hazard")]),
+                              scene(objects=[obj("car", 0, 20, lane=1, indicator="left")])),
+    "def.stopping_short_of": (scene(speed=30, limit=31.3, zone="highway", lanes=2, lane=2, objects=[stopped_45m]),
+                              scene(speed=30, limit=31.3, zone="highway", lanes=2, lane=2, objects=[stopped_110m])),
+    "cll.cannot_stop": (scene(speed=30, limit=31.3, zone="highway", lanes=2, lane=2, objects=[stopped_45m]),
+                        scene(speed=30, limit=31.3, zone="highway", lanes=2, lane=2, objects=[stopped_110m])),
+    "clr.cannot_stop": (scene(speed=30, limit=31.3, zone="highway", lanes=2, lane=2, objects=[stopped_45m]),
+                        scene(speed=30, limit=31.3, zone="highway", lanes=2, lane=2,
+                              objects=[obj("car", 0, 45, lane=2, vy=30.0)])),
+    "def.stop_early_for_crossing": (
+        scene(speed=13.4, other_lanes=("cross_right",), objects=[obj("pedestrian", 0, 40, lane=1, kind="cross_right", vy=0.0)]),
+        scene(speed=13.4, other_lanes=("cross_right",), objects=[obj("pedestrian", 3, 40, lane=1, kind="cross_right", vy=0.0)]),
+    ),
     "brake.red_light": (
         scene(light="red", intersection={"type": "signaled", "stage": "arriving"}),
         scene(light="red", intersection={"type": "signaled", "stage": "enter"}),
