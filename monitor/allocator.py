@@ -85,7 +85,9 @@ def in_use() -> str:
     return "glibc malloc"
 
 
-STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT)
+# A closed terminal's SIGHUP stops the monitor as SIGTERM does: by default it killed it as kill -9 would (exit 129,
+# no summary line, a log file without its footer).
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
 
 
 def discern_command() -> int:

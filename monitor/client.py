@@ -28,7 +28,7 @@ from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, SCHEMA_VERSION, Action,
 from discern.rules.verdict import Verdict
 
 from . import keys
-from .config import BUDGET_MAX_MS, DEFAULT_ENDPOINT, ZenohSettings, check_number, without_rust_locations
+from .config import BUDGET_MAX_MS, DEFAULT_ENDPOINT, ZenohSettings, check_number, uses_tls, without_rust_locations
 from .protocol import (
     RULE_BAD_INPUT,
     RULE_NO_ANSWER,
@@ -101,8 +101,10 @@ class Monitor:
             connect=list(connect) if connect is not None else None,
             config_file=Path(config_file) if config_file else None,
         )
+        zenoh_config = settings.to_zenoh()
+        self._tls = uses_tls(zenoh_config)
         try:
-            self.session = zenoh.open(settings.to_zenoh())
+            self.session = zenoh.open(zenoh_config)
         except zenoh.ZError as exc:  # an unknown protocol, or no router to be had in client mode
             where = ", ".join(connect) if connect else f"the endpoints of {config_file}"
             raise ValueError(f"cannot connect to {where}: {without_rust_locations(str(exc))}") from None
@@ -189,11 +191,16 @@ class Monitor:
         raise ValueError(CLOSED)  # closed before, or meanwhile from another thread
 
     def wait_for_monitor(self, timeout: float = 2.0) -> bool:
-        """True once a monitor serving this vehicle is reachable; for a planner's start-up check. False once closed."""
+        """True once a monitor serving this vehicle answers; for a planner's start-up check. False once closed.
+
+        Once zenoh knows of a monitor for the vehicle's key, a probe is sent on the vehicle's check key (keys.PROBE:
+        answered, not judged): a monitor declares its key to planners whose proposals its access control then refuses
+        (car_1's certificate asking about car_2), so a known route alone said True, and every check failed.
+        """
         entity = self._querier if self.style == "query" else self._publisher
         deadline = time.monotonic() + timeout
         try:
-            while not entity.matching_status.matching:
+            while not (entity.matching_status.matching and self._probe(deadline - time.monotonic())):
                 if time.monotonic() >= deadline:
                     return False
                 time.sleep(0.02)
@@ -303,8 +310,26 @@ class Monitor:
         key = keys.proposal_key(self.vehicle)
         return _too_late(key, timeout) if self._publisher.matching_status.matching else self._unserved(key)
 
+    def _probe(self, timeout: float) -> bool:
+        """Whether a monitor answers a probe for this vehicle within `timeout` (one refused by access control never
+        does: the query then takes the whole of it)."""
+        replies = self.session.get(f"{keys.check_key(self.vehicle)}?{keys.PROBE}", timeout=max(0.05, timeout),
+                                   congestion_control=CONGESTION)
+        return any(reply.ok is not None for reply in replies)
+
     def _unserved(self, key: str) -> str:
-        return f"no monitor answered on {key}: none that serves vehicle {self.vehicle!r} is reachable"
+        """Why no verdict came, where zenoh knew of no monitor for the key. A refused TLS handshake or an access
+        rule denying the vehicle looks just like that, and is said to be possible where it is: in a session with
+        TLS configured, or linked to nothing at all."""
+        reason = f"no monitor answered on {key}: none that serves vehicle {self.vehicle!r} is reachable"
+        info = self.session.info
+        if not (list(info.peers_zid()) or list(info.routers_zid())):
+            return (f"{reason}; this session is linked to no peer or router: nothing listens at its endpoints, or, "
+                    "where TLS or access control is configured, its certificate is refused")
+        if self._tls:
+            return (f"{reason}; where TLS or access control is configured, the certificate or the access rules may be "
+                    "refusing this vehicle's proposals")
+        return reason
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         try:

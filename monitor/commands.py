@@ -107,7 +107,8 @@ def register(subparsers) -> None:
         default=0.0,
         help=argparse.SUPPRESS,  # TEST ONLY: sleep this long before deciding each batch (docs/protocol.md)
     )
-    serve.add_argument("-v", "--verbose", action="store_true", help="log every refused proposal and more")
+    serve.add_argument("-v", "--verbose", action="store_true", help="log every refused proposal (else at most one a second of each kind, "
+                       "then how many more) and each log file opened or deleted")
     serve.set_defaults(func=cmd_serve)
 
     status = subparsers.add_parser("status", help="ask running monitors for their counts and latency")
@@ -178,9 +179,11 @@ def _fail(command: str, message: str) -> int:
 
 
 def _stop_on_signal() -> threading.Event:
-    """Set on SIGTERM or SIGINT: from before the monitor starts, so that a stop while it starts is a clean one."""
+    """Set on SIGTERM, SIGINT or SIGHUP: from before the monitor starts, so that a stop while it starts is a clean one."""
     stop = threading.Event()
     for sig in STOP_SIGNALS:
+        if sig == signal.SIGHUP and signal.getsignal(sig) == signal.SIG_IGN:
+            continue  # started under nohup, to outlive its terminal: it does
         signal.signal(sig, lambda *_: stop.set())
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)  # one that came while it started: held till now
     return stop
@@ -286,6 +289,7 @@ def cmd_status(args) -> int:
         return _fail("status", _zenoh_refused(args, exc))
     answered = found = 0
     ids: set[str] = set()
+    heard: list = []
     try:
         deadline = time.monotonic() + args.timeout
         # A freshly opened peer needs a moment to learn the routes: retry until something answers. Every reply is
@@ -313,10 +317,17 @@ def cmd_status(args) -> int:
                           "its own --id", file=sys.stderr, flush=True)
                 ids.add(status.monitor_id)
                 print(status.model_dump_json() if args.json else _status_text(status), flush=True)
+                heard.append(status)
             if not answered:
                 time.sleep(0.1)
     finally:
         session.close()
+    for i, first in enumerate(heard):
+        for second in heard[i + 1:]:
+            if keys.filters_overlap(first.vehicles_filter, second.vehicles_filter):
+                warning = keys.overlap_warning(first.monitor_id, first.vehicles_filter, second.monitor_id,
+                                               second.vehicles_filter)
+                print(f"discern status: warning: {warning}", file=sys.stderr, flush=True)
     if not answered:
         return _fail("status", f"no monitor answered on {selector} within {args.timeout:g} s")
     if not found:

@@ -68,6 +68,8 @@ class ZenohSettings:
 
         Without a file, unset values take Discern's safe defaults (loopback only,
         no multicast or gossip scouting) rather than zenoh's (all interfaces, both on).
+        Scouting stays off also where a file leaves it unset (a minimal client file naming
+        only its router): only a file or flag that turns it on does.
         Gossip would let any session connected to two monitors introduce them to each
         other: they would stay linked and answer each other's vehicles.
         """
@@ -96,16 +98,15 @@ class ZenohSettings:
             _insert(config, "listen/endpoints", listen)
         if self.connect is not None:
             _insert(config, "connect/endpoints", self.connect)
-        multicast = self.multicast_scouting
-        if multicast is None and not from_file:
-            multicast = False
-        if multicast is not None:
-            config.insert_json5("scouting/multicast/enabled", json.dumps(multicast))
-        if not from_file:
-            config.insert_json5("scouting/gossip/enabled", "false")
+        if self.multicast_scouting is not None:
+            config.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast_scouting))
+        for key in SCOUTING_KEYS:  # what the file leaves unset takes Discern's default, not zenoh's
+            if _config_value(config, key) is None:
+                config.insert_json5(key, "false")
         return config
 
 
+SCOUTING_KEYS = ("scouting/multicast/enabled", "scouting/gossip/enabled")
 ZENOH_DEFAULT_MODE = "peer"  # what zenoh runs as when a configuration names no mode
 
 
@@ -117,11 +118,22 @@ def listen_endpoints(config: zenoh.Config) -> list[str]:
     to. Counting every mode's refused a client configured by file for the peer default's port 0, and named endpoints
     that were never opened.
     """
-    mode = _config_value(config, "mode") or ZENOH_DEFAULT_MODE
-    value = _config_value(config, "listen/endpoints")
+    return _mode_endpoints(config, "listen")
+
+
+def _mode_endpoints(config: zenoh.Config, kind: str) -> list[str]:
+    """The `kind` ("listen", "connect") endpoints of the mode the configuration runs in."""
+    value = _config_value(config, f"{kind}/endpoints")
     if isinstance(value, dict):
-        value = value.get(mode)
+        value = value.get(_config_value(config, "mode") or ZENOH_DEFAULT_MODE)
     return list(value or [])
+
+
+def uses_tls(config: zenoh.Config) -> bool:
+    """Whether a session opened with `config` links by TLS (or QUIC, TLS's too): a certificate may be refused."""
+    endpoints = _mode_endpoints(config, "connect") + listen_endpoints(config)
+    return (any(str(e).startswith(("tls/", "quic/")) for e in endpoints)
+            or _config_value(config, "transport/link/tls/root_ca_certificate") is not None)
 
 
 def _config_value(config: zenoh.Config, key: str):

@@ -57,7 +57,8 @@ MAX_BATCH = 32
 FULL_COLLECTION_S = 300.0
 NO_AUTOMATIC_FULL_COLLECTION = 1_000_000  # young collections between full ones: in effect, never
 STOP = None  # sent down a worker's pipe: finish what was sent, then exit
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)  # Ctrl-C, and a service manager's stop: a worker ignores both
+# Ctrl-C, a service manager's stop, and the hangup of a closed terminal (sent to the whole job): a worker ignores them
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 @dataclass(frozen=True)

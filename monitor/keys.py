@@ -36,6 +36,9 @@ def status_key(monitor_id: str) -> str:
 
 
 PROPOSAL_KINDS = ("proposal", "check")
+# A query on a check key with this parameter and no payload asks whether a monitor answers for the vehicle, through
+# whatever access control lies between (Monitor.wait_for_monitor): it is answered with the monitor's id, not judged.
+PROBE = "probe"
 
 
 def vehicle_of(key: str) -> Optional[str]:
@@ -52,6 +55,18 @@ def is_wild(key: str) -> bool:
 def vehicle_selector(pattern: str) -> str:
     """Turn a shell-style vehicle filter ('fleet_a_*') into one zenoh key chunk ('fleet_a_$*')."""
     return _chunk_selector(pattern, "vehicle filter")
+
+
+def filters_overlap(first: str, second: str) -> bool:
+    """Whether two monitors' vehicle chunks (vehicle_selector's) both match some vehicle: it would get verdicts from
+    either, frame to frame."""
+    return zenoh.KeyExpr(check_key(first)).intersects(zenoh.KeyExpr(check_key(second)))
+
+
+def overlap_warning(first: str, first_filter: str, second: str, second_filter: str) -> str:
+    return (f"monitors {first} (vehicles {first_filter}) and {second} (vehicles {second_filter}) both serve some "
+            "vehicles: a planner that reaches both gets verdicts from either, frame to frame; keep the --vehicles "
+            "filters disjoint")
 
 
 def monitor_selector(pattern: str) -> str:

@@ -23,7 +23,9 @@ budget: memory follows the vehicles heard from lately, not every one ever seen.
 from __future__ import annotations
 
 import itertools
+import json
 import logging
+import math
 import threading
 import time
 from collections import OrderedDict, deque
@@ -31,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 import zenoh
+from pydantic import ValidationError
 
 from discern.rules.catalog import catalog_digest
 from discern.rules.engine import jurisdiction_pack
@@ -61,6 +64,10 @@ EXPIRED_KEPT = 10_000  # answers logged unread whose worker's late word is still
 # the log's flush period (0.5 s by default) of the others.
 HOLD_S = 0.5
 HOLD_CHECK_S = 0.1
+# Bounds on stderr: a flood of 1,000 bad payloads wrote 1,000 warnings, while fail-safe brakes wrote none.
+REFUSAL_LOG_PERIOD_S = 1.0  # at most one refusal warning a second per kind (every one with -v), then a count
+FAILSAFE_REPORT_S = 10.0  # deadline and internal fail-safes: one warning with their counts this often, if any
+OVERLAP_CHECK_S = 3.0  # how long a starting monitor listens for running ones whose vehicles it would serve too
 
 
 @dataclass(eq=False)
@@ -129,6 +136,8 @@ class MonitorServer:
         self._expiry_s = config.window_s + self._budget_s + EXPIRY_MARGIN_S
         self._declared: list = []
         self._read_here: OrderedDict[int, None] = OrderedDict()  # answered at the deadline after a read here (_shadow_deadline)
+        self._report = _TrafficReport(self.counters, config.budget_ms)
+        self._probe_answer = json.dumps({"monitor_id": config.monitor_id, "vehicles_filter": self.vehicles_chunk}).encode()
         self.pool = DecisionPool(
             config.workers,
             WorkerSettings(config.window_s, config.shadow, config.jurisdiction,
@@ -174,6 +183,7 @@ class MonitorServer:
             s.declare_queryable(keys.check_key(chunk), _direct(self._on_query)),
             s.declare_queryable(keys.status_key(self.config.monitor_id), self._on_status_query),
         ]
+        self._spawn("discern-overlap-check", self._warn_of_overlaps)
 
     def stop(self) -> None:
         if self._stopping.is_set():
@@ -188,6 +198,7 @@ class MonitorServer:
             t.join(timeout=10)
         for req in list(self._open.values()):
             self._answer(req, self._failsafe(req, "the monitor is shutting down", RULE_INTERNAL_ERROR))
+        self._report.tick(time.monotonic(), final=True)
         if self.log is not None:
             self.answers.flush("not read: the monitor stopped before its decision worker read it")
             self.log.write(STATUS_TOPIC, "status", self.status())
@@ -218,6 +229,31 @@ class MonitorServer:
             )
         return self.counters.snapshot(**extra)
 
+    def _warn_of_overlaps(self) -> None:
+        """Warn of each running monitor whose vehicle filter meets this one's: zenoh routes a vehicle both serve to
+        both, and its planner takes whichever verdict comes first. Asked in the background for OVERLAP_CHECK_S, as a
+        fresh session learns its routes over a moment: start-up does not wait for it."""
+        own, seen = str(self.session.zid()), set()
+        deadline = time.monotonic() + OVERLAP_CHECK_S
+        while not self._stopping.wait(0.2) and time.monotonic() < deadline:
+            try:
+                replies = list(self.session.get(keys.status_key("*"), consolidation=zenoh.ConsolidationMode.NONE,
+                                                timeout=max(0.1, deadline - time.monotonic())))
+            except zenoh.ZError:  # the session closing: stopped meanwhile
+                return
+            for reply in replies:
+                replier = str(reply.replier_id.zid) if reply.replier_id else None
+                if reply.ok is None or replier in (own, None) or replier in seen:
+                    continue
+                try:
+                    other = MonitorStatus.model_validate_json(reply.ok.payload.to_bytes(), strict=True)
+                except ValidationError:  # not a monitor of this version: `discern status` names it
+                    continue
+                seen.add(replier)
+                if keys.filters_overlap(other.vehicles_filter, self.vehicles_chunk):
+                    log.warning(keys.overlap_warning(other.monitor_id, other.vehicles_filter, self.config.monitor_id,
+                                                     self.vehicles_chunk))
+
     def _spawn(self, name: str, target, *args) -> None:
         t = threading.Thread(target=target, args=args, name=name, daemon=True)
         t.start()
@@ -233,7 +269,12 @@ class MonitorServer:
 
     def _on_query(self, query: zenoh.Query) -> None:
         try:
-            self._submit(str(query.key_expr), query.payload, query)
+            key = str(query.key_expr)
+            if keys.PROBE in query.parameters and query.payload is None and not keys.is_wild(key):
+                with query:
+                    query.reply(key, self._probe_answer, encoding=JSON)
+                return
+            self._submit(key, query.payload, query)
         except Exception:
             log.exception("could not take a query on %s", query.key_expr)
 
@@ -262,7 +303,7 @@ class MonitorServer:
             if query is None:
                 req.claim()
                 self.counters.input_refused("vehicle")
-                log.warning("refused a proposal, no verdict sent: %s", reason)
+                self._report.refused("vehicle", "refused a proposal, no verdict sent: %s", reason)
                 if self.answers is not None:
                     self.answers.rejected(req, reason)
                 return
@@ -368,6 +409,7 @@ class MonitorServer:
             if time.monotonic() >= next_sweep:
                 self._forget_silent(time.monotonic())
                 next_sweep = time.monotonic() + EXPIRY_SWEEP_S
+            self._report.tick(time.monotonic())
             if self.answers is not None and time.monotonic() >= next_hold_check:
                 self.answers.expire(time.time_ns() - int(HOLD_S * 1e9))
                 next_hold_check = time.monotonic() + HOLD_CHECK_S
@@ -501,7 +543,7 @@ class MonitorServer:
                 self.answers.release()  # after the verdict is on its way (_AnswerLog.claim)
         self.counters.verdict_sent(answer.decision, answer.failsafe, answer.latency_ms, answer.error_kind)
         if answer.error_kind is not None:
-            log.warning("refused a proposal on %s: %s", req.key, answer.error or "see the log")
+            self._report.refused(answer.error_kind, "refused a proposal on %s: %s", req.key, answer.error or "see the log")
         return True
 
     def _publisher(self, vehicle: str) -> zenoh.Publisher:
@@ -517,6 +559,57 @@ class MonitorServer:
     def _log_status(self) -> None:
         while not self._stopping.wait(self.config.status_period_s):
             self.log.write(STATUS_TOPIC, "status", self.status())
+
+
+class _TrafficReport:
+    """The monitor's warnings on stderr about what it answers, bounded whatever comes in.
+
+    A refusal is warned of at once, then at most once per REFUSAL_LOG_PERIOD_S per kind: those in between are
+    counted and said in one line when the period is over (each is still counted in the status and logged in the MCAP
+    log). With INFO logging (`serve -v`) every refusal is warned of. Fail-safes sent for lack of a decision
+    (deadline, internal error), brakes that no line reported, are summed up every FAILSAFE_REPORT_S, when there were
+    any. `tick` is called often (the watchdog's loop) to say what was held back.
+    """
+
+    def __init__(self, counters: StatusCounters, budget_ms: float):
+        self._counters = counters
+        self._budget_ms = budget_ms
+        self._lock = threading.Lock()
+        self._refusals: dict[str, list] = {}  # kind -> [time of its last line, held back since, the latest held back]
+        self._failsafes = (0, 0)  # deadline misses and internal errors at the last report
+        self._next_report = time.monotonic() + FAILSAFE_REPORT_S
+
+    def refused(self, kind: str, message: str, *args) -> None:
+        now = time.monotonic()
+        if not log.isEnabledFor(logging.INFO):
+            with self._lock:
+                last = self._refusals.setdefault(kind, [-math.inf, 0, ""])
+                if now - last[0] < REFUSAL_LOG_PERIOD_S:
+                    last[1] += 1
+                    last[2] = message % args
+                    return
+                last[0] = now
+        log.warning(message, *args)
+
+    def tick(self, now: float, final: bool = False) -> None:
+        """Say what is due; `final`: all that is left to say, as the monitor stops."""
+        with self._lock:
+            held = [(kind, last[1], now - last[0], last[2]) for kind, last in self._refusals.items()
+                    if last[1] and (final or now - last[0] >= REFUSAL_LOG_PERIOD_S)]
+            for kind, *_ in held:
+                self._refusals[kind][:2] = [now, 0]
+        for kind, count, seconds, latest in held:
+            log.warning("%s; and %d more like it (%s) in the last %.1f s", latest, count - 1, kind, seconds)
+        if now < self._next_report and not final:
+            return
+        seconds = now - self._next_report + FAILSAFE_REPORT_S
+        self._next_report = now + FAILSAFE_REPORT_S
+        counts = self._counters.counts("deadline_misses", "internal_errors")
+        deadline, internal = (n - before for n, before in zip(counts, self._failsafes))
+        self._failsafes = counts
+        if deadline or internal:
+            log.warning("fail-safe verdicts in the last %.0f s: %d with no decision within the %g ms budget, %d for "
+                        "an internal error (discern status counts them all)", seconds, deadline, self._budget_ms, internal)
 
 
 class _AnswerLog:

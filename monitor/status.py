@@ -109,6 +109,10 @@ class StatusCounters:
         with self._lock:
             self._counts[name] += 1
 
+    def counts(self, *names: str) -> tuple[int, ...]:
+        with self._lock:
+            return tuple(self._counts[name] for name in names)
+
     def snapshot(self, **extra) -> MonitorStatus:
         with self._lock:
             n = min(self._latency_n, LATENCY_SAMPLES)

@@ -206,7 +206,9 @@ def test_without_a_monitor_the_client_returns_a_failsafe_in_time():
         verdict = monitor.check(highway_scene(0, 4), "accelerate")
         elapsed = time.monotonic() - started
     assert verdict.failsafe and verdict.action.value == "brake" and verdict.rules == ["monitor.no_answer"]
-    assert verdict.error == "no monitor answered on discern/lonely/check: none that serves vehicle 'lonely' is reachable"
+    assert verdict.error == ("no monitor answered on discern/lonely/check: none that serves vehicle 'lonely' is reachable; "
+                             "this session is linked to no peer or router: nothing listens at its endpoints, or, where "
+                             "TLS or access control is configured, its certificate is refused")
     assert elapsed < 2.0
 
 

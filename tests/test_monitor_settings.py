@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -314,3 +315,20 @@ def test_log_settings_with_no_log_are_refused(flags, message):
     finally:
         proc.stop()
     assert code == 2 and proc.lines[-1] == f"discern serve: error: {message}", proc.output
+
+
+SCOUTING = ("scouting/multicast/enabled", "scouting/gossip/enabled")
+
+
+@pytest.mark.parametrize("text, multicast_flag, expected", [
+    ('{ mode: "client", connect: { endpoints: ["tcp/127.0.0.1:7447"] } }', None, (False, False)),  # the docs' minimal file
+    ('{ mode: "client", scouting: { multicast: { enabled: true }, gossip: { enabled: true } } }', None, (True, True)),
+    ('{ mode: "client", scouting: { gossip: { enabled: true } } }', None, (False, True)),
+    ('{ mode: "client" }', True, (True, False)),  # --multicast-scouting
+])
+def test_a_config_file_leaving_scouting_unset_gets_discerns_default_off(tmp_path, text, multicast_flag, expected):
+    """A file left scouting to zenoh's defaults, both on: a minimal client file scouted by multicast and gossip."""
+    path = tmp_path / "zenoh.json5"
+    path.write_text(text)
+    zenoh_config = ZenohSettings(config_file=path, multicast_scouting=multicast_flag).to_zenoh()
+    assert tuple(json.loads(zenoh_config.get_json(key)) for key in SCOUTING) == expected

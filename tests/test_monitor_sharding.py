@@ -65,6 +65,7 @@ def test_a_vehicle_no_monitor_serves_gets_a_client_side_failsafe(fleet):
     with Monitor("fleet_c_1", connect=[fleet], mode="client", timeout=0.3) as monitor:
         verdict = monitor.check(highway_scene(0, 4), "cruise")
     assert verdict.failsafe and verdict.rules == ["monitor.no_answer"]
+    assert verdict.error.endswith("is reachable"), verdict.error  # linked, no TLS: no talk of certificates
 
 
 def test_a_peer_mode_planner_reaches_its_shard_through_the_router(fleet):
