@@ -207,3 +207,155 @@ def test_a_trained_checkpoint_carries_how_it_was_trained_into_the_evaluations_ru
     assert trained["planner"]["training"] == training and shipped["planner"]["training"] == "unknown"
     # the evaluation ran the environment the weights were trained on (the default duration)
     assert trained["environment"]["config_sha256"] == training["env_config_sha256"]
+
+
+def test_decisions_over_the_monitors_budget_are_counted_in_process_and_the_table_shows_p99(tmp_path, capsys):
+    """In process nothing counted a decision past the sidecar's 50 ms budget, where it would get the fail-safe brake,
+    and the table showed only the median. A budget below any decision counts every one, and changes no verdict."""
+    out = {}
+    for budget in ("0.001", "1000000"):
+        assert cli_main(["eval", "highway", "--episodes", "1", "--faults", "none", "--variants", "discern", "--quiet",
+                         "--duration", "3", "--budget-ms", budget, "--out", str(tmp_path / budget)]) == 0
+        table = capsys.readouterr().out
+        assert "p99 ms" in table and "over budget" in table and f"slower than {float(budget):g} ms" in table
+        out[budget] = next(csv.DictReader((tmp_path / budget / "summary.csv").open()))
+    fast, slow = out["1000000"], out["0.001"]
+    assert (slow["over_budget"], fast["over_budget"], slow["failsafes"]) == ("3", "0", "0")
+    assert float(slow["decide_ms_p99"]) >= float(slow["decide_ms_p50"]) > 0
+    same = ("collisions", "km", "vetoes_per_km", "intervened_share", "false_vetoes")
+    assert [slow[k] for k in same] == [fast[k] for k in same]  # counted, not enforced: the same episode
+
+
+def test_the_share_of_steps_the_shield_changed_replaces_overrides_per_km_which_repeated_the_vetoes(tmp_path):
+    """Without shadow mode every veto is an override: 'overrides/km' always equalled 'vetoes/km'."""
+    [result] = evaluate(1, [Faults()], ["discern"], Setup(duration=4, judge_vetoes=False), progress=False)
+    assert 0 < result.intervened <= result.steps
+    [row] = report([result], tmp_path)[0]
+    assert "overrides_per_km" not in row and row["intervened_share"] == result.intervened / result.steps
+
+
+def test_collisions_a_shield_introduced_are_those_of_episodes_the_planner_alone_survived(tmp_path):
+    """Episode 10032: the planner alone survives, with Discern the ego crashed after lane changes Discern made or
+    approved; the totals netted such crashes against those prevented, and nothing showed them."""
+    results = evaluate(1, [Faults()], ["planner", "discern"], Setup(duration=8, judge_vetoes=False), seed=32,
+                       progress=False)
+    alone, shielded = results
+    rows, text, _ = report(results, tmp_path)
+    row = next(r for r in rows if r["variant"] == "discern")
+    assert row["collisions_introduced"] == int(shielded.collided and not alone.collided)
+    assert math.isnan(next(r for r in rows if r["variant"] == "planner")["collisions_introduced"])
+    assert ("came in episodes the planner alone survived" in text) == bool(row["collisions_introduced"])
+    # without the planner alone's episodes in the run there is nothing to pair with: not measured, not 0
+    assert math.isnan(report([shielded], None)[0][0]["collisions_introduced"])
+
+
+USER_PLANNER = '''
+from discern.adapters.highway.actions import FASTER, IDLE
+from discern.adapters.highway.perception import Perceived
+
+SEEN = []  # (seed, vehicles the camera missed) per step: what the policy was handed
+
+
+class Cautious:
+    """Speeds up while the camera sees nothing within 60 m ahead in its lane."""
+
+    def __init__(self, seed):
+        self.seed = seed
+
+    def __call__(self, perceived):
+        assert isinstance(perceived, Perceived)
+        SEEN.append((self.seed, len(perceived.missed)))
+        ego = perceived.truth.ego
+        near = [t for t in perceived.camera_tracks() if t.lane == ego.lane and 0 < t.ahead < 60]
+        return IDLE if near else FASTER
+
+
+def wrong(seed):
+    return lambda perceived: 7
+'''
+
+
+def test_a_users_planner_is_evaluated_through_the_planner_option_on_the_perceived_frames(tmp_path, monkeypatch, capsys):
+    """The evaluation hard-wired the shipped DQN: no policy of one's own could be measured with the same metrics."""
+    import hashlib
+    import json
+    import sys
+
+    (tmp_path / "user_policy.py").write_text(USER_PLANNER)
+    monkeypatch.chdir(tmp_path)  # found in the working directory, as the option's help says
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    monkeypatch.delitem(sys.modules, "user_policy", raising=False)
+    assert cli_main(["eval", "highway", "--planner", "user_policy:Cautious", "--episodes", "1", "--faults", "missed",
+                     "--miss-rate", "0.5", "--variants", "planner,discern", "--duration", "3", "--quiet", "--no-judge",
+                     "--out", "out"]) == 0
+    assert "missed@0.5  discern" in capsys.readouterr().out
+    import user_policy
+
+    assert len(user_policy.SEEN) == 6 and {seed for seed, _ in user_policy.SEEN} == {10_000}
+    assert any(missed for _, missed in user_policy.SEEN)  # handed the faulty perception, not the simulator's truth
+    run = json.loads((tmp_path / "out" / "run.json").read_text())
+    source = tmp_path / "user_policy.py"
+    assert run["planner"] == {"factory": "user_policy:Cautious", "module_file": str(source.resolve()),
+                              "sha256": hashlib.sha256(source.read_bytes()).hexdigest()}
+    assert cli_main(["eval", "highway", "--planner", "user_policy:wrong", "--episodes", "1", "--faults", "none",
+                     "--variants", "planner", "--duration", "1", "--quiet", "--out", "out"]) == 2
+    assert capsys.readouterr().err == ("discern eval: error: planner episode 10000 (none), step 0: the planner "
+                                       "returned 7, not a DiscreteMetaAction index (0..4)\n")
+
+
+def test_run_json_records_the_commit_and_a_digest_of_the_loops_code_as_well_as_the_reasonings(tmp_path):
+    """run.json's code digest covered rules/ and sanity/ only, and no commit: a figure could not be tied to the
+    adapter, the planner or the evaluation that produced it."""
+    import hashlib
+    import json
+    import subprocess
+    from importlib import resources
+
+    from discern.scenarios.highway.manifest import CODE_PACKAGES, ROOT
+
+    assert cli_main(["eval", "highway", "--episodes", "1", "--faults", "none", "--variants", "planner", "--quiet",
+                     "--duration", "1", "--out", str(tmp_path)]) == 0
+    code = json.loads((tmp_path / "run.json").read_text())["code"]
+    assert {"discern.adapters.highway", "discern.scenarios.highway"} <= set(CODE_PACKAGES)
+    digest = hashlib.sha256()
+    for package in CODE_PACKAGES:
+        for source in sorted((p for p in resources.files(package).iterdir() if p.name.endswith(".py")),
+                             key=lambda p: p.name):
+            digest.update(f"{package}.{source.name}\0".encode() + source.read_bytes() + b"\0")
+    assert code["sha256"] == digest.hexdigest()
+    git = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
+    if git.returncode:  # not a checkout: nothing to record, and nothing made up
+        assert code["git_commit"] is None and code["git_dirty"] is None
+    else:
+        status = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                                capture_output=True, text=True).stdout
+        assert code["git_commit"] == git.stdout.strip() and code["git_dirty"] is bool(status.strip())
+
+
+def test_the_closed_loops_package_names_only_commands_that_exist(capsys):
+    """It named a `discern train` command that never existed (the trainer is `python -m ...highway.train`)."""
+    import re
+
+    import discern.scenarios.highway as package
+
+    commands = re.findall(r"`discern ([a-z-]+)", package.__doc__)
+    assert commands
+    for command in commands:
+        with pytest.raises(SystemExit) as done:
+            cli_main([command, "--help"])
+        assert done.value.code == 0, command
+    assert "python -m discern.scenarios.highway.train" in package.__doc__
+
+
+def test_the_wrappers_own_example_runs():
+    """Its one line, DiscernWrapper(gym.make("highway-fast-v0")), raised ValueError: highway-env's own target speeds."""
+    import textwrap
+
+    from discern.adapters.highway.actions import IDLE
+    from discern.scenarios.highway import wrapper
+
+    example = textwrap.dedent("\n".join(line for line in wrapper.__doc__.splitlines() if line.startswith("    ")))
+    scope = {"DiscernWrapper": wrapper.DiscernWrapper, "policy": lambda perceived: IDLE}
+    exec(example, scope)
+    assert "discern" in scope["info"] and scope["env"].perceived.sign.limit is not None
+    scope["env"].close()

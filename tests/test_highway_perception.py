@@ -134,3 +134,43 @@ def test_a_visible_signs_position_is_a_gap_from_the_bumper_and_stands_right_of_t
         assert sign.position.y == pytest.approx(200.0 - position - ego.length / 2)
         right_edge = (lanes - lane + 0.5) * ego.lane_width - ego.lateral
         assert right_edge < sign.position.x < right_edge + 5.0
+
+
+def _misses_by_vehicle(policy, seed: int) -> list[dict[int, bool]]:
+    """Per frame, each vehicle in range, named by its place on the simulator's road (found by its exact offset from
+    the ego, as read_truth computes it), and whether the camera missed it."""
+    from discern.scenarios.highway.wrapper import DiscernWrapper
+
+    env = DiscernWrapper(make_env("highway-fast-v0"), faults=Faults.preset("missed"), passthrough=True)
+    env.reset(seed=seed)
+    frames, done = [], False
+    while not done:
+        road, ego = env.unwrapped.road, env.unwrapped.vehicle
+        lane = road.network.get_lane(ego.lane_index)
+        s_ego, l_ego = lane.local_coordinates(ego.position)
+        place = {}
+        for index, vehicle in enumerate(road.vehicles):
+            s, l = lane.local_coordinates(vehicle.position)
+            place[(float(s - s_ego), float(l - l_ego))] = index
+        perceived = env.perceived
+        frames.append({place[(t.ahead, t.right)]: t.id in perceived.missed for t in perceived.truth.tracks})
+        *_, terminated, truncated, _ = env.step(policy(perceived))
+        done = terminated or truncated
+    env.close()
+    return frames
+
+
+def test_every_variant_of_an_episode_misses_the_same_vehicles_wherever_both_have_them_in_range():
+    """Track ids were handed out in the order vehicles came into range, which the ego's trajectory decides: in episode
+    10007 the planner and a car that keeps lane and speed gave two cars each other's ids, and the camera missed one
+    car in one run and the other in the other. Ids are now the simulator's own, and so are the draws."""
+    from discern.scenarios.highway.planner import Planner
+
+    dqn = Planner.load()
+    planner = _misses_by_vehicle(lambda p: dqn.act(p.truth.ego, len(p.truth.lanes), p.camera_tracks(), p.sign.limit),
+                                 10_007)
+    idle = _misses_by_vehicle(lambda perceived: IDLE, 10_007)
+    both = [(frame, vehicle, a[vehicle], b[vehicle]) for frame, (a, b) in enumerate(zip(planner, idle))
+            for vehicle in a.keys() & b.keys()]
+    assert len(both) > 100 and any(a for _, _, a, _ in both), "too few shared sightings or misses to compare"
+    assert [d for d in both if d[2] != d[3]] == []

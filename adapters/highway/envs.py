@@ -24,7 +24,8 @@ MERGE_END_X = 370.0
 
 
 def make_env(name: str = "highway-fast-v0", duration: float | None = None) -> gym.Env:
-    """One environment with the closed loop's action space; `duration` shortens episodes (seconds).
+    """One environment with the closed loop's action space (DiscreteMetaAction over TARGET_SPEEDS), the one to give
+    DiscernWrapper and a planner trained for the loop; `duration` shortens episodes (seconds).
 
     merge-v0 never truncates an episode itself: there `duration` is a step limit, so that it holds as it does on the
     highway roads.

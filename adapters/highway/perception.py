@@ -8,8 +8,9 @@ The camera and the radar see the tracks of `truth`; faults are injected per fram
 - phantom camera objects that no radar confirms,
 - misread speed-limit signs (see signs.py).
 The planner drives on the camera's tracks; Discern gets the fused object list and the range readings.
-Every random draw is keyed by (seed, episode, frame, vehicle), so the variants of one episode meet the
-same faults wherever their trajectories allow.
+Every random draw is keyed by (seed, episode, frame, vehicle), the vehicle by the simulator's own identity
+(truth.VehicleIds: its place on the road's list), so the variants of one episode meet the same faults on the same
+cars wherever those cars are in range in both.
 """
 
 from __future__ import annotations

@@ -65,13 +65,23 @@ class Truth:
 
 
 class VehicleIds:
-    """Stable small ids for the vehicles of one episode (Discern ids start at 1; 0 is the ego)."""
+    """Small ids for the road users of one episode, the simulator's own identity: numbered in the order of the road's
+    lists (vehicles, then objects; Discern ids start at 1, 0 is the ego), not in the order they come into sensor range.
+    The order they come into range depends on the ego's trajectory, so the planner alone and a shielded variant of one
+    episode would give one physical car different ids, and the fault draws keyed by id (perception.py) would miss
+    different cars."""
 
     def __init__(self) -> None:
-        self._ids: dict[int, int] = {}
+        self._ids: dict[int, tuple[object, int]] = {}  # id(obj) -> (obj, number); obj held so its id() is not reused
+
+    def number(self, road, ego) -> None:
+        """Numbers every road user not numbered yet, in the road's order: at reset all of them, in range or not."""
+        for obj in [*road.vehicles, *road.objects]:
+            if obj is not ego and id(obj) not in self._ids:
+                self._ids[id(obj)] = (obj, len(self._ids) + 1)
 
     def __call__(self, obj: object) -> int:
-        return self._ids.setdefault(id(obj), len(self._ids) + 1)
+        return self._ids[id(obj)][1]
 
 
 MERGE_EDGES = {("j", "k"), ("k", "b")}
@@ -125,6 +135,7 @@ def read_truth(env, ids: VehicleIds) -> Truth:
     )
     lane_ids = {l.id for l in lanes}
 
+    ids.number(env.road, ego)
     tracks = []
     others = [v for v in env.road.vehicles if v is not ego] + list(env.road.objects)
     for other in others:

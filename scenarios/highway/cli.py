@@ -24,8 +24,9 @@ def register(subparsers) -> None:
     highway = targets.add_parser(
         "highway",
         help="planner alone vs planner + Discern vs planner + RSS on seeded highway-env episodes",
-        description="Runs the same seeded highway-env episodes with the DQN planner alone, shielded by "
-        "Discern, and shielded by an RSS longitudinal check; prints a comparison table and writes CSV and PNG.",
+        description="Runs the same seeded highway-env episodes with the DQN planner (or your own, --planner) alone, "
+        "shielded by Discern, and shielded by an RSS longitudinal check; prints a comparison table and writes CSV and "
+        "PNG.",
     )
     _options(highway)
     highway.set_defaults(func=_run_eval)
@@ -95,6 +96,17 @@ def _options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--no-judge", action="store_true", help="skip the ground-truth false-veto judge")
     parser.add_argument("--weights", type=path_text, default=None, help="planner weights (default: the packaged ones)")
+    parser.add_argument(
+        "--planner", default=None, metavar="MODULE:FACTORY",
+        help="evaluate your own policy instead of the shipped DQN: FACTORY(seed) is called at each episode's start and "
+             "returns a callable from the perceived frame to a meta-action index (docs/evaluation.md, \"Your own "
+             "planner\"); MODULE is looked for in the working directory first",
+    )
+    parser.add_argument(
+        "--budget-ms", type=float, default=None,
+        help="count the decisions slower than this (default: the monitor's budget, 50 ms); with --monitor, give "
+             "the monitor's own --budget-ms",
+    )
     parser.add_argument("--out", type=path_arg, default=Path("out/eval-highway"), help="folder for CSV, PNG and table (default: %(default)s)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -102,9 +114,10 @@ def _options(parser: argparse.ArgumentParser) -> None:
 def _run_eval(args: argparse.Namespace) -> int:
     try:
         from discern.adapters.highway.envs import SUPPORTED
-        from .evaluate import VARIANTS, Setup, episode_seeds, evaluate, report
-        from .manifest import manifest
+        from .evaluate import BUDGET_MS, VARIANTS, Setup, episode_seeds, evaluate, report
+        from .manifest import code_state, manifest
         from .planner import Planner
+        from .policy import load_factory
         from discern.adapters.highway.perception import Faults
     except ImportError as exc:
         print(
@@ -147,6 +160,16 @@ def _run_eval(args: argparse.Namespace) -> int:
         # an episode ends only on a crash or its duration: a huge one never ends for a planner that does not crash
         problems.append(f"--duration must be a number of seconds above 0 and at most {MAX_DURATION_S:g}, "
                         f"got {args.duration:g}")
+    if args.planner is not None and args.weights is not None:
+        problems.append("--weights are the shipped planner's: --planner brings its own policy")
+    if args.budget_ms is not None and not (math.isfinite(args.budget_ms) and args.budget_ms > 0):
+        problems.append(f"--budget-ms must be a number of milliseconds above 0, got {args.budget_ms:g}")
+    factory = None
+    if args.planner is not None:
+        try:
+            factory = load_factory(args.planner)
+        except ValueError as exc:
+            problems.append(str(exc))
     problems += _rate_problems(args) + _unused_fault_settings(args)
     fault_sets = []
     for kinds in args.faults:
@@ -183,18 +206,22 @@ def _run_eval(args: argparse.Namespace) -> int:
         judge_vetoes=not args.no_judge,
         params=params,
         record=str(args.record) if args.record else None,
+        planner=args.planner,
+        budget_ms=BUDGET_MS if args.budget_ms is None else args.budget_ms,
     )
+    code = code_state(setup, variants)  # the code and rules the episodes will run, not those found once they are done
     started = datetime.now(timezone.utc)
     try:
-        planner = Planner.load(args.weights)  # weights that are no planner's fail now, not in the first episode
+        # weights that are no planner's fail now, not in the first episode
+        training = None if factory is not None else Planner.load(args.weights).training
         results = evaluate(args.episodes, fault_sets, variants, setup, seed=args.seed, jobs=args.jobs, progress=not args.quiet)
     except (OSError, RuntimeError) as exc:
         print(f"discern eval: error: {exc}", file=sys.stderr)
         return 2
     run = manifest(["discern", *args.argv], args, setup, variants, fault_sets, episode_seeds(args.episodes, args.seed),
-                   started, datetime.now(timezone.utc), planner.training)
+                   started, datetime.now(timezone.utc), training, code)
     try:
-        _, text, written = report(results, args.out, run)
+        _, text, written = report(results, args.out, run, setup.budget_ms)
     except OSError as exc:  # a folder not writable, or removed while the episodes ran
         print(f"discern eval: error: cannot write {args.out}: {exc}", file=sys.stderr)
         return 2

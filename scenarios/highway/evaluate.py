@@ -1,8 +1,10 @@
 """Closed-loop safety evaluation: the planner alone, planner + Discern, planner + the RSS peer.
 
 Every variant drives the same seeded episodes under the same perception faults. Reported per variant
-and fault set: collisions per episode and per km, mean speed, distance, vetoes and overrides per km,
-false vetoes (oracle.py's definition), time above the true limit, and the rules that vetoed most.
+and fault set: collisions per episode and per km, and those in episodes the planner alone survived (the ones the
+shield introduced), mean speed, distance, vetoes per km, the share of steps the shield changed the action, false
+vetoes (oracle.py's definition), time above the true limit, the checker's time per step (p50, p99, decisions over
+the monitor's budget), fail-safe verdicts, and the rules that vetoed most.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from discern.monitor.protocol import RULE_DEADLINE, RULE_NO_ANSWER
+from discern.monitor.config import MonitorConfig
 from discern.monitor.status import percentile
 from discern.rules.verdict import Decision
 
@@ -26,6 +28,7 @@ from discern.adapters.highway.envs import make_env, policy_period
 from .oracle import SPEED_TOLERANCE, proposal_was_safe
 from discern.adapters.highway.perception import Faults
 from .planner import Planner
+from .policy import Policy, load_factory
 from .wrapper import VEHICLE_PARAMS, DiscernWrapper
 
 VARIANTS = ("planner", "discern", "rss")
@@ -33,7 +36,7 @@ NAN = float("nan")
 JURISDICTION = "us"  # the in-process reasoner's rule pack (a monitor decides with its own)
 SEED_BASE = 10_000  # evaluation seeds never overlap the training seeds (0..)
 OUTPUTS = ("summary.csv", "episodes.csv", "summary.txt", "evaluation.png", "vetoing_rules.png", "run.json")  # report's
-HINT_DEADLINE = " (a monitor too busy for its budget: give it a larger --budget-ms, or run fewer --jobs)"
+BUDGET_MS = MonitorConfig.budget_ms  # the monitor's default budget: past it, the sidecar's verdict is a fail-safe
 
 
 @dataclass
@@ -46,17 +49,21 @@ class EpisodeResult:
     collided: bool = False
     distance_m: float = 0.0
     time_s: float = 0.0
-    vetoes: int = 0  # verdicts that did not approve the proposal
-    overrides: int = 0  # ... and replaced it with another action
+    vetoes: int = 0  # the rules' verdicts that did not approve the proposal (fail-safes aside)
+    intervened: int = 0  # steps whose executed action was not the proposed one (fail-safes included)
+    over_budget: int = 0  # decisions that took longer than Setup.budget_ms
+    failsafes: int = 0  # fail-safe verdicts (a monitor late or silent, a checker that failed), executed
     false_vetoes: int | None = 0  # None: not judged (--no-judge), which is not none found
     speeding_s: float = 0.0  # time with the ego above the true limit
     misread_s: float = 0.0  # time with the stack believing a misread sign
     decide_ms: list[float] = field(default_factory=list)
     rules: Counter = field(default_factory=Counter)
+    failsafe_rules: Counter = field(default_factory=Counter)  # why: monitor.deadline, monitor.no_answer, ...
 
     def row(self) -> dict:
         row = asdict(self)
-        row["rules"] = ";".join(f"{rule}:{n}" for rule, n in self.rules.most_common())
+        for key in ("rules", "failsafe_rules"):
+            row[key] = ";".join(f"{rule}:{n}" for rule, n in getattr(self, key).most_common())
         row["decide_ms"] = round(float(np.mean(self.decide_ms)), 3) if self.decide_ms else ""
         row["mean_speed"] = round(self.distance_m / self.time_s, 3) if self.time_s else 0.0
         return row
@@ -71,6 +78,8 @@ class Setup:
     judge_vetoes: bool = True
     params: tuple[tuple[str, float], ...] = tuple(VEHICLE_PARAMS.items())  # Discern's Params overrides
     record: str | None = None  # folder for an MCAP log of every proposal and verdict
+    planner: str | None = None  # MODULE:FACTORY of a policy (policy.py); None: the shipped planner with `weights`
+    budget_ms: float = BUDGET_MS  # decisions slower than this are counted (in process nothing enforces it)
 
 
 _worker: dict = {}
@@ -128,12 +137,31 @@ def episode_vehicle(variant: str, faults: Faults, seed: int) -> str:
     return f"{variant}_{chunk}_{seed}"
 
 
-def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> EpisodeResult:
-    """One seeded episode; through a monitor, as its own vehicle, whose frame ids no other episode has used."""
+def _policy(setup: Setup, seed: int) -> Policy:
+    """The episode's policy: the shipped planner (loaded once per process), or the user's factory's for this seed."""
+    if setup.planner is not None:
+        return load_factory(setup.planner)(seed)
     key = ("planner", setup.weights)
     if key not in _worker:
         _worker[key] = Planner.load(setup.weights)
-    planner: Planner = _worker[key]
+    return _worker[key]
+
+
+def _action(policy: Policy, perceived, where: str) -> int:
+    action = policy(perceived)
+    if isinstance(action, bool) or not isinstance(action, (int, np.integer)) or not 0 <= action <= 4:
+        raise RuntimeError(f"{where}: the planner returned {action!r}, not a DiscreteMetaAction index (0..4)")
+    return int(action)
+
+
+def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> EpisodeResult:
+    """One seeded episode; through a monitor, as its own vehicle, whose frame ids no other episode has used.
+
+    A fail-safe verdict (a monitor late or silent, a checker that failed) is executed, as the vehicle would, and
+    counted apart from the rules' vetoes. In process nothing enforces the budget (the decisions, and so the episode,
+    stay the same for the same seeds): decisions slower than it are counted, as the sidecar would have overridden them.
+    """
+    policy = _policy(setup, seed)
     vehicle = episode_vehicle(variant, faults, seed)
     checker = _checker(variant, setup, vehicle)
     env = DiscernWrapper(
@@ -154,31 +182,26 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
         while not done:
             perceived = env.perceived
             truth = perceived.truth
-            lanes = max(l.id for l in truth.lanes)
-            action = planner.act(truth.ego, lanes, perceived.camera_tracks(), perceived.sign.limit)
+            action = _action(policy, perceived, f"{variant} episode {seed} ({faults.label()}), step {result.steps}")
             started = time.perf_counter()
             verdict = env.judge(action)
-            if verdict is not None and verdict.failsafe:
-                # No monitor answering, one answering late, a checker that failed: the row would count fail-safe
-                # brakes as the rules' verdicts, and their braking would change the episode itself.
-                where = f"{variant} episode {seed} ({faults.label()}), step {result.steps}"
-                if RULE_NO_ANSWER in verdict.rules:
-                    raise RuntimeError(f"{where}: {verdict.error}")
-                raise RuntimeError(f"{where}: a fail-safe verdict ({', '.join(verdict.rules)}), not the rules': "
-                                   f"{verdict.error}" + (HINT_DEADLINE if RULE_DEADLINE in verdict.rules else ""))
             if verdict is not None:
                 result.decide_ms.append((time.perf_counter() - started) * 1000.0)
-                if verdict.decision is not Decision.approve:
-                    result.vetoes += 1
-                    result.overrides += verdict.decision is Decision.override
-                    result.rules.update(verdict.vetoed_by)
-                    true_limit = truth.lane_limit(truth.ego.lane)
-                    if setup.judge_vetoes and proposal_was_safe(env, action, true_limit):
-                        result.false_vetoes += 1
+                result.over_budget += result.decide_ms[-1] > setup.budget_ms
+            if verdict is not None and verdict.failsafe:
+                result.failsafes += 1
+                result.failsafe_rules.update(verdict.rules)
+            elif verdict is not None and verdict.decision is not Decision.approve:
+                result.vetoes += 1
+                result.rules.update(verdict.vetoed_by)
+                true_limit = truth.lane_limit(truth.ego.lane)
+                if setup.judge_vetoes and proposal_was_safe(env, action, true_limit):
+                    result.false_vetoes += 1
             before = truth.ego.road_position
             _, _, terminated, truncated, info = env.execute(action, verdict)
             after = env.perceived.truth
             result.steps += 1
+            result.intervened += info["executed_action"] != action
             result.time_s += period
             result.distance_m += max(after.ego.road_position - before, 0.0)
             limit = after.lane_limit(after.ego.lane)
@@ -200,7 +223,13 @@ def _run_task(task) -> EpisodeResult:
 
 
 def summarise(results: list[EpisodeResult]) -> list[dict]:
-    """One row per (fault set, variant)."""
+    """One row per (fault set, variant).
+
+    `collisions_introduced`: a shielded variant's collisions in episodes where the planner alone (same seeds, same
+    faults) did not collide: the crashes the shield's own decisions led to, which the totals net against the ones it
+    prevented. NaN where the planner alone did not drive every one of the row's episodes in this run.
+    """
+    alone = {(r.faults, r.fault_seed, r.seed): r.collided for r in results if r.variant == "planner"}
     rows = []
     keys = sorted({(r.faults, r.variant) for r in results}, key=lambda k: (k[0] != "none", k[0], VARIANTS.index(k[1])))
     for faults, variant in keys:
@@ -216,6 +245,9 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
         # without the judge (--no-judge) false vetoes were not looked for: not measured, not 0 (NaN)
         judged = checked and all(r.false_vetoes is not None for r in group)
         false_vetoes = sum(r.false_vetoes for r in group) if judged else NAN
+        paired = checked and all((r.faults, r.fault_seed, r.seed) in alone for r in group)
+        introduced = sum(r.collided and not alone[(r.faults, r.fault_seed, r.seed)] for r in group) if paired else NAN
+        steps = sum(r.steps for r in group)
         rows.append(
             {
                 "faults": faults,
@@ -224,10 +256,11 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
                 "collisions": sum(r.collided for r in group),
                 "collisions_per_episode": sum(r.collided for r in group) / len(group),
                 "collisions_per_km": sum(r.collided for r in group) / km if km else 0.0,
+                "collisions_introduced": introduced,
                 "km": km,
                 "mean_speed": (km * 1000.0 / hours) if hours else 0.0,
                 "vetoes_per_km": (vetoes / km if km else 0.0) if checked else NAN,
-                "overrides_per_km": (sum(r.overrides for r in group) / km if km else 0.0) if checked else NAN,
+                "intervened_share": (sum(r.intervened for r in group) / steps if steps else 0.0) if checked else NAN,
                 "false_vetoes": false_vetoes,
                 "false_vetoes_per_km": (false_vetoes / km if km else 0.0) if judged else NAN,
                 "false_veto_share": (false_vetoes / vetoes if vetoes else 0.0) if judged else NAN,
@@ -235,6 +268,8 @@ def summarise(results: list[EpisodeResult]) -> list[dict]:
                 # by nearest rank, as the monitor's status, the audit and the benchmarks report them
                 "decide_ms_p50": percentile(sorted(decide), 50) if decide else NAN,
                 "decide_ms_p99": percentile(sorted(decide), 99) if decide else NAN,
+                "over_budget": sum(r.over_budget for r in group) if checked else NAN,
+                "failsafes": sum(r.failsafes for r in group) if checked else NAN,
                 "top_rules": ", ".join(f"{rule} ({n})" for rule, n in rules.most_common(4)),
             }
         )
@@ -264,10 +299,19 @@ def compare(rows: list[dict]) -> list[str]:
                 f"faults={faults:<14} {r['variant']:<8} collisions/km cut {cut:6.1%}, mean speed kept {kept:6.1%} "
                 f"-> target {'met' if met else 'missed'}"
             )
+    for r in rows:
+        if r["variant"] != "planner" and r["collisions_introduced"] > 0:  # NaN (no planner episodes) compares False
+            lines.append(f"faults={r['faults']:<14} {r['variant']:<8} {r['collisions_introduced']} of its "
+                         f"{r['collisions']} collisions came in episodes the planner alone survived")
     return lines
 
 
-def format_table(rows: list[dict]) -> str:
+LEGEND = ("introduced: collisions in episodes the planner alone survived; interv %: steps whose action the shield "
+          "changed; over budget: decisions slower than {budget:g} ms, which the sidecar would have answered with its "
+          "fail-safe (counted, not enforced, in process); failsafe: fail-safe verdicts executed")
+
+
+def format_table(rows: list[dict], budget_ms: float = BUDGET_MS) -> str:
     columns = [
         ("faults", "faults", "{}"),
         ("variant", "variant", "{}"),
@@ -275,20 +319,24 @@ def format_table(rows: list[dict]) -> str:
         ("collisions", "coll", "{}"),
         ("collisions_per_episode", "coll/ep", "{:.3f}"),
         ("collisions_per_km", "coll/km", "{:.3f}"),
+        ("collisions_introduced", "introduced", "{:.0f}"),
         ("km", "km", "{:.1f}"),
         ("mean_speed", "speed m/s", "{:.2f}"),
         ("vetoes_per_km", "veto/km", "{:.2f}"),
-        ("overrides_per_km", "ovr/km", "{:.2f}"),
+        ("intervened_share", "interv %", "{:.1%}"),
         ("false_vetoes_per_km", "false/km", "{:.2f}"),
         ("speeding_s", "speeding s", "{:.0f}"),
         ("decide_ms_p50", "p50 ms", "{:.1f}"),
+        ("decide_ms_p99", "p99 ms", "{:.1f}"),
+        ("over_budget", "over budget", "{:.0f}"),
+        ("failsafes", "failsafe", "{:.0f}"),
     ]
     cells = [[c[1] for c in columns]] + [[_cell(fmt, r[key]) for key, _, fmt in columns] for r in rows]
     widths = [max(len(row[i]) for row in cells) for i in range(len(columns))]
     lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)) for row in cells]
     lines.insert(1, "  ".join("-" * w for w in widths))
     tops = [f"top vetoing rules [{r['faults']}/{r['variant']}]: {r['top_rules']}" for r in rows if r["top_rules"]]
-    return "\n".join(lines + [""] + tops)
+    return "\n".join(lines + ["", LEGEND.format(budget=budget_ms)] + tops)
 
 
 def _cell(fmt: str, value) -> str:
@@ -423,13 +471,14 @@ def evaluate(
     return results
 
 
-def report(results: list[EpisodeResult], out: Path | None,
-           manifest: dict | None = None) -> tuple[list[dict], str, list[str]]:
+def report(results: list[EpisodeResult], out: Path | None, manifest: dict | None = None,
+           budget_ms: float = BUDGET_MS) -> tuple[list[dict], str, list[str]]:
     """The summary rows, the table, and the names of the files written into `out`, `manifest` as run.json (see
-    manifest.py). The OUTPUTS an earlier run left there go first: one this run does not write (vetoing_rules.png
-    without Discern) would read as this run's."""
+    manifest.py); `budget_ms`: the budget the episodes counted decisions against (Setup.budget_ms). The OUTPUTS an
+    earlier run left there go first: one this run does not write (vetoing_rules.png without Discern) would read as
+    this run's."""
     rows = summarise(results)
-    text = format_table(rows) + "\n\n" + "\n".join(compare(rows))
+    text = format_table(rows, budget_ms) + "\n\n" + "\n".join(compare(rows))
     written = []
     if out is not None:
         for name in OUTPUTS:

@@ -17,6 +17,7 @@ from torch import nn
 
 from discern.adapters.highway.actions import FASTER, IDLE, LANE_LEFT, LANE_RIGHT, SLOWER
 from discern.adapters.highway.envs import TARGET_SPEEDS, speed_index
+from discern.adapters.highway.perception import Perceived
 from discern.adapters.highway.truth import EgoTruth, Track
 
 OBSERVED_TRACKS = 6
@@ -170,3 +171,8 @@ class Planner:
         ranked = [int(a) for a in np.argsort(-q) if available(int(a), ego, lanes)]
         action = ranked[0]
         return follow_sign(action, ego.speed, read_limit) if self.follow_signs else action
+
+    def __call__(self, perceived: Perceived) -> int:
+        """The evaluation's policy interface (policy.py): the camera's tracks and the sign it read, faults included."""
+        truth = perceived.truth
+        return self.act(truth.ego, max(l.id for l in truth.lanes), perceived.camera_tracks(), perceived.sign.limit)

@@ -1,11 +1,24 @@
-"""`DiscernWrapper`: shield any highway-env policy with one line.
+"""`DiscernWrapper`: shield a highway-env policy with one line.
 
-    env = DiscernWrapper(gym.make("highway-fast-v0"))
+    from discern.adapters.highway.envs import make_env
+    from discern.adapters.highway.perception import Faults
+    env = DiscernWrapper(make_env("highway-fast-v0"), faults=Faults.preset("signs,missed"))
+    obs, info = env.reset(seed=10_000)
+    obs, reward, terminated, truncated, info = env.step(policy(env.perceived))
+
+`make_env` makes highway-fast-v0, highway-v0 or merge-v0 with the target speeds the vehicle parameters assume
+(envs.TARGET_SPEEDS, 10..40 m/s); `gym.make("highway-fast-v0")` keeps highway-env's 20..30 m/s, which the wrapper
+refuses unless given a checker whose Params.accel_step is half that grid's step.
 
 Every step the wrapper turns the simulator's state into a Discern scene (through the perception layer,
 faults included), asks the checker about the agent's action, executes the approved or overriding
 action, and reports the verdict in info["discern"]. The checker is Discern's reasoner in-process by
 default, the zenoh monitor with monitor=True, or any object with the `Checker` shape (the RSS peer).
+
+What the policy sees: `step` and `reset` return highway-env's own observation, the simulator's ground truth, which
+no injected fault touches. A policy meant to meet the faults reads `env.perceived` instead (perception.Perceived:
+`camera_tracks()`, `sign.limit`, the ego's own state in `truth.ego`), as the evaluation's planners do
+(policy.py); `env.scene` is the scene Discern judges.
 """
 
 from __future__ import annotations
