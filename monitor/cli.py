@@ -7,13 +7,14 @@ import functools
 import importlib
 import json
 import os
+import re
 import sys
 from pathlib import Path
 from typing import Optional, Sequence
 
 from pydantic import ValidationError
 
-from discern.rules.catalog import CatalogError, load_driving_rules
+from discern.rules.catalog import CatalogError, catalog_dirs, load_driving_rules
 from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack, reasoner_for
 from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
@@ -65,8 +66,18 @@ def _read_json(path: str, limit: int) -> tuple[str, dict]:
     return text, data
 
 
+def add_rules_options(parser: argparse.ArgumentParser, verb: str) -> None:
+    """--rules replaces the shipped driving rules; --add-rules tries rules of one's own beside them, unedited."""
+    parser.add_argument("--rules", type=path_text, action="append", metavar="DIR",
+                        help=f"{verb} the driving rules in this directory instead of the shipped ones; repeatable")
+    parser.add_argument("--add-rules", type=path_text, action="append", metavar="DIR",
+                        help=f"{verb} the driving rules in this directory too, beside the shipped ones (or --rules); "
+                             "repeatable")
+
+
 def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> Reasoner:
-    """The shipped catalog, or `--rules DIR` in place of the driving rules; sanity rules and the pack still apply.
+    """The shipped catalog, or `--rules DIR` in place of the driving rules, with `--add-rules DIR` beside either;
+    sanity rules and the pack still apply.
 
     `--param NAME=VALUE` sets the reasoning parameters (a vehicle that brakes less firmly, a longer headway).
     """
@@ -76,8 +87,11 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
         raise UserError("; ".join(problems))
     params = Params(**values)
     try:
-        if getattr(args, "rules", None):
-            catalog = load_driving_rules([Path(args.rules)], extra_files=[jurisdiction_pack(jurisdiction)])
+        replaced, added = getattr(args, "rules", None) or [], getattr(args, "add_rules", None) or []
+        if replaced or added:
+            directories = [Path(d) for d in replaced] or [catalog_dirs()[0]]
+            catalog = load_driving_rules(directories + [Path(d) for d in added],
+                                         extra_files=[jurisdiction_pack(jurisdiction)])
             reasoner = Reasoner(catalog=catalog, params=params, jurisdiction=jurisdiction)
         else:
             reasoner = Reasoner(params=params, jurisdiction=jurisdiction) if values else reasoner_for(jurisdiction)
@@ -86,6 +100,9 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
     for warning in reasoner.catalog.warnings:  # what loads but likely never fires as meant: a misspelt predicate
         print(f"discern {args.command}: warning: {warning}", file=sys.stderr)
     return reasoner
+
+
+_QUOTED_OR_STOP = re.compile(r'("(?:[^"\\]|\\.)*")|\.')
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -113,7 +130,12 @@ def cmd_check(args: argparse.Namespace) -> int:
             scene, action, vehicle = Scene.model_validate_json(text, **JSON_AS_SCHEMA), Action(args.proposed), "ego"
     except ValidationError as exc:
         raise UserError(f"{args.scene}: invalid {kind}:\n{describe_errors(exc, limit=MAX_ERRORS_NAMED)}") from None
-    verdict = _reasoner(args).decide(scene, action, explain=True, shadow=args.shadow, vehicle=vehicle)
+    reasoner = _reasoner(args)
+    if args.explain == "facts":  # what clingo is given for this frame, for a rule's author to write against
+        facts = reasoner.frame_facts(scene, action, ())
+        _print(_QUOTED_OR_STOP.sub(lambda m: m.group(1) or ".\n", facts).rstrip("\n"))  # one fact a line
+        return 0
+    verdict = reasoner.decide(scene, action, explain=True, shadow=args.shadow, vehicle=vehicle)
     if args.explain == "json":
         output = render_json(verdict)
     elif args.explain == "html":
@@ -285,12 +307,13 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("scene", type=path_text, help="scene JSON (or a proposal JSON with action and scene)")
     check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action; with a proposal file, judged instead of the file's own (what if it had "
                        "proposed this?), which must still be valid")
-    check.add_argument("--explain", choices=["text", "json", "html"], default="text",
+    check.add_argument("--explain", choices=["text", "json", "html", "facts"], default="text",
                        help="print the verdict with its justification as text, as a JSON verdict or as a "
-                       "self-contained HTML page (default: %(default)s)")
+                       "self-contained HTML page; or, instead of a verdict, the facts the rules are given for the "
+                       "frame, one a line, to write a rule against (default: %(default)s)")
     check.add_argument("--out", type=path_text, help="write the output to this file")
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")
-    check.add_argument("--rules", type=path_text, help="use the driving rules in this directory instead of the shipped ones")
+    add_rules_options(check, "use")
     check.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack (traffic side, limits)")
     check.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                        help="set a reasoning parameter (discern.rules.facts.Params), e.g. --param decel=4; repeatable")
@@ -302,7 +325,7 @@ def build_parser() -> argparse.ArgumentParser:
     catalog.add_argument("--all", action="store_true", help="include definitions and entity rules")
     catalog.add_argument("--json", action="store_true",
                          help="print the rules as a JSON list, one object per rule (id, English, source, file...)")
-    catalog.add_argument("--rules", type=path_text, help="list the driving rules in this directory instead of the shipped ones")
+    add_rules_options(catalog, "list")
     catalog.add_argument("--jurisdiction", default="us", choices=JURISDICTIONS, help="rule pack to list with the catalog")
     catalog.set_defaults(func=cmd_catalog)
 
@@ -312,7 +335,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("paths", nargs="+", type=path_text, metavar="PATH", help="a scenario .json, an AV-CSR .pl, or a directory")
     run.add_argument("--explain", action="store_true", help="print every verdict's justification")
     run.add_argument("--repeats", type=_repeats, default=5, help="timing repeats per KITTI frame (median), at least 1 (default: %(default)s)")
-    run.add_argument("--rules", type=path_text, help="use the driving rules in this directory")
+    add_rules_options(run, "use")
     run.set_defaults(func=cmd_scenarios)
 
     schema = sub.add_parser("schema", help="write the JSON Schemas of the message models")

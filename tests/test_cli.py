@@ -203,6 +203,45 @@ def test_a_rules_file_that_cannot_be_read_is_named_without_a_traceback(tmp_path,
     assert capsys.readouterr().err == f"discern {argv[0]}: error: {rules / 'zz.lp'}: cannot read: {UNREADABLE[kind]}\n"
 
 
+NEAR_JUNCTION = """%! pred near_junction :: "the ego is within 30 m of an intersection"
+
+%! rule cll.near_junction
+%! says The ego does not change lanes within 30 m of an intersection.
+%! source Driving manual (do not change lanes in or near an intersection)
+near_junction :- intersection_distance(D), D < 3000.
+forbidden(change_lane_left) :- near_junction.
+"""
+
+
+def test_a_rule_of_ones_own_is_tried_beside_the_shipped_ones_without_copying_them(tmp_path, capsys):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "near.lp").write_text(NEAR_JUNCTION)
+    data = good_dict()
+    data["lanes"] = [{"kind": "current", "id": 1}, {"kind": "current", "id": 2}]
+    data["ego"]["lane"] = 2
+    data["intersection"] = {"type": "four_way", "stage": "arriving", "distance": 20.0}
+    data["objects"] = []
+    scene = write(tmp_path, data)
+    assert main(["check", str(scene), "--proposed", "change_lane_left"]) == 0
+    assert capsys.readouterr().out.startswith("approve change_lane_left")
+    assert main(["check", str(scene), "--proposed", "change_lane_left", "--add-rules", str(mine)]) == 0
+    said = capsys.readouterr().out
+    assert said.startswith("override change_lane_left") and "forbidden by cll.near_junction" in said, said
+    assert main(["catalog", "--add-rules", str(mine)]) == 0
+    listed = capsys.readouterr().out
+    assert "cll.near_junction" in listed and "brake.obstacle_ahead" in listed
+
+
+def test_check_prints_the_frames_facts_one_a_line_for_a_rules_author(tmp_path, capsys):
+    data = good_dict()
+    data["ego"]["predicted_path"] = "a.param"  # a quoted id's dot ends no fact
+    assert main(["check", write(tmp_path, data), "--proposed", "cruise", "--explain", "facts"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "proposed(cruise)." in lines and 'ego_path("a.param").' in lines and "ego_speed(1200)." in lines
+    assert all(line.endswith(".") for line in lines)
+
+
 @pytest.mark.parametrize("kind", UNREADABLE)
 def test_scenarios_run_names_a_frame_file_in_a_directory_that_cannot_be_read(avcsr_dir, tmp_path, capsys, kind):
     import shutil
