@@ -169,7 +169,10 @@ def _zenoh_refused(args, exc: Exception) -> str:
     given = [f"--{flag.replace('_', '-')} {' '.join(value) if isinstance(value, list) else value}"
              for flag, value in (("listen", args.listen), ("connect", args.connect), ("zenoh_config", args.zenoh_config))
              if value]
-    return f"zenoh could not open the session{' (' + '; '.join(given) + ')' if given else ''}: {exc}"
+    hint = ""
+    if "No peer specified" in str(exc):  # a client with nowhere to connect: zenoh names scouting, not the flag
+        hint = ": a client must be told where its router or peers are: --connect ENDPOINT (or connect.endpoints)"
+    return f"zenoh could not open the session{' (' + '; '.join(given) + ')' if given else ''}: {exc}{hint}"
 
 
 def _fail(command: str, message: str) -> int:

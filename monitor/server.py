@@ -224,7 +224,7 @@ class MonitorServer:
                 # The last few, not every file of a run that may last months (it grew by a file an hour, and each
                 # was looked for on disk at every status); still on disk: one deleted from outside (an operator, a
                 # cleaner) is no longer this run's log.
-                log_files=[str(p) for p in self.log.files[-LOG_FILES_LISTED:] if p.exists()],
+                log_files=[str(p.resolve()) for p in self.log.files[-LOG_FILES_LISTED:] if p.exists()],
                 log_files_opened=self.log.opened, log_records=self.log.records, log_dropped=self.log.dropped,
             )
         return self.counters.snapshot(**extra)

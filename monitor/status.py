@@ -66,7 +66,7 @@ class MonitorStatus(BaseModel):
     oldest_open_ms: Optional[float] = Field(None, description="how long the oldest open proposal has waited, in ms; "
                                                               "null when none is open")
     latency_ms: LatencySummary = Field(default_factory=LatencySummary)
-    log_files: list[str] = Field(default_factory=list, description=f"of this run's last {LOG_FILES_LISTED} log files, "
+    log_files: list[str] = Field(default_factory=list, description=f"of this run's last {LOG_FILES_LISTED} log files, as absolute paths, "
                                                                    "those still on disk, the one being written last")
     log_files_opened: int = Field(0, description="log files this run opened, listed or not, deleted or not")
     log_records: int = 0

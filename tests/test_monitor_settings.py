@@ -111,6 +111,15 @@ def test_a_zenoh_config_naming_no_listen_endpoint_is_told_that_zenohs_default_is
         proc.lines[0]), proc.output
 
 
+def test_a_client_monitor_with_nowhere_to_connect_is_told_to_name_its_router():
+    proc = DiscernProcess("serve", "--mode", "client", "--no-log")
+    try:
+        code = proc.proc.wait(START_TIMEOUT_S)
+    finally:
+        proc.stop()
+    assert code == 2 and "--connect ENDPOINT" in proc.output, proc.output
+
+
 def test_a_zenoh_config_naming_port_0_is_refused_without_blaming_zenohs_default(tmp_path):
     config = tmp_path / "port0.json5"
     config.write_text('{ listen: { endpoints: ["tcp/127.0.0.1:0"] } }\n')

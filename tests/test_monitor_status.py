@@ -15,7 +15,7 @@ from discern.monitor.log import RecoveryReport, read_log
 from discern.monitor.protocol import encode
 from discern.monitor.status import LOG_FILES_LISTED
 from discern.rules.scene import Proposal
-from tests.monitor_process import REPO, serve, status, wait_until
+from tests.monitor_process import REPO, DiscernProcess, endpoint, free_port, serve, status, wait_until
 
 
 def test_the_status_counts_the_proposals_open_and_how_long_the_oldest_has_waited():
@@ -64,6 +64,18 @@ def test_the_status_lists_the_last_log_files_still_on_disk_and_counts_every_one_
         [after] = status(ep, "files")
         assert listed[0] not in after["log_files"] and all(Path(f).exists() for f in after["log_files"])
         assert after["log_files_opened"] >= now["log_files_opened"]
+    finally:
+        assert proc.stop() == 0, proc.output
+
+
+def test_the_status_names_log_files_an_operator_elsewhere_can_find_whatever_the_monitors_directory(tmp_path):
+    """--log-dir given relative to the monitor's working directory: the status once listed `logs/...` as given."""
+    ep = endpoint(free_port())
+    proc = DiscernProcess("serve", "--listen", ep, "--id", "rel", "--log-dir", "logs", cwd=tmp_path).wait_ready()
+    try:
+        [now] = status(ep, "rel")
+        assert now["log_files"] and all(Path(f).is_absolute() and Path(f).exists() for f in now["log_files"]), now
+        assert all(Path(f).parent == (tmp_path / "logs").resolve() for f in now["log_files"]), now
     finally:
         assert proc.stop() == 0, proc.output
 
