@@ -60,7 +60,10 @@ def vehicle_selector(pattern: str) -> str:
 def filters_overlap(first: str, second: str) -> bool:
     """Whether two monitors' vehicle chunks (vehicle_selector's) both match some vehicle: it would get verdicts from
     either, frame to frame."""
-    return zenoh.KeyExpr(check_key(first)).intersects(zenoh.KeyExpr(check_key(second)))
+    try:
+        return zenoh.KeyExpr(check_key(first)).intersects(zenoh.KeyExpr(check_key(second)))
+    except zenoh.ZError:  # a status from a monitor of another version or make, its filter no key chunk: no telling
+        return False
 
 
 def overlap_warning(first: str, first_filter: str, second: str, second_filter: str) -> str:

@@ -480,8 +480,9 @@ def test_status_prints_every_monitor_that_answers_and_warns_of_two_with_one_id(c
     second = zenoh.open(ZenohSettings(listen=[other]).to_zenoh())
     key = "discern/monitor/dup/status"
     try:
-        for peer, uptime in ((first, 1.0), (second, 2.0)):
-            payload = MonitorStatus(monitor_id="dup", vehicles_filter="*", uptime_s=uptime, budget_ms=50.0).model_dump_json()
+        for peer, uptime, vehicles in ((first, 1.0, "car_$*"), (second, 2.0, "not_a chunk")):  # shards (one of another make), one id
+            payload = MonitorStatus(monitor_id="dup", vehicles_filter=vehicles, uptime_s=uptime,
+                                    budget_ms=50.0).model_dump_json()
             peer.declare_queryable(key, lambda q, payload=payload: q.reply(key, payload))
         code = main(["status", "--connect", ep, "--connect", other, "--id", "dup", "--timeout", "10"])
     finally:
