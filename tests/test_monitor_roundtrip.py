@@ -12,6 +12,7 @@ import time
 
 import pytest
 
+from discern.monitor import keys
 from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
 from discern.rules.engine import Reasoner
@@ -332,6 +333,12 @@ def test_an_invalid_proposal_answered_with_a_deadline_failsafe_is_refused_naming
         "and the monitor answered with a monitor.deadline fail-safe: no decision within the 50 ms budget")
 
 
+def answer_probe(query) -> None:
+    """What a monitor answers to Monitor.wait_for_monitor's probe: that it serves the vehicle."""
+    with query:
+        query.reply(str(query.key_expr), b'{"monitor_id": "impostor", "vehicles_filter": "*"}')
+
+
 def test_over_publish_subscribe_an_unreadable_verdict_is_the_reason_a_wait_gets_no_verdict():
     import zenoh
 
@@ -342,6 +349,7 @@ def test_over_publish_subscribe_an_unreadable_verdict_is_the_reason_a_wait_gets_
     try:
         impostor.declare_subscriber("discern/garbled/proposal",
                                     lambda sample: impostor.put("discern/garbled/verdict", b'{"version": 7}'))
+        impostor.declare_queryable("discern/garbled/check", answer_probe)  # it passes the start-up check
         with Monitor("garbled", connect=[ep], timeout=0.5, style="pubsub") as client:
             assert client.wait_for_monitor()
             verdict = client.check(highway_scene(0, 2), "cruise")
@@ -361,7 +369,8 @@ def test_a_monitor_that_answers_after_the_clients_timeout_reads_as_no_verdict_in
     tardy = zenoh.open(ZenohSettings(listen=[ep]).to_zenoh())
     held = []  # the queries it never gets round to answering
     try:
-        tardy.declare_queryable("discern/tardy/check", held.append)
+        tardy.declare_queryable("discern/tardy/check", lambda q: answer_probe(q) if keys.PROBE in q.parameters
+                                else held.append(q))  # it passes the start-up check, then never answers in time
         with Monitor("tardy", connect=[ep], timeout=0.2) as client:
             assert client.wait_for_monitor()
             verdict = client.check(highway_scene(0, 2), "cruise")

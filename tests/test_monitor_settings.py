@@ -98,38 +98,33 @@ def test_a_router_refuses_to_listen_on_port_0_which_it_could_not_name(tmp_path):
     ], proc.output
 
 
-def test_a_zenoh_config_naming_no_listen_endpoint_is_told_that_zenohs_default_is_port_0(tmp_path):
-    config = tmp_path / "plain.json5"
-    config.write_text('{ mode: "peer" }\n')
-    proc = DiscernProcess("serve", "--zenoh-config", str(config), "--log-dir", str(tmp_path))
+def refused_at_start(*args: str) -> str:
+    """The one error line of a `discern` process that must exit with status 2 before it serves."""
+    proc = DiscernProcess(*args)
     try:
         code = proc.proc.wait(START_TIMEOUT_S)
     finally:
         proc.stop()
     assert code == 2 and len(proc.lines) == 1, proc.output
-    assert "(zenoh's own default, as the configuration names no listen.endpoints): port 0 is not supported" in (
-        proc.lines[0]), proc.output
+    return proc.lines[0]
+
+
+def test_a_zenoh_config_naming_no_listen_endpoint_is_told_that_zenohs_default_is_port_0(tmp_path):
+    config = tmp_path / "plain.json5"
+    config.write_text('{ mode: "peer" }\n')
+    said = refused_at_start("serve", "--zenoh-config", str(config), "--log-dir", str(tmp_path))
+    assert "(zenoh's own default, as the configuration names no listen.endpoints): port 0 is not supported" in said
 
 
 def test_a_client_monitor_with_nowhere_to_connect_is_told_to_name_its_router():
-    proc = DiscernProcess("serve", "--mode", "client", "--no-log")
-    try:
-        code = proc.proc.wait(START_TIMEOUT_S)
-    finally:
-        proc.stop()
-    assert code == 2 and "--connect ENDPOINT" in proc.output, proc.output
+    assert "--connect ENDPOINT" in refused_at_start("serve", "--mode", "client", "--no-log")
 
 
 def test_a_zenoh_config_naming_port_0_is_refused_without_blaming_zenohs_default(tmp_path):
     config = tmp_path / "port0.json5"
     config.write_text('{ listen: { endpoints: ["tcp/127.0.0.1:0"] } }\n')
-    proc = DiscernProcess("serve", "--zenoh-config", str(config), "--log-dir", str(tmp_path))
-    try:
-        code = proc.proc.wait(START_TIMEOUT_S)
-    finally:
-        proc.stop()
-    assert code == 2 and len(proc.lines) == 1, proc.output
-    assert "listen endpoint 'tcp/127.0.0.1:0': port 0 is not supported" in proc.lines[0], proc.output
+    said = refused_at_start("serve", "--zenoh-config", str(config), "--log-dir", str(tmp_path))
+    assert "listen endpoint 'tcp/127.0.0.1:0': port 0 is not supported" in said
 
 
 def ready_line(proc: DiscernProcess) -> str:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from discern.monitor.config import MonitorConfig
+from discern.monitor.protocol import RULE_DEADLINE
 from discern.monitor.status import percentile
 from discern.rules.verdict import Decision
 
@@ -51,7 +52,7 @@ class EpisodeResult:
     time_s: float = 0.0
     vetoes: int = 0  # the rules' verdicts that did not approve the proposal (fail-safes aside)
     intervened: int = 0  # steps whose executed action was not the proposed one (fail-safes included)
-    over_budget: int = 0  # decisions that took longer than Setup.budget_ms
+    over_budget: int = 0  # decisions that took longer than Setup.budget_ms, or that a monitor's deadline cut short
     failsafes: int = 0  # fail-safe verdicts (a monitor late or silent, a checker that failed), executed
     false_vetoes: int | None = 0  # None: not judged (--no-judge), which is not none found
     speeding_s: float = 0.0  # time with the ego above the true limit
@@ -187,7 +188,8 @@ def run_episode(variant: str, faults: Faults, seed: int, setup: Setup) -> Episod
             verdict = env.judge(action)
             if verdict is not None:
                 result.decide_ms.append((time.perf_counter() - started) * 1000.0)
-                result.over_budget += result.decide_ms[-1] > setup.budget_ms
+                # a monitor's deadline fail-safe comes at its budget, a hair either side of it by the client's clock
+                result.over_budget += result.decide_ms[-1] > setup.budget_ms or RULE_DEADLINE in verdict.rules
             if verdict is not None and verdict.failsafe:
                 result.failsafes += 1
                 result.failsafe_rules.update(verdict.rules)
