@@ -120,3 +120,14 @@ def test_a_blocked_steps_literal_and_holds_agree_with_the_model(reasoner):
                                                        ("outranked(brake)", False)}
     assert not [n for n in nodes if n.literal.startswith("not ") and not n.holds]
     assert not [n for n in blocked if re.fullmatch(r"[a-z]+\.[a-z_.]+", n.literal)]  # a rule id is no literal
+
+
+def test_what_a_rule_needs_of_a_value_no_fact_gives_reads_as_the_rule_needs_it_not_as_its_opposite(reasoner):
+    """Where a frame gives no value, a template's last alternative is read: 'unsure how sure it is' said the rule
+    needed a confidence unknown, and 'an intersection (roundabout) is ahead' read as a fact at a four-way."""
+    near = scene(speed=10, lanes=2, lane=2, limit=13.9,
+                 intersection={"type": "four_way", "stage": "arriving", "distance": 20.0})
+    text = _text(reasoner, near, "change_lane_left")
+    assert "rule san.limit.low_confidence needs that perception says how sure it is of the limit sign" in text
+    assert "rule brake.roundabout_yield needs that the intersection ahead is a roundabout" in text
+    assert "unsure how sure" not in text and "an intersection (" not in text
