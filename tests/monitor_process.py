@@ -32,6 +32,10 @@ def endpoint(port: int) -> str:
     return f"tcp/127.0.0.1:{port}"
 
 
+def _hangup_as_by_default() -> None:
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+
+
 class DiscernProcess:
     """One `discern <command>` child; its output is collected for assertions and failure messages.
 
@@ -40,14 +44,15 @@ class DiscernProcess:
     """
 
     def __init__(self, *args: str, own_group: bool = False, cwd: Path = REPO):
-        """`own_group`: in a process group of its own, as a service manager starts it (see `stop_group`)."""
+        """`own_group`: in a process group of its own, as a service manager starts it (see `stop_group`), with the
+        hangup signal's default action, which a test run under `nohup` would otherwise pass on as ignored."""
         if args[:1] == ("serve",) and "--log-dir" not in args and "--no-log" not in args and cwd == REPO:
             args = (*args, "--no-log")
         self.args = [sys.executable, "-m", "discern.monitor.commands", *args]
         env = dict(os.environ, PYTHONUNBUFFERED="1", RUST_LOG="error")
         self.proc = subprocess.Popen(
             self.args, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-            start_new_session=own_group,
+            start_new_session=own_group, preexec_fn=_hangup_as_by_default if own_group else None,
         )
         self.lines: list[str] = []
         self._ready = threading.Event()
