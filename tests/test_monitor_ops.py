@@ -108,12 +108,16 @@ def test_a_hangup_stops_the_monitor_and_its_router_cleanly(tmp_path):
             assert planner.wait_for_monitor(timeout=10)
             assert not planner.check(highway_scene(0, 4), "cruise").failsafe
     finally:
+        after_hangup = []  # each one's exit status, None where the hangup did not stop it
         for started in (proc, router):
             os.killpg(started.proc.pid, signal.SIGHUP)
-            started.proc.wait(30)
-            started.stop()
-    assert proc.proc.returncode == 0 and "discern serve: stopped after 1 proposals" in proc.output, proc.output
-    assert router.proc.returncode == 0, router.output
+            try:
+                after_hangup.append(started.proc.wait(30))
+            except subprocess.TimeoutExpired:
+                after_hangup.append(None)
+            started.stop()  # stopped either way: a test leaves nothing running
+    assert after_hangup[0] == 0 and "discern serve: stopped after 1 proposals" in proc.output, proc.output
+    assert after_hangup[1] == 0, router.output
     report = RecoveryReport()
     assert [r.kind for r in read_log([tmp_path], report) if r.vehicle == "car_1"] == ["proposal", "verdict"]
     assert [f.state for f in report.files] == ["complete"], report.summary()
