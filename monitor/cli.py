@@ -7,7 +7,6 @@ import functools
 import importlib
 import json
 import os
-import re
 import sys
 from pathlib import Path
 from typing import Optional, Sequence
@@ -16,6 +15,7 @@ from pydantic import ValidationError
 
 from discern.rules.catalog import CatalogError, catalog_dirs, load_driving_rules
 from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack, reasoner_for
+from discern.rules.fact_text import one_fact_a_line
 from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
@@ -102,9 +102,6 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
     return reasoner
 
 
-_QUOTED_OR_STOP = re.compile(r'("(?:[^"\\]|\\.)*")|\.')
-
-
 def cmd_check(args: argparse.Namespace) -> int:
     try:
         check_max_payload_bytes(args.max_payload_bytes)
@@ -133,7 +130,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     reasoner = _reasoner(args)
     if args.explain == "facts":  # what clingo is given for this frame, for a rule's author to write against
         facts = reasoner.frame_facts(scene, action, ())
-        _print(_QUOTED_OR_STOP.sub(lambda m: m.group(1) or ".\n", facts).rstrip("\n"))  # one fact a line
+        _print(one_fact_a_line(facts))
         return 0
     verdict = reasoner.decide(scene, action, explain=True, shadow=args.shadow, vehicle=vehicle)
     if args.explain == "json":

@@ -21,7 +21,7 @@ from clingo import Control, Function, Number, Symbol, ast, parse_term
 
 from .answer_set import AnswerSet, first_argument, shown_atoms
 from .catalog import TRACE_PREFIX, Catalog, static_fact_refused, static_predicates
-from .fact_text import fact_names, is_plain
+from .fact_text import QUOTED, fact_names, is_plain
 from .specialize import Specializer
 
 FRAME_PREDICATE = "discern_frame"  # discern_frame(K): frame K is in the batch
@@ -30,7 +30,7 @@ _LOC = ast.Location(ast.Position("<batch>", 1, 1), ast.Position("<batch>", 1, 1)
 
 # A fact's name starts the text or follows the '.' that ends the previous fact;
 # quoted strings are matched whole first, so nothing inside them is touched.
-_FACT_START = re.compile(r'"(?:[^"\\]|\\.)*"|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)([(.])')
+_FACT_START = re.compile(rf'{QUOTED}|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)([(.])')
 
 
 class FrameTagger:

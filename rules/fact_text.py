@@ -14,7 +14,9 @@ import functools
 import re
 
 _FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")  # the predicate names of fact text without strings
-_QUOTED_OR_NAME = re.compile(r'"(?:[^"\\]|\\.)*"|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)')
+QUOTED = r'"(?:[^"\\]|\\.)*"'  # a clingo string: its dots end no fact
+_QUOTED_OR_NAME = re.compile(rf'{QUOTED}|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)')
+_QUOTED_OR_STOP = re.compile(rf'({QUOTED})|\.')
 # Possessive quantifiers: the text is matched once, without backtracking (half the time).
 _IDENTIFIER = r"_*+[a-z][A-Za-z0-9_]*+"  # clingo's, without primes: `_X` and `_` are variables
 _ARGUMENT = rf"(?:-?+[1-9][0-9]*+|0|{_IDENTIFIER})"
@@ -26,6 +28,11 @@ def fact_names(text: str) -> frozenset[str]:
     if '"' not in text:
         return frozenset(_FACT_NAME.findall(text))
     return frozenset(name for name in _QUOTED_OR_NAME.findall(text) if name)
+
+
+def one_fact_a_line(text: str) -> str:
+    """Fact text for people: one fact a line."""
+    return _QUOTED_OR_STOP.sub(lambda m: m.group(1) or ".\n", text).rstrip("\n")
 
 
 @functools.lru_cache(maxsize=4)
