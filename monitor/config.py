@@ -98,6 +98,7 @@ class ZenohSettings:
             _insert(config, "listen/endpoints", listen)
         if self.connect is not None:
             _insert(config, "connect/endpoints", self.connect)
+            check_connect_ports(self.connect)
         if self.multicast_scouting is not None:
             config.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast_scouting))
         for key in SCOUTING_KEYS:  # what the file leaves unset takes Discern's default, not zenoh's
@@ -155,12 +156,36 @@ def check_listen_ports(endpoints: list[str], defaulted: bool = False) -> None:
     `defaulted`: the endpoints are zenoh's default, which the error then says, as the configuration named none.
     """
     for endpoint in endpoints:
-        address = re.split(r"[?#]", endpoint, maxsplit=1)[0]  # without zenoh's ?metadata and #config
-        protocol = address.partition("/")[0]
+        protocol, address = _protocol_address(endpoint)
         if protocol in _IP_PROTOCOLS and address.rpartition(":")[2] == "0":
             default = " (zenoh's own default, as the configuration names no listen.endpoints)" if defaulted else ""
             raise ValueError(f"listen endpoint {endpoint!r}{default}: port 0 is not supported, as zenoh does not "
                              "say which free port it takes: name a port (--listen, or listen.endpoints)")
+
+
+def check_connect_ports(endpoints: list[str]) -> None:
+    """Refuse an IP endpoint without a port a socket can have: zenoh takes it, and then tries to connect to it in vain,
+    saying nothing (it refuses it only to listen on)."""
+    for endpoint in endpoints:
+        protocol, address = _protocol_address(endpoint)
+        if protocol not in _IP_PROTOCOLS:
+            continue
+        host, colon, port = address.rpartition(":")
+        if not colon or address.endswith("]"):  # [::1]: an IPv6 address, with no port
+            problem = "no port"
+        elif not host:
+            problem = "no host"
+        elif not (re.fullmatch("[0-9]{1,5}", port) and 0 < int(port) < 65536):
+            problem = f"invalid port {port!r}"
+        else:
+            continue
+        raise ValueError(f"cannot connect to {endpoint}: {problem}: give <host>:<port>, a port from 1 to 65535")
+
+
+def _protocol_address(endpoint: str) -> tuple[str, str]:
+    """An endpoint's protocol and address, without zenoh's ?metadata and #config."""
+    protocol, _, address = re.split(r"[?#]", endpoint, maxsplit=1)[0].partition("/")
+    return protocol, address
 
 
 _RUST_LOCATION = re.compile(r" at /\S+?\.rs:\d+\.?")

@@ -526,6 +526,7 @@ def test_an_endpoint_zenoh_refuses_is_named_with_its_flag(capsys, command, argum
     (["--vehicle", "bad id"], "vehicle 'bad id' must match [A-Za-z0-9_-]{1,128}"),
     (["--connect", "nonsense"], "bad zenoh endpoint 'nonsense': Endpoints must be of the form <protocol>/<address>"),
     (["--connect", "foo/bar:1"], "cannot connect to foo/bar:1: Unicast not supported for foo protocol"),
+    (["--connect", "tcp/127.0.0.1:notaport"], "cannot connect to tcp/127.0.0.1:notaport: invalid port 'notaport'"),
 ])
 def test_planner_example_refuses_bad_arguments_in_one_line(capsys, arguments, message):
     assert main(["planner-example", "--frames", "1", *arguments]) == 2

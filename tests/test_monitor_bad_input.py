@@ -292,6 +292,20 @@ def test_the_client_sends_wrongly_typed_fields_as_they_are_so_the_monitor_refuse
         assert verdict.latency_ms is not None  # the monitor's refusal, not the client's
 
 
+def test_a_typed_scene_given_a_nan_after_it_was_built_is_refused_naming_the_field_and_the_nan(monitor):
+    """pydantic does not check a field set after the model was built: the NaN went out as null, refused as a missing
+    number ("got None"), where the same scene as a dict was refused as a NaN."""
+    ep, _ = monitor
+    scene = highway_scene(1, 3)
+    scene.ego.speed = math.nan  # a perception filter diverged
+    with Monitor("client_typed_nan", connect=[ep], timeout=5) as client:
+        assert client.wait_for_monitor(timeout=5)
+        verdict = client.check(scene, "cruise")
+    assert verdict.failsafe and verdict.rules == ["monitor.bad_input"], verdict
+    assert verdict.error == "schema violation: scene.ego.speed: Input should be a finite number (got nan)"
+    assert verdict.latency_ms is not None  # the monitor's refusal, not the client's
+
+
 def test_failsafe_picks_the_most_cautious_permitted_action():
     assert most_cautious([Action.accelerate, Action.change_lane_left, Action.cruise]) is Action.cruise
     assert most_cautious([Action.accelerate]) is Action.accelerate

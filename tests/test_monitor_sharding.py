@@ -7,7 +7,9 @@ import sys
 import time
 
 import pytest
+import zenoh
 
+from discern.monitor import keys
 from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
 from tests.monitor_process import REPO, DiscernProcess, endpoint, free_port, serve, status, wait_until
@@ -93,3 +95,25 @@ def test_a_session_connected_to_two_monitors_does_not_link_them():
     finally:
         first.stop()
         second.stop()
+
+
+def test_a_check_two_monitors_answer_takes_the_first_verdict_not_the_slower_ones():
+    """zenoh's default consolidation kept only the latest reply and gave it once both had come: the check waited for
+    the slower monitor and took its verdict, here its deadline fail-safe, where the faster had approved."""
+    fast_ep, slow_ep = endpoint(free_port()), endpoint(free_port())
+    fast = DiscernProcess("serve", "--listen", fast_ep, "--id", "first_fast", "--budget-ms", "5000")
+    slow = DiscernProcess("serve", "--listen", slow_ep, "--id", "first_slow", "--budget-ms", "2000",
+                          "--test-only-decision-delay-ms", "2500")
+    try:
+        fast.wait_ready()
+        slow.wait_ready()
+        with Monitor("two_answerers", connect=[fast_ep, slow_ep], timeout=60) as monitor:
+            probe = f"{keys.check_key('two_answerers')}?{keys.PROBE}"
+            # both monitors known to the planner's session, so that the check goes to both
+            assert wait_until(lambda: sum(reply.ok is not None for reply in monitor.session.get(
+                probe, timeout=5, consolidation=zenoh.ConsolidationMode.NONE)) == 2)
+            verdict = monitor.check(highway_scene(0, 4), "cruise")
+        assert not verdict.failsafe and verdict.decision.value == "approve", verdict.error
+    finally:
+        fast.stop()
+        slow.stop()
