@@ -250,6 +250,20 @@ def test_an_endpoint_zenoh_cannot_take_is_refused_naming_it_without_rust_source_
     assert str(refused.value) == "cannot connect to udpx/1.2.3.4:5: Unicast not supported for udpx protocol"
 
 
+@pytest.mark.parametrize("connect, problem", [
+    ("tcp/127.0.0.1:notaport", "invalid port 'notaport'"),
+    ("tcp/127.0.0.1:99999", "invalid port '99999'"),
+    ("tcp/127.0.0.1", "no port"),
+    ("tcp/[::1]", "no port"),
+    ("tcp/:7447", "no host"),
+])
+def test_an_ip_endpoint_without_a_host_and_port_is_refused_naming_it(connect, problem):
+    """zenoh took it, and tried to connect to it in vain, saying nothing: a planner whose every check failed."""
+    with pytest.raises(ValueError) as refused:
+        Monitor("mistyped", connect=connect)
+    assert str(refused.value) == f"cannot connect to {connect}: {problem}: give <host>:<port>, a port from 1 to 65535"
+
+
 def test_a_scene_that_cannot_be_sent_at_all_gets_a_local_failsafe_naming_the_problem():
     scene = json.loads(highway_scene(0, 2).model_dump_json(by_alias=True)) | {"notes": [object()]}
     with Monitor("sloppy", connect=[endpoint(free_port())]) as monitor:
