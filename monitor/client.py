@@ -231,12 +231,14 @@ class Monitor:
         """
         if isinstance(scene, Scene):
             if isinstance(explain, bool):
-                try:  # typed already: nothing left to convert, no need to write it and read it back
+                try:  # typed already, but a field set after the scene was built went unchecked: read back as sent
                     proposal = Proposal(vehicle=self.vehicle, action=action, scene=scene, explain=explain)
-                    return proposal, encode(proposal), None
+                    payload = encode(proposal)
+                    Proposal.model_validate_json(payload, **JSON_AS_SCHEMA)
+                    return proposal, payload, None
                 except ValidationError:
-                    pass  # an unknown action: sent as it is below, and refused by name
-            scene = scene.model_dump(mode="json", by_alias=True)
+                    pass  # an unknown action or a bad field: sent as a dict's would be, below, and refused by name
+            scene = scene.model_dump(by_alias=True)  # its JSON dump writes a NaN as null, refused as "got None"
         data = dict(version=SCHEMA_VERSION, vehicle=self.vehicle, action=action, scene=scene, explain=explain)
         try:
             text = json.dumps(data, default=_numpy_value)
