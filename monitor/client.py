@@ -51,6 +51,10 @@ TIMEOUT_MAX_S = 2 * BUDGET_MAX_MS / 1000  # twice the longest budget a monitor m
 # reply takes its query's.
 CONGESTION = zenoh.CongestionControl.DROP
 CLOSED = "not sent: this Monitor is closed"
+# Each reply as it comes, for check to take the first: zenoh's default consolidation, for a key without time
+# selectors, kept the latest reply and handed it over only once every answerer had replied, so a check served by two
+# monitors waited for the slower one (or its whole timeout) and took its verdict.
+FIRST_REPLY = zenoh.ConsolidationMode.NONE
 
 
 def check_timeout(timeout) -> float:
@@ -262,7 +266,8 @@ class Monitor:
         """
         key = keys.check_key(self.vehicle)
         started = time.monotonic()
-        replies = self.session.get(key, payload=payload, encoding=JSON, timeout=timeout, congestion_control=CONGESTION)
+        replies = self.session.get(key, payload=payload, encoding=JSON, timeout=timeout, congestion_control=CONGESTION,
+                                   consolidation=FIRST_REPLY)
         problem = None
         timed_out = False
         try:
@@ -316,7 +321,7 @@ class Monitor:
         """Whether a monitor answers a probe for this vehicle within `timeout` (one refused by access control never
         does: the query then takes the whole of it)."""
         replies = self.session.get(f"{keys.check_key(self.vehicle)}?{keys.PROBE}", timeout=max(0.05, timeout),
-                                   congestion_control=CONGESTION)
+                                   congestion_control=CONGESTION, consolidation=FIRST_REPLY)
         return any(reply.ok is not None for reply in replies)
 
     def _unserved(self, key: str) -> str:
