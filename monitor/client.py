@@ -196,13 +196,14 @@ class Monitor:
 
     def wait_for_monitor(self, timeout: float = 2.0) -> bool:
         """True once a monitor serving this vehicle answers; for a planner's start-up check. False once closed.
+        Raises ValueError for a `timeout` `check` would refuse (NaN and inf waited for good).
 
         Once zenoh knows of a monitor for the vehicle's key, a probe is sent on the vehicle's check key (keys.PROBE:
         answered, not judged): a monitor declares its key to planners whose proposals its access control then refuses
         (car_1's certificate asking about car_2), so a known route alone said True, and every check failed.
         """
+        deadline = time.monotonic() + check_timeout(timeout)
         entity = self._querier if self.style == "query" else self._publisher
-        deadline = time.monotonic() + timeout
         try:
             while not (entity.matching_status.matching and self._probe(deadline - time.monotonic())):
                 if time.monotonic() >= deadline:

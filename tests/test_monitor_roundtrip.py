@@ -237,6 +237,17 @@ def test_a_timeout_given_to_check_as_a_string_is_named_with_its_type():
     assert verdict.error == "not sent: timeout must be a finite number above 0 s and at most 120 s, got '0.1' (str)"
 
 
+@pytest.mark.timeout(60)  # a hang guard, not a speed target: NaN and inf waited for good
+@pytest.mark.parametrize("timeout, got", [
+    (math.nan, "nan"), (math.inf, "inf"), (0, "0"), ("2", "'2' (str)"), (None, "None (NoneType)"),
+])
+def test_wait_for_monitor_refuses_a_timeout_check_would_refuse(timeout, got):
+    with Monitor("impatient", connect=[endpoint(free_port())]) as monitor:
+        with pytest.raises(ValueError) as refused:
+            monitor.wait_for_monitor(timeout=timeout)
+    assert str(refused.value) == f"timeout must be a finite number above 0 s and at most 120 s, got {got}"
+
+
 def test_a_single_endpoint_given_as_a_string_is_taken_as_one(monitor):
     """Iterated, the string's letters were taken for endpoints: "bad zenoh endpoint 't'"."""
     with Monitor("one_endpoint", connect=monitor, timeout=5.0) as client:
