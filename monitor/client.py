@@ -113,11 +113,12 @@ class Monitor:
             where = ", ".join(connect) if connect else f"the endpoints of {config_file}"
             raise ValueError(f"cannot connect to {where}: {without_rust_locations(str(exc))}") from None
         self._declared: list = []  # what the session declares, undeclared before it closes
+        self._entities = threading.Lock()  # held to use the publisher or querier, and to undeclare them: see _put
         # Closes the session on close(), when the Monitor is collected unclosed, or at exit (an unclosed zenoh session
         # can hang interpreter exit); it holds no reference to the Monitor, so that a dropped one is collected.
         key = next(_KEYS)
-        self._finalizer = _OPEN[key] = weakref.finalize(self, _close_session, self.session, self._declared, key)
-        self._closed = False
+        self._finalizer = _OPEN[key] = weakref.finalize(
+            self, _close_session, self.session, self._declared, self._entities, key)
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
         self._unreadable: Optional[tuple[float, str]] = None  # when the last unreadable verdict came, and why
         self._lock = threading.Lock()
@@ -164,8 +165,8 @@ class Monitor:
                 verdict = self._query(payload, timeout, labels["frame_id"])
             else:
                 verdict = self._publish_and_wait(payload, labels["frame_id"], timeout)
-        except zenoh.ZError as exc:  # closed meanwhile, from another thread
-            verdict = f"not sent: {exc}"
+        except zenoh.ZError as exc:
+            verdict = CLOSED if self._closed else f"not sent: {exc}"  # closed meanwhile, from another thread
         if self.style == "query" and isinstance(verdict, Verdict):
             self._notify(verdict)  # a reply is not published: pubsub's verdicts reach it in _on_sample
         if isinstance(verdict, Verdict):
@@ -184,15 +185,8 @@ class Monitor:
         Raises ValueError only for one that cannot be written as JSON at all, and once the Monitor is closed
         (with the error `check` then puts in its fail-safe): never zenoh's own error.
         """
-        payload = self._encode(scene, action, explain)[1]
-        try:
-            if not self._closed:
-                self._publisher.put(payload)
-                return
-        except zenoh.ZError:
-            if not self._closed:
-                raise
-        raise ValueError(CLOSED)  # closed before, or meanwhile from another thread
+        if not self._put(self._encode(scene, action, explain)[1]):
+            raise ValueError(CLOSED)
 
     def wait_for_monitor(self, timeout: float = 2.0) -> bool:
         """True once a monitor serving this vehicle answers; for a planner's start-up check. False once closed.
@@ -205,17 +199,22 @@ class Monitor:
         deadline = time.monotonic() + check_timeout(timeout)
         entity = self._querier if self.style == "query" else self._publisher
         try:
-            while not (entity.matching_status.matching and self._probe(deadline - time.monotonic())):
-                if time.monotonic() >= deadline:
+            while not (self._matching(entity) and self._probe(deadline - time.monotonic())):
+                if self._closed or time.monotonic() >= deadline:
                     return False
                 time.sleep(0.02)
-        except zenoh.ZError:  # undeclared by close(), from another thread or before
+        except zenoh.ZError:  # the session closed under the probe, from another thread
             return False
         return True
 
+    @property
+    def _closed(self) -> bool:
+        """Whether the session is closed or closing: by close(), or as the Monitor was collected, or at exit."""
+        return not self._finalizer.alive
+
     def close(self) -> None:
-        """Undeclare and close the zenoh session (once; a Monitor dropped unclosed is closed when collected)."""
-        self._closed = True
+        """Undeclare and close the zenoh session, once, whatever other threads are doing with this Monitor (a Monitor
+        dropped unclosed is closed when collected)."""
         self._finalizer()
 
     def __enter__(self) -> "Monitor":
@@ -304,7 +303,8 @@ class Monitor:
         with self._lock:
             self._waiting[frame] = slot
         try:
-            self._publisher.put(payload)
+            if not self._put(payload):
+                return CLOSED
             slot[0].wait(timeout)
         finally:
             with self._lock:
@@ -315,8 +315,25 @@ class Monitor:
             unreadable = self._unreadable
         if unreadable is not None and unreadable[0] >= started:
             return f"unreadable verdict from the monitor: {unreadable[1]}"
+        if self._closed:
+            return CLOSED
         key = keys.proposal_key(self.vehicle)
-        return _too_late(key, timeout) if self._publisher.matching_status.matching else self._unserved(key)
+        return _too_late(key, timeout) if self._matching(self._publisher) else self._unserved(key)
+
+    def _put(self, payload: bytes) -> bool:
+        """Publish a proposal; False, unsent, once closed. Under the lock close() undeclares the publisher with:
+        pyo3 refused to undeclare it while another thread's put held it ("Already borrowed"), and close() raised,
+        leaving the session open and the publisher putting."""
+        with self._entities:
+            if self._closed:
+                return False
+            self._publisher.put(payload)
+            return True
+
+    def _matching(self, entity) -> bool:
+        """Whether zenoh knows of a monitor for the publisher's or querier's key; False once closed (see _put)."""
+        with self._entities:
+            return not self._closed and entity.matching_status.matching
 
     def _probe(self, timeout: float) -> bool:
         """Whether a monitor answers a probe for this vehicle within `timeout` (one refused by access control never
@@ -387,20 +404,20 @@ def _close_unclosed() -> None:
 threading._register_atexit(_close_unclosed)  # the hook concurrent.futures uses for the same reason
 
 
-def _close_session(session: zenoh.Session, declared: list, key: int) -> None:
+def _close_session(session: zenoh.Session, declared: list, entities: threading.Lock, key: int) -> None:
     """Undeclare what the session declared, then close it. A session closed with its publisher, querier or
     subscriber still declared kept a shared-memory mapping (/dev/shm) open: one file descriptor per Monitor."""
     _OPEN.pop(key, None)
-    for entity in declared:
+    with entities:
+        for entity in declared:
+            try:
+                entity.undeclare()
+            except zenoh.ZError:  # already gone with the session
+                pass
         try:
-            entity.undeclare()
-        except zenoh.ZError:  # already gone with the session
+            session.close()
+        except zenoh.ZError:
             pass
-    try:
-        session.close()
-    except zenoh.ZError:
-        pass
-
 
 def _weakly(method: Callable) -> Callable:
     """A zenoh callback that does not keep its method's Monitor alive: zenoh holds a subscriber's callback until it
