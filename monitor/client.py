@@ -12,6 +12,7 @@ need be), exactly as the monitor itself does, so the planner's loop has one code
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import logging
@@ -28,6 +29,7 @@ from discern.rules.scene import ID_RULE, JSON_AS_SCHEMA, SCHEMA_VERSION, Action,
 from discern.rules.verdict import Verdict
 
 from . import keys
+from .callback_thread import CallbackThread
 from .config import BUDGET_MAX_MS, DEFAULT_ENDPOINT, ZenohSettings, check_number, uses_tls, without_rust_locations
 from .protocol import (
     RULE_BAD_INPUT,
@@ -72,9 +74,10 @@ class Monitor:
     style="pubsub": `check` publishes on ``discern/<vehicle>/proposal`` and waits for the
     verdict of that frame on ``discern/<vehicle>/verdict``. `publish` sends without waiting.
     In either style `on_verdict` sees every monitor verdict of the vehicle once: the replies
-    to `check` (before `check` returns them) and the verdicts on ``discern/<vehicle>/verdict``;
-    not the fail-safes the client makes up when no verdict comes. An exception it raises is logged
-    with its traceback and changes nothing: `check` still returns the verdict.
+    to `check` and the verdicts on ``discern/<vehicle>/verdict``; not the fail-safes the client makes up
+    when no verdict comes. It is called on a thread of its own, in the order the verdicts came, so that
+    `check` waits for no callback; `close` returns once it has seen those that came before. An exception
+    it raises is logged with its traceback and changes nothing.
     """
 
     def __init__(
@@ -114,11 +117,12 @@ class Monitor:
             raise ValueError(f"cannot connect to {where}: {without_rust_locations(str(exc))}") from None
         self._declared: list = []  # what the session declares, undeclared before it closes
         self._entities = threading.Lock()  # held to use the publisher or querier, and to undeclare them: see _put
+        self._callbacks = CallbackThread(f"on_verdict {vehicle}") if on_verdict is not None else None
         # Closes the session on close(), when the Monitor is collected unclosed, or at exit (an unclosed zenoh session
         # can hang interpreter exit); it holds no reference to the Monitor, so that a dropped one is collected.
         key = next(_KEYS)
         self._finalizer = _OPEN[key] = weakref.finalize(
-            self, _close_session, self.session, self._declared, self._entities, key)
+            self, _close_session, self.session, self._declared, self._entities, self._callbacks, key)
         self._waiting: dict[int, list] = {}  # frame_id -> [event, verdict]
         self._unreadable: Optional[tuple[float, str]] = None  # when the last unreadable verdict came, and why
         self._lock = threading.Lock()
@@ -379,14 +383,9 @@ class Monitor:
         self._notify(verdict)
 
     def _notify(self, verdict: Verdict) -> None:
-        """Hand a verdict to `on_verdict`. A bug in the planner's callback must not cost it the verdict: raised out
-        of `check`, it lost the override it had come with."""
-        if self._on_verdict is None:
-            return
-        try:
-            self._on_verdict(verdict)
-        except Exception:
-            log.exception("on_verdict raised on the verdict of vehicle %r frame %s", verdict.vehicle, verdict.frame_id)
+        """Hand a verdict to `on_verdict`, on its own thread."""
+        if self._callbacks is not None:
+            self._callbacks.put(functools.partial(_call_on_verdict, self._on_verdict, verdict))
 
 
 _OPEN: dict[int, weakref.finalize] = {}  # the finalizers of the Monitors not closed yet, by key
@@ -404,9 +403,12 @@ def _close_unclosed() -> None:
 threading._register_atexit(_close_unclosed)  # the hook concurrent.futures uses for the same reason
 
 
-def _close_session(session: zenoh.Session, declared: list, entities: threading.Lock, key: int) -> None:
-    """Undeclare what the session declared, then close it. A session closed with its publisher, querier or
-    subscriber still declared kept a shared-memory mapping (/dev/shm) open: one file descriptor per Monitor."""
+def _close_session(
+    session: zenoh.Session, declared: list, entities: threading.Lock, callbacks: Optional[CallbackThread], key: int
+) -> None:
+    """Undeclare what the session declared, then close it, and end the on_verdict thread. A session closed with its
+    publisher, querier or subscriber still declared kept a shared-memory mapping (/dev/shm) open: one file descriptor
+    per Monitor. The thread ends outside the `entities` lock: a callback that publishes takes it."""
     _OPEN.pop(key, None)
     with entities:
         for entity in declared:
@@ -418,6 +420,18 @@ def _close_session(session: zenoh.Session, declared: list, entities: threading.L
             session.close()
         except zenoh.ZError:
             pass
+    if callbacks is not None:
+        callbacks.stop()
+
+
+def _call_on_verdict(on_verdict: Callable[[Verdict], None], verdict: Verdict) -> None:
+    """A bug in the planner's callback must not cost it the verdict: raised out of `check`, it lost the override it
+    had come with."""
+    try:
+        on_verdict(verdict)
+    except Exception:
+        log.exception("on_verdict raised on the verdict of vehicle %r frame %s", verdict.vehicle, verdict.frame_id)
+
 
 def _weakly(method: Callable) -> Callable:
     """A zenoh callback that does not keep its method's Monitor alive: zenoh holds a subscriber's callback until it

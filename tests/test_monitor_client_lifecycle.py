@@ -57,6 +57,26 @@ def test_a_monitor_dropped_unclosed_is_collected_and_its_session_closed(style, o
         peer.close()
 
 
+class Planner:
+    """A planner that holds its Monitor and takes its verdicts in a method of its own."""
+
+    def __init__(self, ep: str, style: str):
+        self.monitor = Monitor("planner", connect=[ep], style=style, on_verdict=self.seen)
+
+    def seen(self, verdict) -> None:
+        pass
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_a_planner_dropped_with_its_monitor_unclosed_has_the_session_closed(style):
+    """Its on_verdict refers back to the Monitor: what closes the session must not hold the callback for good."""
+    planner = Planner(endpoint(free_port()), style)
+    session, dropped = planner.monitor.session, weakref.ref(planner.monitor)
+    del planner
+    gc.collect()
+    assert dropped() is None and session.is_closed()
+
+
 @pytest.mark.parametrize("style", ["query", "pubsub"])
 def test_a_planner_that_never_closes_its_monitor_still_exits(style):
     """zenoh runs a subscriber's callback on a thread that is not a daemon: Python waited for it, before its atexit

@@ -132,7 +132,7 @@ def test_on_verdict_sees_every_verdict_of_the_vehicle_once_in_query_style(client
     seen = []
     monitor = client("car_v", on_verdict=seen.append)
     replies = [monitor.check(highway_scene(f, 8), "cruise") for f in range(3)]
-    assert [v.frame_id for v in seen] == [0, 1, 2] and seen == replies  # each reply, before check returned it
+    assert wait_until(lambda: len(seen) >= 3) and seen == replies  # each reply, in order
     monitor.publish(highway_scene(3, 8), "cruise")
     assert wait_until(lambda: len(seen) >= 4)
     assert [v.frame_id for v in seen] == [0, 1, 2, 3]
@@ -152,6 +152,50 @@ def test_an_on_verdict_that_raises_is_logged_and_check_still_returns_the_verdict
     [record] = caplog.records
     assert record.getMessage() == f"on_verdict raised on the verdict of vehicle 'broken_{style}' frame 300"
     assert record.exc_info[0] is RuntimeError
+
+
+@pytest.mark.parametrize("style", ["query", "pubsub"])
+def test_a_slow_on_verdict_keeps_no_check_from_returning_its_verdict(client, style):
+    """Called in a queried check, the callback made the check wait for it, past its timeout; called on zenoh's
+    subscriber thread, it held up the verdicts behind it, and a check over publish/subscribe missed its own."""
+    release = threading.Event()
+    seen = []
+
+    def slow(verdict):
+        release.wait(30)  # bounded, so that a check that does wait for it ends
+        seen.append(verdict.frame_id)
+
+    monitor = client(f"slow_callback_{style}", style=style, on_verdict=slow)
+    verdicts = [monitor.check(highway_scene(f, 8), "cruise") for f in range(2)]
+    seen_by_then = list(seen)
+    release.set()
+    assert [(v.frame_id, v.failsafe) for v in verdicts] == [(0, False), (1, False)], [v.error for v in verdicts]
+    assert seen_by_then == []
+    assert wait_until(lambda: len(seen) == 2) and seen == [0, 1]
+
+
+def test_close_returns_once_on_verdict_has_seen_the_verdicts_that_came_before(client):
+    seen = []
+
+    def until_closed(verdict):
+        wait_until(lambda: monitor.session.is_closed(), timeout=30)
+        time.sleep(0.5)  # still busy well after the session closed: a close() that did not wait has returned
+        seen.append(verdict.frame_id)
+
+    monitor = client("callback_at_close", on_verdict=until_closed)
+    monitor.check(highway_scene(0, 8), "cruise")
+    monitor.close()
+    assert seen == [0]
+
+
+def test_an_on_verdict_that_closes_its_monitor_closes_it(client, caplog):
+    """close() waits for the callbacks before it; from a callback it cannot wait for its own end."""
+    monitor = client("closes_itself", on_verdict=lambda verdict: monitor.close())
+    with caplog.at_level(logging.ERROR, logger="discern.monitor.client"):
+        assert not monitor.check(highway_scene(0, 8), "cruise").failsafe
+        assert wait_until(lambda: monitor.session.is_closed())
+    assert monitor.check(highway_scene(1, 8), "cruise").error == "not sent: this Monitor is closed"
+    assert not caplog.records
 
 
 def test_planner_example_drives_against_the_monitor(monitor):
