@@ -919,3 +919,12 @@ def test_in_the_uk_a_pedestrian_on_the_far_half_of_an_undivided_crossing_is_yiel
     assert uk.decision.value == "override" and "brake.pedestrian_at_crossing" in uk.rules
     assert Reasoner(jurisdiction="uk").decide(crossing(divided=True), "cruise").decision.value == "approve"
     assert decide(crossing(), "cruise").decision.value == "approve"
+
+
+@pytest.mark.parametrize("kind", ["current", "cross_right"])
+def test_a_pedestrian_straight_ahead_on_a_crossing_forbids_speeding_up_as_one_in_the_lane_does(kind):
+    """Cruising towards a pedestrian on a crossing 46 m ahead at 15 m/s was overridden, and accelerating approved:
+    one step faster, the ego closes in on it as on one in its lane."""
+    ahead = scene(speed=15, limit=17.9, zone="road", other_lanes=("cross_right",),
+                  objects=[obj("pedestrian", 0, 46, lane=1, kind=kind, velocity={"x": -1.3, "y": 0.0})])
+    verdict = decide(ahead, "accelerate")
