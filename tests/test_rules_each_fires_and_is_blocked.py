@@ -928,3 +928,17 @@ def test_a_pedestrian_straight_ahead_on_a_crossing_forbids_speeding_up_as_one_in
     ahead = scene(speed=15, limit=17.9, zone="road", other_lanes=("cross_right",),
                   objects=[obj("pedestrian", 0, 46, lane=1, kind=kind, velocity={"x": -1.3, "y": 0.0})])
     verdict = decide(ahead, "accelerate")
+    assert verdict.action.value == "brake" and "acc.lane_not_clear" in verdict.vetoed_by
+
+
+@pytest.mark.parametrize("control", [{"sign": "yield", "intersection": {"type": "four_way", "stage": "arriving", "distance": 46}},
+                                     {"intersection": {"type": "t_intersect", "stage": "arriving", "distance": 46, "road": "minor"}}])
+def test_a_fast_approach_gives_way_to_cross_traffic_it_reaches_within_the_turn_gap_at_its_own_speed(control):
+    """At 20 m/s the ego reaches a crossing 48 m ahead in 2.4 s; a car due there in 3 s held it only once the crossing
+    was within what the turning speed covers in the turn gap (44.7 m), too late to stop at the line."""
+    coming = [obj("car", -45, 48, lane=1, kind="cross_left", velocity={"x": 15.0, "y": 0.0})]
+    fast = scene(speed=20, limit=24.6, zone="road", other_lanes=("cross_left",), objects=coming, **control)
+    verdict = decide(fast, "cruise")
+    assert verdict.action.value == "brake" and {"brake.yield_sign", "brake.minor_road_yield"} & set(verdict.rules)
+    slow = scene(speed=5, limit=24.6, zone="road", other_lanes=("cross_left",), objects=coming, **control)
+    assert decide(slow, "cruise").decision.value == "approve"
