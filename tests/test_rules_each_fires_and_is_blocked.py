@@ -150,7 +150,7 @@ CASES = {
         scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}),
     ),
     "brake.yellow_light_can_stop": (
-        scene(speed=10, light="yellow", intersection={"type": "signaled", "stage": "arriving", "distance": 40}),
+        scene(speed=10, light="yellow", intersection={"type": "signaled", "stage": "arriving", "distance": 32}),
         scene(speed=10, light="yellow", intersection={"type": "signaled", "stage": "arriving", "distance": 12}),
     ),
     "brake.yellow_light_unknown": (scene(light="yellow"), scene(light="green")),
@@ -942,3 +942,14 @@ def test_a_fast_approach_gives_way_to_cross_traffic_it_reaches_within_the_turn_g
     assert verdict.action.value == "brake" and {"brake.yield_sign", "brake.minor_road_yield"} & set(verdict.rules)
     slow = scene(speed=5, limit=24.6, zone="road", other_lanes=("cross_left",), objects=coming, **control)
     assert decide(slow, "cruise").decision.value == "approve"
+
+
+@pytest.mark.parametrize("colour", ["yellow", "red"])
+def test_a_yellow_or_a_red_far_ahead_is_not_braked_for_yet_and_is_once_the_line_comes_near(colour):
+    """A yellow 150 m ahead at 15 m/s forced braking while a red there let the ego cruise."""
+    def light(distance: float):
+        return scene(speed=15, limit=20, zone="road", light=colour,
+                     intersection={"type": "signaled", "stage": "arriving", "distance": distance})
+
+    assert decide(light(150), "cruise").decision.value == "approve"
+    assert decide(light(60), "cruise").action.value == "brake"

@@ -562,7 +562,7 @@ def test_a_steady_yellow_hidden_for_0_4_s_is_still_a_yellow_and_no_flash_when_ba
     lit = [True] * 4 + [False] * 4 + [True] * 2
     frames = tuple(scene(frame=i + 1, timestamp=round(0.1 * i, 1), speed=10.0, limit=13.4,
                          lights=[{"colour": "yellow"}] if on else [],
-                         intersection={**arriving, "distance": 45.0 - i}) for i, on in enumerate(lit))
+                         intersection={**arriving, "distance": 36.0 - i}) for i, on in enumerate(lit))
     for last in range(5, len(frames) + 1):
         verdict = _decide(frames[:last], Action.cruise)
         assert (verdict.decision, verdict.action) == (Decision.override, Action.brake), last
