@@ -196,6 +196,10 @@ def _examples() -> list[Example]:
         return scene(speed=30.0, lane=1, lanes=3, zone="highway", limit=31.3,
                      objects=[obj(1, "car", 3.5, 15.0, 2, vy=offside_speed)])
 
+    def amber(distance: float) -> Scene:
+        return scene(speed=30 * MPH, limit=30 * MPH, lights=[{"colour": "yellow"}],
+                     intersection={"type": "signaled", "stage": "arriving", "distance": distance})
+
     def zebra(divided: bool) -> Scene:
         return scene(speed=10.0, limit=13.4, other_lanes=("oncoming", "cross_right"), divided_road=divided,
                      objects=[obj(1, "pedestrian", 4.5, 12.0, 1, kind="cross_right", vy=0.0)])
@@ -518,6 +522,10 @@ def _examples() -> list[Example]:
                 "On a UK motorway at 30 m/s in the left lane, a car at 22 m/s is 15 m ahead in the lane on the right "
                 "(the near miss: it keeps the ego's pace).",
                 (undertake(22.0),), Action.accelerate, (undertake(30.0),), "uk"),
+        Example("jur.uk.amber_light",
+                "At 30 mph a UK light turns amber 35 m before the line: the ego can stop, braking firmly, though not "
+                "comfortably (the near miss: 20 m before the line it cannot stop, and goes on).",
+                (amber(35.0),), Action.cruise, (amber(20.0),), "uk"),
         Example("jur.uk.zebra_whole_crossing",
                 "A pedestrian stands on a zebra crossing 12 m ahead, on the far half of an undivided UK road (the "
                 "near miss: a central refuge divides the road).",
