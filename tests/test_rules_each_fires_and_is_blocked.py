@@ -953,3 +953,27 @@ def test_a_yellow_or_a_red_far_ahead_is_not_braked_for_yet_and_is_once_the_line_
 
     assert decide(light(150), "cruise").decision.value == "approve"
     assert decide(light(60), "cruise").action.value == "brake"
+
+
+@pytest.mark.parametrize("stage, line", [("arriving", 3.0), ("at", 0.0)])
+def test_a_red_the_ego_could_stop_for_only_inside_the_junction_is_cleared_and_one_it_stops_for_by_the_line_is_not(stage, line):
+    """At 15 m/s braking firmly takes 33.8 m: a brake ordered 3 m before the line ended some 30 m inside the junction.
+    Creeping at 2 m/s it stops 2.3 m past the line, at the crosswalk, and must."""
+    def red(speed: float):
+        return scene(speed=speed, limit=20, zone="road", light="red", intersection={"type": "signaled", "stage": stage, "distance": line})
+
+    assert decide(red(15), "cruise").decision.value == "approve"
+    assert decide(red(15), "accelerate").action.value == "cruise"
+    verdict = decide(red(2), "cruise")
+    assert verdict.action.value == "brake" and "brake.red_light" in verdict.rules
+
+
+def test_a_red_hidden_a_moment_is_cleared_as_one_in_view_where_the_ego_could_stop_only_inside_the_junction():
+    def approach(frame: int, lights: bool, line: float):
+        return scene(speed=15, limit=20, zone="road", frame=frame, light="red" if lights else None,
+                     intersection={"type": "signaled", "stage": "arriving", "distance": line})
+
+    hidden = REASONER.decide(approach(2, False, 2.0), "cruise", history=(approach(1, True, 3.5),))
+    assert hidden.decision.value == "approve"
+    far = REASONER.decide(approach(2, False, 30.0), "cruise", history=(approach(1, True, 31.5),))
+    assert far.action.value == "brake" and "san.memory.red_light" in far.rules
