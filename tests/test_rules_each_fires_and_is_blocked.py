@@ -977,3 +977,16 @@ def test_a_red_hidden_a_moment_is_cleared_as_one_in_view_where_the_ego_could_sto
     assert hidden.decision.value == "approve"
     far = REASONER.decide(approach(2, False, 30.0), "cruise", history=(approach(1, True, 31.5),))
     assert far.action.value == "brake" and "san.memory.red_light" in far.rules
+
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_stopped_in_a_queue_short_of_a_red_the_ego_may_move_up_slowly_to_the_line(jurisdiction):
+    """Standing 12 m short of the line with nothing ahead, accelerating was forbidden for as long as the red lasted."""
+    reasoner = Reasoner(jurisdiction=jurisdiction)
+
+    def red(speed: float, line: float):
+        return scene(speed=speed, limit=13.4, light="red", intersection={"type": "signaled", "stage": "arriving", "distance": line})
+
+    assert reasoner.decide(red(0, 12), "accelerate").decision.value == "approve"
+    assert reasoner.decide(red(4, 8), "accelerate").action.value == "brake"  # the line is near now
+    assert "acc.red_light" in reasoner.decide(red(8, 100), "accelerate").vetoed_by  # too fast to be moving up
