@@ -69,6 +69,7 @@ _SETTINGS = {
     "confirm_ms": ("time that confirms a reading", "s", 1000),
     "track_frames": ("number of frames that establish a track", "", 1),
     "track_ms": ("time that establishes a track", "s", 1000),
+    "window_ms": ("time the window of recent frames spans", "s", 1000),
 }
 _DISTANCE_UNIT = ("m", 100)  # a setting _SETTINGS does not name: a distance in cm
 _SETTING_FORMATS = {"s": "ms", "m": "m", "m/s": "mps", "m/s²": "decel"}  # a setting's unit (_SETTINGS) as a template format

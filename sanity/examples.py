@@ -196,6 +196,16 @@ def _examples() -> list[Example]:
         return scene(speed=30.0, lane=1, lanes=3, zone="highway", limit=31.3,
                      objects=[obj(1, "car", 3.5, 15.0, 2, vy=offside_speed)])
 
+    def amber(distance: float) -> Scene:
+        return scene(speed=30 * MPH, limit=30 * MPH, lights=[{"colour": "yellow"}],
+                     intersection={"type": "signaled", "stage": "arriving", "distance": distance})
+
+    def left_turn_past(pedestrian_ahead: float) -> Scene:
+        return scene(speed=0.0, limit=13.4, intent="enter_left_lane", lights=[{"colour": "green"}],
+                     other_lanes=("oncoming", "cross_left", "sidewalk_left"),
+                     intersection={"type": "signaled", "stage": "at", "distance": 0.0},
+                     objects=[obj(2, "pedestrian", -6.0, pedestrian_ahead, 1, kind="sidewalk_left", vy=0.0)])
+
     def zebra(divided: bool) -> Scene:
         return scene(speed=10.0, limit=13.4, other_lanes=("oncoming", "cross_right"), divided_road=divided,
                      objects=[obj(1, "pedestrian", 4.5, 12.0, 1, kind="cross_right", vy=0.0)])
@@ -424,10 +434,10 @@ def _examples() -> list[Example]:
                 red_then_dark, Action.cruise, steady_red),
         Example("san.memory.yellow_light", "A steady yellow seen a frame ago is hidden now; the ego can still stop before the line.",
                 tuple(scene(frame=i + 1, speed=10.0, limit=13.4, lights=[{"colour": "yellow"}] if i == 0 else [],
-                            intersection={**arriving, "distance": 40.0 - i}) for i in range(2)),
+                            intersection={**arriving, "distance": 30.0 - i}) for i in range(2)),
                 Action.cruise,
                 tuple(scene(frame=i + 1, speed=10.0, limit=13.4, lights=[{"colour": "yellow", "flashing": True}] if i == 0 else [],
-                            intersection={**arriving, "distance": 40.0 - i}) for i in range(2))),
+                            intersection={**arriving, "distance": 30.0 - i}) for i in range(2))),
         Example("san.lights.flashing_yellow_caution", "A yellow light reported flashing.",
                 (scene(speed=9.0, limit=11.0, lights=[{"colour": "yellow", "flashing": True}]),), Action.accelerate,
                 (scene(speed=9.0, limit=11.0, lights=[{"colour": "green"}]),)),
@@ -518,6 +528,14 @@ def _examples() -> list[Example]:
                 "On a UK motorway at 30 m/s in the left lane, a car at 22 m/s is 15 m ahead in the lane on the right "
                 "(the near miss: it keeps the ego's pace).",
                 (undertake(22.0),), Action.accelerate, (undertake(30.0),), "uk"),
+        Example("jur.uk.amber_light",
+                "At 30 mph a UK light turns amber 35 m before the line: the ego can stop, braking firmly, though not "
+                "comfortably (the near miss: 20 m before the line it cannot stop, and goes on).",
+                (amber(35.0),), Action.cruise, (amber(20.0),), "uk"),
+        Example("jur.uk.waiting_to_cross",
+                "Stopped at a green in the UK to turn left, a pedestrian stands on the pavement at the corner of the "
+                "road the ego turns into, 6 m ahead (the near miss: 30 m up the pavement, past the corner).",
+                (left_turn_past(6.0),), Action.turn_left, (left_turn_past(30.0),), "uk"),
         Example("jur.uk.zebra_whole_crossing",
                 "A pedestrian stands on a zebra crossing 12 m ahead, on the far half of an undivided UK road (the "
                 "near miss: a central refuge divides the road).",

@@ -183,8 +183,9 @@ WINDOW_PREDICATES = frozenset({
     ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2), ("track_time", 2), ("remembered_lane", 3),
     ("remembered_velocity", 3), ("remembered_source", 2), ("sensor_still_reads", 4), ("sensor_reads_past", 4),
     ("reported_before", 2), ("ran_beside", 2), ("remembered_conflict", 3), ("lights_frames", 2), ("lights_time", 2),
+    ("crept_at_line", 1),
 })
-WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "track_ms"})
+WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "track_ms", "window_ms"})
 
 
 class WindowProvider:
@@ -217,6 +218,7 @@ class WindowProvider:
                 f"window_param(track_frames,{c.track_frames})."
             )
             out.append(f"window_param(confirm_ms,{round(c.confirm_s * 1000)}).window_param(track_ms,{round(c.track_s * 1000)}).")
+            out.append(f"window_param(window_ms,{round(c.seconds * 1000)}).")
             now, past = self._summary(scene), [self._summary(s) for s in window]
             times = [s.timestamp for s in window] + [scene.timestamp]
             clock = _Clock.of(times, c.untimed_frame_s)
@@ -234,6 +236,10 @@ class WindowProvider:
             at_line = [p.speed for p in past if p.at_line]  # a stop in a queue short of the line is no stop at it
             if at_line:
                 out.append(f"slowest_at_line({min(at_line)}).")
+            speeds = [p.speed for p in past] + [now.speed]
+            if now.at_line and len(at_line) == len(past) and all(a <= b for a, b in zip(speeds, speeds[1:])):
+                # pulling off from the line: its stop may have left the window (def.stopped_at_line)
+                out.append(f"crept_at_line({clock.lasted(0, len(past))}).")
         return "".join(out)
 
     def _summary(self, scene: Scene) -> _Summary:

@@ -131,3 +131,12 @@ def test_what_a_rule_needs_of_a_value_no_fact_gives_reads_as_the_rule_needs_it_n
     assert "rule san.limit.low_confidence needs that perception says how sure it is of the limit sign" in text
     assert "rule brake.roundabout_yield needs that the intersection ahead is a roundabout" in text
     assert "unsure how sure" not in text and "an intersection (" not in text
+
+
+def test_a_stop_line_far_ahead_names_the_headways_travel_its_distance_includes(reasoner):
+    """'farther ahead than the ego needs to stop comfortably' stood over 60.0 m > 67.5 m, where 52.5 m is the stop."""
+    red = scene(speed=15, limit=20, zone="road", light="red", intersection={"type": "signaled", "stage": "arriving", "distance": 60})
+    text = _text(reasoner, red, "cruise")
+    assert ("there is no evidence that the stop line is farther ahead than the ego needs to stop comfortably plus a "
+            "headway's travel at its speed") in text
+    assert "60.0 m > 67.5 m" in text and "braking comfortably, the ego stops within 52.5 m" in text

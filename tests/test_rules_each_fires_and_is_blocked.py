@@ -150,7 +150,7 @@ CASES = {
         scene(speed=0, sign="stop", intersection={"type": "four_way", "stage": "at"}),
     ),
     "brake.yellow_light_can_stop": (
-        scene(speed=10, light="yellow", intersection={"type": "signaled", "stage": "arriving", "distance": 40}),
+        scene(speed=10, light="yellow", intersection={"type": "signaled", "stage": "arriving", "distance": 32}),
         scene(speed=10, light="yellow", intersection={"type": "signaled", "stage": "arriving", "distance": 12}),
     ),
     "brake.yellow_light_unknown": (scene(light="yellow"), scene(light="green")),
@@ -919,3 +919,74 @@ def test_in_the_uk_a_pedestrian_on_the_far_half_of_an_undivided_crossing_is_yiel
     assert uk.decision.value == "override" and "brake.pedestrian_at_crossing" in uk.rules
     assert Reasoner(jurisdiction="uk").decide(crossing(divided=True), "cruise").decision.value == "approve"
     assert decide(crossing(), "cruise").decision.value == "approve"
+
+
+@pytest.mark.parametrize("kind", ["current", "cross_right"])
+def test_a_pedestrian_straight_ahead_on_a_crossing_forbids_speeding_up_as_one_in_the_lane_does(kind):
+    """Cruising towards a pedestrian on a crossing 46 m ahead at 15 m/s was overridden, and accelerating approved:
+    one step faster, the ego closes in on it as on one in its lane."""
+    ahead = scene(speed=15, limit=17.9, zone="road", other_lanes=("cross_right",),
+                  objects=[obj("pedestrian", 0, 46, lane=1, kind=kind, velocity={"x": -1.3, "y": 0.0})])
+    verdict = decide(ahead, "accelerate")
+    assert verdict.action.value == "brake" and "acc.lane_not_clear" in verdict.vetoed_by
+
+
+@pytest.mark.parametrize("control", [{"sign": "yield", "intersection": {"type": "four_way", "stage": "arriving", "distance": 46}},
+                                     {"intersection": {"type": "t_intersect", "stage": "arriving", "distance": 46, "road": "minor"}}])
+def test_a_fast_approach_gives_way_to_cross_traffic_it_reaches_within_the_turn_gap_at_its_own_speed(control):
+    """At 20 m/s the ego reaches a crossing 48 m ahead in 2.4 s; a car due there in 3 s held it only once the crossing
+    was within what the turning speed covers in the turn gap (44.7 m), too late to stop at the line."""
+    coming = [obj("car", -45, 48, lane=1, kind="cross_left", velocity={"x": 15.0, "y": 0.0})]
+    fast = scene(speed=20, limit=24.6, zone="road", other_lanes=("cross_left",), objects=coming, **control)
+    verdict = decide(fast, "cruise")
+    assert verdict.action.value == "brake" and {"brake.yield_sign", "brake.minor_road_yield"} & set(verdict.rules)
+    slow = scene(speed=5, limit=24.6, zone="road", other_lanes=("cross_left",), objects=coming, **control)
+    assert decide(slow, "cruise").decision.value == "approve"
+
+
+@pytest.mark.parametrize("colour", ["yellow", "red"])
+def test_a_yellow_or_a_red_far_ahead_is_not_braked_for_yet_and_is_once_the_line_comes_near(colour):
+    """A yellow 150 m ahead at 15 m/s forced braking while a red there let the ego cruise."""
+    def light(distance: float):
+        return scene(speed=15, limit=20, zone="road", light=colour,
+                     intersection={"type": "signaled", "stage": "arriving", "distance": distance})
+
+    assert decide(light(150), "cruise").decision.value == "approve"
+    assert decide(light(60), "cruise").action.value == "brake"
+
+
+@pytest.mark.parametrize("stage, line", [("arriving", 3.0), ("at", 0.0)])
+def test_a_red_the_ego_could_stop_for_only_inside_the_junction_is_cleared_and_one_it_stops_for_by_the_line_is_not(stage, line):
+    """At 15 m/s braking firmly takes 33.8 m: a brake ordered 3 m before the line ended some 30 m inside the junction.
+    Creeping at 2 m/s it stops 2.3 m past the line, at the crosswalk, and must."""
+    def red(speed: float):
+        return scene(speed=speed, limit=20, zone="road", light="red", intersection={"type": "signaled", "stage": stage, "distance": line})
+
+    assert decide(red(15), "cruise").decision.value == "approve"
+    assert decide(red(15), "accelerate").action.value == "cruise"
+    verdict = decide(red(2), "cruise")
+    assert verdict.action.value == "brake" and "brake.red_light" in verdict.rules
+
+
+def test_a_red_hidden_a_moment_is_cleared_as_one_in_view_where_the_ego_could_stop_only_inside_the_junction():
+    def approach(frame: int, lights: bool, line: float):
+        return scene(speed=15, limit=20, zone="road", frame=frame, light="red" if lights else None,
+                     intersection={"type": "signaled", "stage": "arriving", "distance": line})
+
+    hidden = REASONER.decide(approach(2, False, 2.0), "cruise", history=(approach(1, True, 3.5),))
+    assert hidden.decision.value == "approve"
+    far = REASONER.decide(approach(2, False, 30.0), "cruise", history=(approach(1, True, 31.5),))
+    assert far.action.value == "brake" and "san.memory.red_light" in far.rules
+
+
+@pytest.mark.parametrize("jurisdiction", ["us", "uk"])
+def test_stopped_in_a_queue_short_of_a_red_the_ego_may_move_up_slowly_to_the_line(jurisdiction):
+    """Standing 12 m short of the line with nothing ahead, accelerating was forbidden for as long as the red lasted."""
+    reasoner = Reasoner(jurisdiction=jurisdiction)
+
+    def red(speed: float, line: float):
+        return scene(speed=speed, limit=13.4, light="red", intersection={"type": "signaled", "stage": "arriving", "distance": line})
+
+    assert reasoner.decide(red(0, 12), "accelerate").decision.value == "approve"
+    assert reasoner.decide(red(4, 8), "accelerate").action.value == "brake"  # the line is near now
+    assert "acc.red_light" in reasoner.decide(red(8, 100), "accelerate").vetoed_by  # too fast to be moving up

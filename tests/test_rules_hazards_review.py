@@ -222,7 +222,7 @@ def test_the_ego_does_not_accelerate_towards_a_yellow_light():
 
 def test_decelerations_in_a_justification_read_in_metres_per_second_squared():
     approach = scene(speed=10, limit=13.4, light="yellow",
-                     intersection={"type": "signaled", "stage": "arriving", "distance": 40})
+                     intersection={"type": "signaled", "stage": "arriving", "distance": 32})
     text = REASONERS["us"].decide(approach, "accelerate", explain=True).justification.text
     assert "3.0 m/s² ≤ 6.0 m/s²" in text and "comfortable braking is a deceleration of 3.0 m/s²" in text
     assert "3.0 m/s ≤" not in text

@@ -170,3 +170,33 @@ def test_a_speed_setting_reads_in_the_unit_of_the_packs_signs_too():
 def test_a_route_that_asks_to_pull_over_moves_the_ego_towards_the_kerb_lane_first(reasoner, lane, towards):
     verdict = reasoner.decide(scene(speed=10.0, lanes=2, lane=lane, intent="pull_over"), "pull_over")
     assert verdict.decision.value == "override" and verdict.action.value == towards
+
+
+def test_a_uk_amber_is_stopped_for_wherever_the_ego_can_stop_before_the_line_and_a_us_yellow_only_comfortably():
+    """Highway Code 175: amber means stop unless so close that pulling up might cause an accident. At 30 mph, 35 m
+    from the line, the ego stops in 28.4 m braking firmly, not in the comfortable 43.4 m the US yellow asks."""
+    def amber(distance: float, *objects):
+        return scene(speed=13.41, limit=13.41, lights=[{"colour": "yellow"}], objects=objects,
+                     intersection={"type": "signaled", "stage": "arriving", "distance": distance})
+
+    uk = UK.decide(amber(35.0), "cruise", explain=True)
+    assert uk.action.value == "brake" and "[jur.uk.amber_light]" in uk.justification.text
+    assert US.decide(amber(35.0), "cruise").decision.value == "approve"
+    assert UK.decide(amber(20.0), "cruise").decision.value == "approve"  # it cannot stop before the line
+    close_behind = obj(1, "car", 0.0, -6.0, 1, vy=13.41)  # braking firmly might make it run into the ego
+    assert UK.decide(amber(35.0, close_behind), "cruise").decision.value == "approve"
+
+
+def test_turning_into_a_road_in_the_uk_gives_way_to_a_pedestrian_waiting_at_its_corner_and_the_us_mirror_need_not():
+    """Highway Code H2 (2022): give way to pedestrians crossing or waiting to cross a road into which you turn."""
+    def turning(side: str, ahead: float = 6.0):
+        x = -6.0 if side == "left" else 6.0
+        return scene(speed=0.0, limit=13.4, intent=f"enter_{side}_lane", lights=[{"colour": "green"}],
+                     other_lanes=("oncoming", f"cross_{side}", f"sidewalk_{side}"),
+                     intersection={"type": "signaled", "stage": "at", "distance": 0.0},
+                     objects=[obj(2, "pedestrian", x, ahead, 1, kind=f"sidewalk_{side}", vy=0.0)])
+
+    uk = UK.decide(turning("left"), "turn_left")
+    assert uk.action.value == "brake" and "tl.crossing_user" in uk.vetoed_by
+    assert UK.decide(turning("left", ahead=30.0), "turn_left").decision.value == "approve"  # past the corner
+    assert US.decide(turning("right"), "turn_right").decision.value == "approve"

@@ -10,7 +10,7 @@ import pytest
 from clingo import Function, Number
 
 from discern.rules.engine import reasoner_for
-from discern.rules.scene import Action
+from discern.rules.scene import Action, Scene
 from discern.rules.verdict import Decision
 from discern.sanity import examples
 from discern.sanity.examples import EXAMPLES, fired, obj, scene, sensor
@@ -562,7 +562,7 @@ def test_a_steady_yellow_hidden_for_0_4_s_is_still_a_yellow_and_no_flash_when_ba
     lit = [True] * 4 + [False] * 4 + [True] * 2
     frames = tuple(scene(frame=i + 1, timestamp=round(0.1 * i, 1), speed=10.0, limit=13.4,
                          lights=[{"colour": "yellow"}] if on else [],
-                         intersection={**arriving, "distance": 45.0 - i}) for i, on in enumerate(lit))
+                         intersection={**arriving, "distance": 36.0 - i}) for i, on in enumerate(lit))
     for last in range(5, len(frames) + 1):
         verdict = _decide(frames[:last], Action.cruise)
         assert (verdict.decision, verdict.action) == (Decision.override, Action.brake), last
@@ -835,3 +835,30 @@ def test_the_examples_command_explains_itself_and_names_a_file_it_cannot_fill_in
             examples.main([str(tmp_path / name)])
         err = capsys.readouterr().err
         assert done.value.code == 2 and f"error: {tmp_path / name}: {problem}" in err and "Traceback" not in err
+
+
+# --- one stop at the line per arrival: pulling off slowly, the stop outlives the window's memory of it
+
+def _at_line(speeds: list[float], step: float, **extra) -> tuple[Scene, ...]:
+    return tuple(scene(frame=i + 1, timestamp=round(step * i, 1), speed=v, limit=11.0, intersection=AT_STOP_LINE, **extra)
+                 for i, v in enumerate(speeds))
+
+
+def test_after_a_full_stop_at_a_stop_sign_the_ego_pulling_off_slowly_is_not_stopped_again():
+    """0 to 2 m/s over 3 s at the line: the stop left the 2 s window at 2.5 s, and a second stop was ordered."""
+    frames = _at_line([0.0, 0.3, 0.8, 1.2, 1.5, 1.8, 2.0], 0.5, signs=[{"kind": "stop"}])
+    for last in range(1, len(frames) + 1):
+        assert _decide(frames[:last], Action.accelerate).decision is Decision.approve, last
+
+
+def test_after_a_full_stop_at_a_red_the_ego_creeping_into_its_right_turn_is_not_stopped_again():
+    frames = _at_line([0.0, 0.8, 1.5, 2.0], 1.0, lights=[{"colour": "red"}], intent="enter_right_lane")
+    for last in range(1, len(frames) + 1):
+        assert _decide(frames[:last], Action.turn_right).decision is Decision.approve, last
+
+
+@pytest.mark.parametrize("speeds", [[3.0, 2.0, 1.2, 0.8, 1.0, 1.3],  # slowing at the line, never stopping
+                                    [1.0, 1.2, 1.4]])  # gaining speed at the line for less than a window
+def test_a_rolling_stop_at_the_line_is_still_held_for_a_full_stop(speeds):
+    verdict = _decide(_at_line(speeds, 0.5, signs=[{"kind": "stop"}]), Action.accelerate)
+    assert verdict.action is Action.brake and "brake.stop_sign_full_stop" in verdict.rules
