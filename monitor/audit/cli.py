@@ -225,17 +225,17 @@ def _filters(args: argparse.Namespace) -> Filters:
 def _check_outputs(args: argparse.Namespace, logs: list[str]) -> None:
     """Refuse a report that could not be written before the logs are read, not after a long replay.
 
-    Nor may a report overwrite a log: one of those given, or any *.mcap (`--csv out/*.mcap`, the
-    shell's glob giving its first log to --csv).
+    Nor may a report overwrite a log: one of those given, however spelt (a link to it, hard or symbolic), or any
+    *.mcap (`--csv out/*.mcap`, the shell's glob giving its first log to --csv).
     """
-    inputs = {Path(log).resolve(): log for log in logs}
-    named: dict[Path, str] = {}
+    inputs = {_identity(Path(log)): log for log in logs}
+    named: dict[object, str] = {}
     for flag in ("html", "csv", "json"):
         path = getattr(args, flag)
         if not path:
             continue
         target = Path(path)
-        key = target.resolve()
+        key = _identity(target)
         if key in inputs:
             raise UsageError(f"--{flag} {path}: the report would overwrite the log {inputs[key]}")
         if target.name.lower().endswith(".mcap"):
@@ -249,6 +249,16 @@ def _check_outputs(args: argparse.Namespace, logs: list[str]) -> None:
         if key in named:
             raise UsageError(f"--{named[key]} and --{flag} name the same file {path}: one would overwrite the other")
         named[key] = flag
+
+
+def _identity(path: Path) -> object:
+    """A file however spelt: its device and inode where it exists (a hard link has its file's), else where its
+    resolved path would make it."""
+    try:
+        found = path.stat()
+    except OSError:
+        return path.resolve()
+    return found.st_dev, found.st_ino
 
 
 def _write(path: Optional[str], render: Callable[[], str]) -> None:
