@@ -27,11 +27,14 @@ Each vehicle has channels of its own in a file, and a file holds at most MAX_CHA
 to a fleet that large.
 
 With `keep_bytes` set, each new file makes room: the oldest files named with the
-monitor's id (earlier runs' first, then this run's by index; never the file being
-written) are deleted until its files take at most that, so that they pass it by
-at most the one file filling up. A writer holds a lock on the file it writes, so
-that no other writer's keep_bytes deletes it: two monitors started with the same
-id in one directory (a mistake, said so at start) lose no file being written.
+monitor's id (this run's that hold nothing but status records first, then earlier
+runs', then this run's by index; never the file being written) are deleted until
+its files take at most that, so that they pass it by at most the one file filling
+up. An idle monitor's status records still fill files, by size; they do not
+displace the files of the drive before them. A writer holds a lock on the file it
+writes, so that no other writer's keep_bytes deletes it: two monitors started with
+the same id in one directory (a mistake, said so at start) lose no file being
+written.
 """
 
 from __future__ import annotations
@@ -100,6 +103,7 @@ class McapLogWriter:
         if not os.access(self.directory, os.W_OK | os.X_OK):  # not found out at the first file's odd temporary name
             raise OSError(f"cannot write into the log directory {self.directory}")
         self.files: list[Path] = []  # this run's files still on disk, the one being written last
+        self._status_only: set[Path] = set()  # those of them finished with no record but status records
         self.opened = 0  # files this run opened: the next one's index
         self.deleted = 0  # files deleted to keep within keep_bytes
         self.records = 0
@@ -324,7 +328,10 @@ class McapLogWriter:
                 stat = entry.stat()
             except OSError:
                 continue  # gone meanwhile
-            mine.append(((this_run, int(named.group(3)) if this_run else stat.st_mtime), stat.st_size, entry))
+            # an idle stretch's status records go first: they must not cost the drive logged before them its files
+            status_only = this_run and entry in self._status_only
+            order = int(named.group(3)) if this_run else stat.st_mtime
+            mine.append(((not status_only, this_run, order), stat.st_size, entry))
         mine.sort(key=lambda found: found[0])
         total = sum(size for _, size, _ in mine) + self._stream.tell()
         for _, size, entry in mine:
@@ -344,6 +351,7 @@ class McapLogWriter:
             total -= size
             if entry in self.files:
                 self.files.remove(entry)
+            self._status_only.discard(entry)
 
     def _warn_if_shared(self) -> None:
         """Two monitors with one id in one directory cannot be told apart in the log or the status: say so."""
@@ -366,6 +374,8 @@ class McapLogWriter:
         self._stream.close()
         self._stream = self._writer = None
         self._pending = 0
+        if not self._traffic:
+            self._status_only.add(self.files[-1])
 
 
 def _being_written(path: Path) -> bool:
