@@ -20,7 +20,7 @@ import shutil
 import socket
 import time
 from pathlib import Path
-from typing import Iterable, Optional
+from typing import Iterable, Optional, Union
 
 from mcap.reader import make_reader
 from mcap.writer import Writer
@@ -196,12 +196,12 @@ def tolerant_rules(directory: Path) -> Path:
 
 def rewrite(
     source: Path, targets: list[Path], splits: tuple[int, ...] = (), foreign: bool = False,
-    metadata: Optional[dict[str, str]] = None, version: Optional[int] = None,
+    metadata: Union[None, dict[str, str], list[dict[str, str]]] = None, version: Optional[int] = None,
 ) -> None:
     """Copy a log's messages, in order, into new files with the mcap library (as another recorder would).
 
     Messages after the k-th index in `splits` go to targets[k + 1]: a rotation, where the monitor's would be.
-    `metadata`: a `discern` metadata record for every file, as the monitor writes one.
+    `metadata`: a `discern` metadata record for every file, as the monitor writes one (a list: one per file).
     `version`: the schema version every message that states one states instead (a log of another version).
     """
     with open(source, "rb") as f:
@@ -209,10 +209,10 @@ def rewrite(
     outputs = [open(t, "wb") for t in targets]
     writers = [Writer(o) for o in outputs]
     ids: list[dict] = [{} for _ in targets]
-    for w in writers:
+    for k, w in enumerate(writers):
         w.start(profile="", library="test")
         if metadata is not None:
-            w.add_metadata("discern", metadata)
+            w.add_metadata("discern", metadata[k] if isinstance(metadata, list) else metadata)
     for i, (schema, channel, message) in enumerate(messages):
         k = min(sum(split < i for split in splits), len(targets) - 1)
         w, known = writers[k], ids[k]

@@ -10,12 +10,19 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
+from discern.monitor.log import log_metadata
 from tests.audit_logs import audit, monitor_logs, rewrite
 
 
 @pytest.fixture(scope="module")
 def fleet(tmp_path_factory) -> Path:
     return monitor_logs(tmp_path_factory)["fleet"]
+
+
+@pytest.fixture(scope="module")
+def shadow(tmp_path_factory) -> Path:
+    """Another monitor's log: no copy of the fleet's."""
+    return monitor_logs(tmp_path_factory)["shadow"]
 
 
 def audit_json(capsys, tmp_path, *paths) -> dict:
@@ -53,8 +60,8 @@ def test_a_quiet_replay_still_says_how_much_of_each_file_was_read(capsys, tmp_pa
     assert f"{cut}: truncated, " in out and "stopped: " in out and "no decision would change" in out
 
 
-def test_replay_json_reports_recovered_files(capsys, tmp_path, fleet):
-    data = fleet.read_bytes()
+def test_replay_json_reports_recovered_files(capsys, tmp_path, fleet, shadow):
+    data = shadow.read_bytes()
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(data[: int(len(data) * 0.6)])
     audited = audit_json(capsys, tmp_path, cut, fleet)["files"]
@@ -196,14 +203,40 @@ def test_a_file_given_twice_is_read_once(capsys, tmp_path, fleet):
     assert twice["frames"] == once["frames"] and twice["disagreements"] == once["disagreements"]
 
 
-def test_a_directory_named_like_a_log_inside_a_log_directory_is_walked_and_an_empty_one_named(capsys, tmp_path, fleet):
+def test_a_runs_file_given_twice_from_two_folders_is_read_once_and_said_so(capsys, tmp_path, fleet):
+    """A run pulled into two folders: the same monitor, run and index in their metadata are one file, whatever
+    the path; two that differ (one cut short) are refused, as neither can be told to be the log."""
+    first, second = tmp_path / "upload_a" / fleet.name, tmp_path / "upload_b" / fleet.name
+    for copy in (first, second):
+        copy.parent.mkdir()
+        shutil.copy(fleet, copy)
+    once = audit_json(capsys, tmp_path, first.parent)
+    out = tmp_path / "twice.json"
+    code, _, err = audit(capsys, str(first.parent), str(second.parent), "--json", str(out), "--workers", "1", "-q")
+    twice = json.loads(out.read_text())
+    assert code == 0 and [f["path"] for f in twice["files"]] == [str(first)]
+    assert (twice["frames"], twice["odometry"]) == (once["frames"], once["odometry"])
+    run = log_metadata(fleet)["run"][:8]
+    assert err.splitlines()[0] == (
+        f"discern audit: note: {second} is a copy of {first} (file 0000 of monitor audit-fleet's run {run}): read once")
+    second.write_bytes(fleet.read_bytes()[: fleet.stat().st_size // 2])
+    for mode in ([], ["--replay"]):
+        code, out, err = audit(capsys, str(first.parent), str(second.parent), *mode, "--workers", "1")
+        assert code == 2 and out == ""
+        assert err == (f"discern audit: error: {second} and {first} are both file 0000 of monitor audit-fleet's run "
+                       f"{run}, but they differ: give the one to audit\n")
+
+
+def test_a_directory_named_like_a_log_inside_a_log_directory_is_walked_and_an_empty_one_named(
+        capsys, tmp_path, fleet, shadow):
     run = tmp_path / "run"
     (run / "more.mcap").mkdir(parents=True)
     shutil.copy(fleet, run / "a.mcap")
-    shutil.copy(fleet, run / "more.mcap" / "b.mcap")
+    shutil.copy(shadow, run / "more.mcap" / "b.mcap")
     doc = audit_json(capsys, tmp_path, run)
     assert [f["path"] for f in doc["files"]] == [str(run / "a.mcap"), str(run / "more.mcap" / "b.mcap")]
-    assert doc["frames"] == 2 * audit_json(capsys, tmp_path, fleet)["frames"]
+    each = [audit_json(capsys, tmp_path, log)["frames"] for log in (fleet, shadow)]
+    assert doc["frames"] == sum(each)
     (run / "none.mcap").mkdir()
     for mode in ([], ["--replay"]):
         code, out, err = audit(capsys, str(run), *mode, "--workers", "1")

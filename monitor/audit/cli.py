@@ -7,6 +7,7 @@ decisions, 2 a usage or input error (named on stderr, no traceback).
 from __future__ import annotations
 
 import argparse
+import filecmp
 import sys
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
@@ -21,6 +22,7 @@ from discern.rules.facts import Params
 
 from .aggregate import Aggregates, Filters, Kind, audit_logs
 from .parallel import default_workers
+from .runs import copies
 from .timefmt import parse_time
 
 EXIT_OK, EXIT_CHANGED, EXIT_USAGE = 0, 1, 2
@@ -118,6 +120,7 @@ def _run(args: argparse.Namespace) -> int:
         raise UsageError(f"--workers must be 1 to {MAX_WORKERS}, got {args.workers}")
     filters = _filters(args)
     _check_outputs(args, paths)
+    paths = _read_once(paths)
     if args.replay:
         return _replay(args, paths, filters)
     for flag in ("rules", "window", "jurisdiction", "compare_rules", "param"):
@@ -199,6 +202,19 @@ def _log_paths(logs: Sequence[str]) -> list[str]:
     except ValueError as exc:
         unsaid = "" if logs else " (the log `discern serve` writes by default; name the logs to read)"
         raise UsageError(f"{exc}{unsaid}") from None
+
+
+def _read_once(paths: list[str]) -> list[str]:
+    """A monitor run's file given twice, under two paths (the run pulled into two folders), is read once, and said
+    so; two files that claim to be the same one of a run but differ are refused: which is its log?"""
+    twice = copies(paths)
+    for copy, first, place in twice:
+        which = f"file {place.index:04d} of monitor {place.monitor}'s run {place.short_run}"
+        if not filecmp.cmp(copy, first, shallow=False):
+            raise UsageError(f"{copy} and {first} are both {which}, but they differ: give the one to audit")
+        print(f"discern audit: note: {copy} is a copy of {first} ({which}): read once", file=sys.stderr)
+    dropped = {copy for copy, _, _ in twice}
+    return [path for path in paths if path not in dropped]
 
 
 def _filters(args: argparse.Namespace) -> Filters:

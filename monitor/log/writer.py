@@ -17,10 +17,11 @@ unlinked file, lost. So every flush first checks that the file is still the one
 at its path, and treats it as a disk error if not; the directory is recreated.
 
 Files are named discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap: the run
-(one writer's life, its id also in the file's `discern` metadata) keeps a
-restarted monitor from overwriting a file of the same second, and an audit from
-reading its files as the continuation of the previous run's; the index counts
-the run's files from 0000.
+(one writer's life) keeps a restarted monitor from overwriting a file of the same
+second, and an audit from reading its files as the continuation of the previous
+run's; the index counts the run's files from 0000. The file's `discern` metadata
+records both too (`run` whole, `index`), so that a file renamed or copied away
+still says where it belongs.
 
 Each vehicle has channels of its own in a file, and a file holds at most MAX_CHANNELS (about
 32,000 vehicles): a record that would need one more starts the next file, so no record is lost
@@ -282,6 +283,7 @@ class McapLogWriter:
                     "schema_version": str(SCHEMA_VERSION),
                     "pid": str(os.getpid()),
                     "run": self.run,
+                    "index": str(self.opened),
                     "params": json.dumps(self.params, sort_keys=True),
                     "code": reasoning_code_digest(),
                     **self.setup,
