@@ -73,15 +73,17 @@ def flashing(frame: int, lights: bool = True):
     return scene(frame=frame, objects=(obj("car", 0.0, 40.0, lane=1, emergency_lights=lights),))
 
 
-def serve_log(directory: Path, monitor_id: str, send, **config) -> list[Path]:
-    """Run a monitor logging to `directory` while `send(endpoint)` talks to it; its log files."""
+def serve_log(directory: Path, monitor_id: str, send, log: Optional[dict] = None, **config) -> list[Path]:
+    """Run a monitor logging to `directory` while `send(endpoint)` talks to it; its log files.
+
+    `log`: LogSettings other than a flush every 0.05 s."""
     port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     settings = MonitorConfig(
         monitor_id=monitor_id,
         zenoh=ZenohSettings(listen=[endpoint]),
         workers=1,
-        log=LogSettings(directory=directory, flush_seconds=0.05),
+        log=LogSettings(directory=directory, **{"flush_seconds": 0.05, **(log or {})}),
         **config,
     )
     with MonitorServer(settings) as server:

@@ -76,10 +76,15 @@ class PairingCounts:
     status: int = 0
     unanswered: int = 0  # proposals left without a verdict at the end of their file
     carried: int = 0  # verdicts paired with a proposal an audited lead-in file counted: not unanswered after all
+    # per file, its last status record's (log time, log_files_opened, log_dropped): what its monitor lost (runs.py)
+    last_status: dict[str, tuple[int, int, int]] = field(default_factory=dict)
 
     def merge(self, other: "PairingCounts") -> None:
         for name in self.__dataclass_fields__:
-            setattr(self, name, getattr(self, name) + getattr(other, name))
+            if name != "last_status":
+                setattr(self, name, getattr(self, name) + getattr(other, name))
+        for path, mark in other.last_status.items():
+            self.last_status[path] = max(mark, self.last_status.get(path, mark))
 
     @property
     def refused(self) -> int:
@@ -131,6 +136,9 @@ class Pairing:
             self._refused(record)
         elif kind == "status":
             self.counts.status += 1
+            path, status = str(record.path), record.status
+            mark = (record.log_time_ns, status.log_files_opened, status.log_dropped)
+            self.counts.last_status[path] = max(mark, self.counts.last_status.get(path, mark))
         return None
 
     def finish(self) -> None:

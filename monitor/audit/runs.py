@@ -8,15 +8,17 @@ the monitor gave it; else the run's files go by the time of their first message.
 names no run (older logs, another recorder's copies) goes by its name in its directory, as before.
 
 Two files of one run and index are one file given twice (a run pulled into two folders): read once.
+And what a run's files read leave out of it, every one of them complete: the files its index has no file
+read for, and the records its monitor's own status records say it could not log (gaps).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Sequence
 
-from discern.monitor.log import LOG_NAME, first_log_time_ns, log_metadata
+from discern.monitor.log import LOG_NAME, first_log_time_ns, log_files, log_metadata
 from discern.monitor.log.writer import RUN_CHARS
 
 
@@ -111,3 +113,76 @@ def continues(before: Place, after: Place) -> bool:
         return False
     # named without a run: an older log, whose metadata names its process where the writer wrote one
     return before.run is not None or None in (before.pid, after.pid) or before.pid == after.pid
+
+
+@dataclass(frozen=True)
+class RunGap:
+    """What the files read leave out of a monitor run: its files not read, and the records its monitor lost."""
+
+    monitor: str
+    run: str
+    read: int  # the run's files read
+    missing: int  # its files not read
+    indices: Optional[tuple[int, ...]]  # which: None where the files' indices are not known
+    opened: Optional[int]  # the files it opened, as its last status record read says (log_files_opened)
+    dropped: Optional[int]  # the records it could not log, as that record says (log_dropped)
+
+    def describe(self) -> str:
+        said = []
+        if self.missing:
+            if self.indices is not None:
+                files = "file" + ("s" if self.missing > 1 else "") + " " + _spans(self.indices)
+                said.append(f"{files} {'are' if self.missing > 1 else 'is'} not among the files read")
+            else:
+                said.append(f"{self.missing} of its files are not among the files read")
+            if self.opened is not None:
+                said[-1] += f" (its last status record says it opened {self.opened})"
+        if self.dropped:
+            said.append(f"its monitor dropped {self.dropped} log record{'s' if self.dropped != 1 else ''} "
+                        "(log_dropped in its last status record: a full queue or a disk error)")
+        return f"run {self.run[:RUN_CHARS]} of monitor {self.monitor}: " + "; ".join(said)
+
+
+def _spans(indices: tuple[int, ...]) -> str:
+    """0000-0002, 0005: consecutive indices as one span."""
+    spans: list[list[int]] = []
+    for i in indices:
+        if spans and i == spans[-1][-1] + 1:
+            spans[-1].append(i)
+        else:
+            spans.append([i])
+    return ", ".join(f"{s[0]:04d}" + (f"-{s[-1]:04d}" if len(s) > 1 else "") for s in spans)
+
+
+def gaps(paths: Sequence[str], last_status: dict[str, tuple[int, int, int]]) -> list[RunGap]:
+    """Each run the files given come from that they leave incomplete: a file missing from its sequence (from the
+    first, 0000, to the last read or the last its monitor said it opened), or records its monitor said it dropped.
+
+    `last_status`: per file, its last status record's (log time, log_files_opened, log_dropped); a run's latest
+    counts. Older logs named without a run are left out: each start numbers them from 0000 again.
+    """
+    places = Places()
+    given = [str(p) for p in log_files(paths)]
+    twice = {copy for copy, _, _ in copies(given, places)}
+    runs: dict[tuple, tuple[list[Place], list[tuple[int, int, int]]]] = {}  # run -> its files, their last statuses
+    for path in given:
+        place = places(path)
+        if place is not None and place.run is not None and path not in twice:
+            files, marks = runs.setdefault(place.run_key, ([], []))
+            files.append(place)
+            if path in last_status:
+                marks.append(last_status[path])
+    found = []
+    for files, marks in runs.values():
+        _, opened, dropped = max(marks) if marks else (None, None, None)
+        opened = opened or None  # 0: a status record older than the count
+        indices = {p.index for p in files}
+        if None in indices:
+            missing, which = max(0, (opened or 0) - len(files)), None
+        else:
+            top = max(max(indices), (opened or 0) - 1)
+            which = tuple(i for i in range(top + 1) if i not in indices)
+            missing = len(which)
+        if missing or dropped:
+            found.append(RunGap(files[0].monitor, files[0].run, len(files), missing, which, opened, dropped))
+    return found
