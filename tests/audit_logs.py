@@ -20,7 +20,7 @@ import shutil
 import socket
 import time
 from pathlib import Path
-from typing import Iterable, Optional
+from typing import Iterable, Optional, Union
 
 from mcap.reader import make_reader
 from mcap.writer import Writer
@@ -73,15 +73,17 @@ def flashing(frame: int, lights: bool = True):
     return scene(frame=frame, objects=(obj("car", 0.0, 40.0, lane=1, emergency_lights=lights),))
 
 
-def serve_log(directory: Path, monitor_id: str, send, **config) -> list[Path]:
-    """Run a monitor logging to `directory` while `send(endpoint)` talks to it; its log files."""
+def serve_log(directory: Path, monitor_id: str, send, log: Optional[dict] = None, **config) -> list[Path]:
+    """Run a monitor logging to `directory` while `send(endpoint)` talks to it; its log files.
+
+    `log`: LogSettings other than a flush every 0.05 s."""
     port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     settings = MonitorConfig(
         monitor_id=monitor_id,
         zenoh=ZenohSettings(listen=[endpoint]),
         workers=1,
-        log=LogSettings(directory=directory, flush_seconds=0.05),
+        log=LogSettings(directory=directory, **{"flush_seconds": 0.05, **(log or {})}),
         **config,
     )
     with MonitorServer(settings) as server:
@@ -196,12 +198,12 @@ def tolerant_rules(directory: Path) -> Path:
 
 def rewrite(
     source: Path, targets: list[Path], splits: tuple[int, ...] = (), foreign: bool = False,
-    metadata: Optional[dict[str, str]] = None, version: Optional[int] = None,
+    metadata: Union[None, dict[str, str], list[dict[str, str]]] = None, version: Optional[int] = None,
 ) -> None:
     """Copy a log's messages, in order, into new files with the mcap library (as another recorder would).
 
     Messages after the k-th index in `splits` go to targets[k + 1]: a rotation, where the monitor's would be.
-    `metadata`: a `discern` metadata record for every file, as the monitor writes one.
+    `metadata`: a `discern` metadata record for every file, as the monitor writes one (a list: one per file).
     `version`: the schema version every message that states one states instead (a log of another version).
     """
     with open(source, "rb") as f:
@@ -209,10 +211,10 @@ def rewrite(
     outputs = [open(t, "wb") for t in targets]
     writers = [Writer(o) for o in outputs]
     ids: list[dict] = [{} for _ in targets]
-    for w in writers:
+    for k, w in enumerate(writers):
         w.start(profile="", library="test")
         if metadata is not None:
-            w.add_metadata("discern", metadata)
+            w.add_metadata("discern", metadata[k] if isinstance(metadata, list) else metadata)
     for i, (schema, channel, message) in enumerate(messages):
         k = min(sum(split < i for split in splits), len(targets) - 1)
         w, known = writers[k], ids[k]

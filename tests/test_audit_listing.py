@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import shutil
 from datetime import datetime, timezone
 from fractions import Fraction
@@ -374,6 +375,22 @@ def test_a_report_that_would_overwrite_a_log_is_refused_before_the_logs_are_read
         assert f"--csv {first}: a report named *.mcap could overwrite a log" in err
         assert len(err.strip().splitlines()) == 1
     assert (first.read_bytes(), second.read_bytes()) == before
+
+
+def test_a_report_that_is_a_hard_link_to_a_log_is_refused_as_the_log_it_is(capsys, tmp_path, logs):
+    """A hard link is the log's file under another name: writing the report through it would destroy the log."""
+    run = tmp_path / "run"
+    run.mkdir()
+    log = run / "a.mcap"
+    shutil.copy(logs["fleet"], log)
+    report = tmp_path / "report.csv"
+    os.link(log, report)
+    before = log.read_bytes()
+    for mode in ([], ["--replay"]):
+        code, out, err = audit(capsys, str(run), *mode, "--csv", str(report), "--workers", "1")
+        assert code == 2 and out == ""
+        assert err == f"discern audit: error: --csv {report}: the report would overwrite the log {log}\n"
+    assert log.read_bytes() == before
 
 
 def test_csv_export_has_one_row_per_disagreement(capsys, tmp_path, all_logs):

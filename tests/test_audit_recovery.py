@@ -10,12 +10,21 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from tests.audit_logs import audit, monitor_logs, rewrite
+from discern.monitor.client import Monitor
+from discern.monitor.log import log_metadata, read_log
+from tests.audit_logs import audit, highway, monitor_logs, rewrite, serve_log
+from tests.monitor_process import wait_until
 
 
 @pytest.fixture(scope="module")
 def fleet(tmp_path_factory) -> Path:
     return monitor_logs(tmp_path_factory)["fleet"]
+
+
+@pytest.fixture(scope="module")
+def shadow(tmp_path_factory) -> Path:
+    """Another monitor's log: no copy of the fleet's."""
+    return monitor_logs(tmp_path_factory)["shadow"]
 
 
 def audit_json(capsys, tmp_path, *paths) -> dict:
@@ -53,8 +62,8 @@ def test_a_quiet_replay_still_says_how_much_of_each_file_was_read(capsys, tmp_pa
     assert f"{cut}: truncated, " in out and "stopped: " in out and "no decision would change" in out
 
 
-def test_replay_json_reports_recovered_files(capsys, tmp_path, fleet):
-    data = fleet.read_bytes()
+def test_replay_json_reports_recovered_files(capsys, tmp_path, fleet, shadow):
+    data = shadow.read_bytes()
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(data[: int(len(data) * 0.6)])
     audited = audit_json(capsys, tmp_path, cut, fleet)["files"]
@@ -196,14 +205,104 @@ def test_a_file_given_twice_is_read_once(capsys, tmp_path, fleet):
     assert twice["frames"] == once["frames"] and twice["disagreements"] == once["disagreements"]
 
 
-def test_a_directory_named_like_a_log_inside_a_log_directory_is_walked_and_an_empty_one_named(capsys, tmp_path, fleet):
+def test_a_runs_file_given_twice_from_two_folders_is_read_once_and_said_so(capsys, tmp_path, fleet):
+    """A run pulled into two folders: the same monitor, run and index in their metadata are one file, whatever
+    the path; two that differ (one cut short) are refused, as neither can be told to be the log."""
+    first, second = tmp_path / "upload_a" / fleet.name, tmp_path / "upload_b" / fleet.name
+    for copy in (first, second):
+        copy.parent.mkdir()
+        shutil.copy(fleet, copy)
+    once = audit_json(capsys, tmp_path, first.parent)
+    out = tmp_path / "twice.json"
+    code, _, err = audit(capsys, str(first.parent), str(second.parent), "--json", str(out), "--workers", "1", "-q")
+    twice = json.loads(out.read_text())
+    assert code == 0 and [f["path"] for f in twice["files"]] == [str(first)]
+    assert (twice["frames"], twice["odometry"]) == (once["frames"], once["odometry"])
+    run = log_metadata(fleet)["run"][:8]
+    assert err.splitlines()[0] == (
+        f"discern audit: note: {second} is a copy of {first} (file 0000 of monitor audit-fleet's run {run}): read once")
+    second.write_bytes(fleet.read_bytes()[: fleet.stat().st_size // 2])
+    for mode in ([], ["--replay"]):
+        code, out, err = audit(capsys, str(first.parent), str(second.parent), *mode, "--workers", "1")
+        assert code == 2 and out == ""
+        assert err == (f"discern audit: error: {second} and {first} are both file 0000 of monitor audit-fleet's run "
+                       f"{run}, but they differ: give the one to audit\n")
+
+
+def run_files(source: Path, directory: Path, parts: int) -> list[Path]:
+    """The source log cut into `parts` files of its run, named and recorded as its monitor would have."""
+    with open(source, "rb") as f:
+        count = sum(1 for _ in make_reader(f).iter_messages(log_time_order=False))
+    written = log_metadata(source)
+    names = [directory / f"discern-{written['monitor_id']}-20260101T00000{i}-{written['run'][:8]}-{i:04d}.mcap"
+             for i in range(parts)]
+    directory.mkdir()
+    rewrite(source, names, splits=tuple(count * (i + 1) // parts for i in range(parts - 1)),
+            metadata=[{**written, "index": str(i)} for i in range(parts)])
+    return names
+
+
+def test_a_file_missing_from_a_runs_sequence_is_named_though_every_file_read_is_complete(capsys, tmp_path, fleet):
+    parts = run_files(fleet, tmp_path / "gap", 4)
+    parts[1].unlink()
+    parts[2].unlink()
+    run = log_metadata(fleet)["run"]
+    line = f"incomplete: run {run[:8]} of monitor audit-fleet: files 0001-0002 are not among the files read"
+    for mode in ([], ["--replay"]):
+        reports = {kind: tmp_path / f"report{len(mode)}.{kind}" for kind in ("json", "html")}
+        code, out, err = audit(capsys, str(tmp_path / "gap"), *mode, "--workers", "1", "-q",
+                               *(arg for kind, path in reports.items() for arg in (f"--{kind}", str(path))))
+        assert code in (0, 1) and out.count(": complete, ") == 2, err
+        assert f"  {line} (its last status record says it opened 1)\n" in out
+        doc = json.loads(reports["json"].read_text())
+        assert doc["incomplete_runs"] == [{"monitor": "audit-fleet", "run": run, "files_read": 2, "files_missing": 2,
+                                           "missing_indices": [1, 2], "log_files_opened": 1, "log_dropped": 0}]
+        assert line in reports["html"].read_text()
+    assert "incomplete" not in audit(capsys, str(fleet), "--workers", "1", "-q")[1]  # a whole run: nothing to say
+
+
+def test_a_log_whose_directory_was_deleted_mid_drive_is_said_to_miss_a_file_and_the_records_its_monitor_lost(
+        capsys, tmp_path):
+    """The monitor notices at its next flush and logs on into a new file; its status counts what it lost."""
+    directory = tmp_path / "log"
+
+    def drive(endpoint: str) -> None:
+        with Monitor("car_d", connect=[endpoint], timeout=10.0) as car:
+            for i in range(5):
+                car.check(highway(i), "cruise")
+            [first] = directory.glob("*.mcap")
+            # just after a flush: what comes next goes into the deleted file, until the flush a second later
+            assert wait_until(lambda: sum(r.kind == "verdict" for r in read_log(first)) == 5, step=0.01)
+            shutil.rmtree(directory)
+            for i in range(5, 10):
+                car.check(highway(i), "cruise")
+            assert wait_until(lambda: directory.is_dir() and any(directory.glob("*.mcap")))
+            for i in range(10, 15):
+                car.check(highway(i), "cruise")
+
+    [kept] = serve_log(directory, "gone", drive, log={"flush_seconds": 1.0}, budget_ms=1000.0)
+    last = [r.status for r in read_log(kept) if r.kind == "status"][-1]
+    assert last.log_files_opened == 2 and last.log_dropped >= 10  # car_d's 5 proposals and verdicts at least
+    doc = audit_json(capsys, tmp_path, directory)
+    assert [f["state"] for f in doc["files"]] == ["complete"]
+    [gap] = doc["incomplete_runs"]
+    assert (gap["missing_indices"], gap["log_files_opened"], gap["log_dropped"]) == ([0], 2, last.log_dropped)
+    out = audit(capsys, str(directory), "--workers", "1", "-q")[1]
+    assert (f"file 0000 is not among the files read (its last status record says it opened 2); its monitor dropped "
+            f"{last.log_dropped} log records (log_dropped in its last status record: a full queue or a disk error)\n"
+            in out)
+
+
+def test_a_directory_named_like_a_log_inside_a_log_directory_is_walked_and_an_empty_one_named(
+        capsys, tmp_path, fleet, shadow):
     run = tmp_path / "run"
     (run / "more.mcap").mkdir(parents=True)
     shutil.copy(fleet, run / "a.mcap")
-    shutil.copy(fleet, run / "more.mcap" / "b.mcap")
+    shutil.copy(shadow, run / "more.mcap" / "b.mcap")
     doc = audit_json(capsys, tmp_path, run)
     assert [f["path"] for f in doc["files"]] == [str(run / "a.mcap"), str(run / "more.mcap" / "b.mcap")]
-    assert doc["frames"] == 2 * audit_json(capsys, tmp_path, fleet)["frames"]
+    each = [audit_json(capsys, tmp_path, log)["frames"] for log in (fleet, shadow)]
+    assert doc["frames"] == sum(each)
     (run / "none.mcap").mkdir()
     for mode in ([], ["--replay"]):
         code, out, err = audit(capsys, str(run), *mode, "--workers", "1")

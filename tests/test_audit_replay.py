@@ -282,6 +282,37 @@ def test_a_runs_files_stamped_by_a_clock_set_back_are_read_by_their_index(logs, 
         assert tally.odometer.distance_mm == whole.odometer.distance_mm
 
 
+@pytest.mark.parametrize("recorded", ["run and index", "run only"])
+def test_a_runs_files_renamed_are_read_as_the_sequence_their_metadata_names(capsys, tmp_path, logs, recorded):
+    """An uploader renames a run's files (drive_partN.mcap; here the first sorts last). car_m's overrides rest on a
+    pedestrian seen in frames the first file holds: read as two unrelated files, the second replays as decisions
+    changed that are not. The run and index in their metadata say what they are; without the index (files written
+    before 2026-11-28), the time of their first message orders them."""
+    with open(logs["memory"], "rb") as f:
+        count = sum(1 for _ in make_reader(f).iter_messages(log_time_order=False))
+    written = log_metadata(logs["memory"])
+    directory = tmp_path / "upload"
+    directory.mkdir()
+    parts = [directory / "drive_part2.mcap", directory / "drive_part1.mcap"]
+    metadata = [{**{k: written[k] for k in ("monitor_id", "schema_version", "run")},
+                 **({"index": str(i)} if recorded == "run and index" else {})} for i in range(len(parts))]
+    rewrite(logs["memory"], parts, splits=(count // 2,), metadata=metadata)
+    apart = tmp_path / "apart"
+    apart.mkdir()
+    shutil.copy(parts[1], apart / parts[1].name)
+    code, alone, _ = replay(capsys, tmp_path, str(apart), "--workers", "1")
+    assert code == 1 and alone["changes"]  # without the file before it, its history is lost
+    _, whole, _ = replay(capsys, tmp_path, str(logs["memory"]), "--workers", "1")
+    for workers in ("1", "2"):
+        code, doc, _ = replay(capsys, tmp_path, str(directory), "--workers", workers)
+        assert code == 0 and doc["changes"] == [] and doc["frames"] == whole["frames"]
+        assert [f["path"] for f in doc["files"]] == [str(p) for p in parts]  # in the order the monitor wrote them
+    assert audit_logs([str(directory)]).odometer.distance_mm == audit_logs([str(logs["memory"])]).odometer.distance_mm
+    # given alone, the later file is led in by the file before it in its directory, where its index is known
+    [task] = plan_tasks([str(parts[1])])
+    assert task.lead_in == ((str(parts[0]),) if recorded == "run and index" else ())
+
+
 def test_a_runs_files_spelt_relative_and_absolute_are_read_as_one_sequence(logs, rotated, monkeypatch, tolerant):
     monkeypatch.chdir(rotated[0].parent.parent)
     directory = rotated[0].parent.name

@@ -16,8 +16,8 @@ from mcap.writer import Writer
 
 from discern.monitor.config import LogSettings
 from discern.monitor.example_planner import highway_scene
-from discern.monitor.log import (LOG_NAME, McapLogWriter, RecoveryReport, RejectedInput, first_log_time_ns, read_log,
-                                 vehicle_topic)
+from discern.monitor.log import (LOG_NAME, McapLogWriter, RecoveryReport, RejectedInput, first_log_time_ns,
+                                 log_metadata, read_log, vehicle_topic)
 from discern.monitor.log.channels import STATUS_TOPIC
 from discern.monitor.log.reader import log_files
 from discern.monitor.protocol import RULE_BAD_INPUT, failsafe_verdict
@@ -182,6 +182,37 @@ def test_a_size_to_keep_deletes_the_monitors_oldest_files_first_and_no_one_elses
     report = RecoveryReport()
     frames = [r.proposal.scene.frame_id for r in read_log(writer.files, report)]
     assert frames == list(range(frames[0], 30)) and frames[0] > 0 and all(f.complete for f in report.files)
+
+
+def test_under_a_size_to_keep_an_idle_monitors_status_records_do_not_delete_the_files_of_its_drive(tmp_path):
+    """Status records alone still fill file after file by size; the keep cap deletes those first, not the drive."""
+    settings = LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_bytes=16_384, keep_bytes=80_000,
+                           compression="none")
+    writer = McapLogWriter(settings, "idle")
+    for f in range(2):
+        writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 8)))
+    status = StatusCounters("idle", "*", 50).snapshot()
+    for _ in range(10_000):  # idle: a status record every few ms, until the cap has deleted several files
+        if writer.deleted >= 3:
+            break
+        writer.write(STATUS_TOPIC, "status", status)
+        time.sleep(0.002)
+    writer.close()
+    assert writer.deleted >= 3 and writer.files[0].name.endswith("-0000.mcap")
+    assert [r.proposal.scene.frame_id for r in read_log(writer.files[0]) if r.kind == "proposal"] == [0, 1]
+    assert all({r.kind for r in read_log(path)} == {"status"} for path in writer.files[1:-1])
+
+
+def test_each_file_records_its_run_and_index_among_the_runs_files(tmp_path):
+    """What an audit goes by, so that a file renamed or copied away still says where it belongs."""
+    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_bytes=4096), "rot")
+    for f in range(6):
+        writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 8)))
+        time.sleep(0.05)
+    writer.close()
+    assert len(writer.files) >= 2
+    recorded = [log_metadata(path) for path in writer.files]
+    assert [(m["run"], m["index"]) for m in recorded] == [(writer.run, str(i)) for i in range(len(writer.files))]
 
 
 def test_two_writers_sharing_an_id_are_warned_and_never_delete_each_others_file_being_written(tmp_path, caplog):

@@ -35,6 +35,7 @@ from discern.rules.verdict import Decision, Verdict
 
 from .frames import Frame, FrameTask, PairingCounts, plan_tasks, read_frames
 from .parallel import run_jobs
+from .runs import RunGap, gaps
 from .timefmt import iso
 
 MAX_GAP_S = 5.0
@@ -211,6 +212,7 @@ class Tally:
     last_ns: Optional[int] = None
     counts: PairingCounts = field(default_factory=PairingCounts)
     recovery: list[FileRecovery] = field(default_factory=list)
+    gaps: list[RunGap] = field(default_factory=list)  # the runs the files leave incomplete, once all are merged
 
     def add(self, frame: Frame, filters: Filters) -> None:
         if not filters.frame_selected(frame):
@@ -405,4 +407,5 @@ def audit_logs(paths: list[str], filters: Optional[Filters] = None, workers: int
     jobs = [(task, filters) for task in plan_tasks(paths, parts=max(1, workers))]
     for tally in run_jobs(tally_task, jobs, workers):
         total.merge(tally)
+    total.gaps = gaps(paths, total.counts.last_status)
     return total.finish()

@@ -7,6 +7,7 @@ decisions, 2 a usage or input error (named on stderr, no traceback).
 from __future__ import annotations
 
 import argparse
+import filecmp
 import sys
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
@@ -21,6 +22,7 @@ from discern.rules.facts import Params
 
 from .aggregate import Aggregates, Filters, Kind, audit_logs
 from .parallel import default_workers
+from .runs import copies
 from .timefmt import parse_time
 
 EXIT_OK, EXIT_CHANGED, EXIT_USAGE = 0, 1, 2
@@ -118,6 +120,7 @@ def _run(args: argparse.Namespace) -> int:
         raise UsageError(f"--workers must be 1 to {MAX_WORKERS}, got {args.workers}")
     filters = _filters(args)
     _check_outputs(args, paths)
+    paths = _read_once(paths)
     if args.replay:
         return _replay(args, paths, filters)
     for flag in ("rules", "window", "jurisdiction", "compare_rules", "param"):
@@ -201,6 +204,19 @@ def _log_paths(logs: Sequence[str]) -> list[str]:
         raise UsageError(f"{exc}{unsaid}") from None
 
 
+def _read_once(paths: list[str]) -> list[str]:
+    """A monitor run's file given twice, under two paths (the run pulled into two folders), is read once, and said
+    so; two files that claim to be the same one of a run but differ are refused: which is its log?"""
+    twice = copies(paths)
+    for copy, first, place in twice:
+        which = f"file {place.index:04d} of monitor {place.monitor}'s run {place.short_run}"
+        if not filecmp.cmp(copy, first, shallow=False):
+            raise UsageError(f"{copy} and {first} are both {which}, but they differ: give the one to audit")
+        print(f"discern audit: note: {copy} is a copy of {first} ({which}): read once", file=sys.stderr)
+    dropped = {copy for copy, _, _ in twice}
+    return [path for path in paths if path not in dropped]
+
+
 def _filters(args: argparse.Namespace) -> Filters:
     try:
         # an empty value (an unset shell variable) is a mistake, not the absence of the filter
@@ -225,17 +241,17 @@ def _filters(args: argparse.Namespace) -> Filters:
 def _check_outputs(args: argparse.Namespace, logs: list[str]) -> None:
     """Refuse a report that could not be written before the logs are read, not after a long replay.
 
-    Nor may a report overwrite a log: one of those given, or any *.mcap (`--csv out/*.mcap`, the
-    shell's glob giving its first log to --csv).
+    Nor may a report overwrite a log: one of those given, however spelt (a link to it, hard or symbolic), or any
+    *.mcap (`--csv out/*.mcap`, the shell's glob giving its first log to --csv).
     """
-    inputs = {Path(log).resolve(): log for log in logs}
-    named: dict[Path, str] = {}
+    inputs = {_identity(Path(log)): log for log in logs}
+    named: dict[object, str] = {}
     for flag in ("html", "csv", "json"):
         path = getattr(args, flag)
         if not path:
             continue
         target = Path(path)
-        key = target.resolve()
+        key = _identity(target)
         if key in inputs:
             raise UsageError(f"--{flag} {path}: the report would overwrite the log {inputs[key]}")
         if target.name.lower().endswith(".mcap"):
@@ -249,6 +265,16 @@ def _check_outputs(args: argparse.Namespace, logs: list[str]) -> None:
         if key in named:
             raise UsageError(f"--{named[key]} and --{flag} name the same file {path}: one would overwrite the other")
         named[key] = flag
+
+
+def _identity(path: Path) -> object:
+    """A file however spelt: its device and inode where it exists (a hard link has its file's), else where its
+    resolved path would make it."""
+    try:
+        found = path.stat()
+    except OSError:
+        return path.resolve()
+    return found.st_dev, found.st_ino
 
 
 def _write(path: Optional[str], render: Callable[[], str]) -> None:

@@ -12,10 +12,12 @@ order), which parsed and is logged on `.../proposal`, by its `monitor.bad_input`
 verdict.
 
 Files continue one another only when one monitor process wrote them in turn:
-same directory and monitor id, the same run id in their names (older logs,
-named without one: not two processes in their `discern` metadata) and the
-index one up. A restarted monitor starts a sequence of its own, so no pair, no
-history and no odometry carries across a restart.
+the same monitor and run in their `discern` metadata, wherever they lie and
+whatever they are called, and the index one up (runs.py; older logs, whose
+metadata names no run, by their names: same directory, monitor id and run,
+not two processes in their metadata). A restarted monitor starts a sequence
+of its own, so no pair, no history and no odometry carries across a restart;
+nor across a file missing from a run.
 
 A task reads a stretch of consecutive files of one sequence (that is what runs
 in parallel), pairing across their rotations. The files before the stretch are
@@ -32,13 +34,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
-from discern.monitor.log import (
-    LOG_NAME, LogRecord, RecoveryReport, first_log_time_ns, log_files, log_metadata, read_log
-)
+from discern.monitor.log import LogRecord, RecoveryReport, first_log_time_ns, log_files, read_log
 from discern.monitor.protocol import RULE_BAD_INPUT, InputError
 from discern.monitor.vehicle_state import VehicleState
 from discern.rules.scene import Proposal, Scene
 from discern.rules.verdict import Verdict
+
+from .runs import Places, continues, copies, in_order
 
 LEAD_IN_SLACK_S = 10.0  # of the earlier files read beyond the window: a verdict is never this late
 PENDING_PER_VEHICLE = 256  # proposals waiting for their verdict; more means the log lost verdicts
@@ -74,10 +76,15 @@ class PairingCounts:
     status: int = 0
     unanswered: int = 0  # proposals left without a verdict at the end of their file
     carried: int = 0  # verdicts paired with a proposal an audited lead-in file counted: not unanswered after all
+    # per file, its last status record's (log time, log_files_opened, log_dropped): what its monitor lost (runs.py)
+    last_status: dict[str, tuple[int, int, int]] = field(default_factory=dict)
 
     def merge(self, other: "PairingCounts") -> None:
         for name in self.__dataclass_fields__:
-            setattr(self, name, getattr(self, name) + getattr(other, name))
+            if name != "last_status":
+                setattr(self, name, getattr(self, name) + getattr(other, name))
+        for path, mark in other.last_status.items():
+            self.last_status[path] = max(mark, self.last_status.get(path, mark))
 
     @property
     def refused(self) -> int:
@@ -129,6 +136,9 @@ class Pairing:
             self._refused(record)
         elif kind == "status":
             self.counts.status += 1
+            path, status = str(record.path), record.status
+            mark = (record.log_time_ns, status.log_files_opened, status.log_dropped)
+            self.counts.last_status[path] = max(mark, self.counts.last_status.get(path, mark))
         return None
 
     def finish(self) -> None:
@@ -193,13 +203,16 @@ def plan_tasks(paths: list[str], parts: int = 1, lead_in_s: float = LEAD_IN_SLAC
     many as it takes to reach `lead_in_s` seconds before the task's first message; for the first task,
     the files its monitor run wrote just before the first one given, where they lie beside it: a rotated
     file audited alone still has the history its frames were decided with. Fewer, longer tasks read
-    fewer lead-ins.
+    fewer lead-ins. A run's file given twice (a copy elsewhere) is read where it is first given.
     """
     tasks = []
+    places = Places()
     given = [str(p) for p in log_files(paths)]
+    twice = {copy for copy, _, _ in copies(given, places)}
+    given = [p for p in given if p not in twice]
     audited = set(given)
-    for sequence in _sequences(given):
-        before = _earlier_in_run(sequence[0])
+    for sequence in _sequences(given, places):
+        before = _earlier_in_run(sequence[0], places)
         for stretch in _even_runs(sequence, parts):
             lead_in = _lead_in(before, stretch, lead_in_s)
             tasks.append(FrameTask(tuple(stretch), lead_in, tuple(f for f in lead_in if f in audited)))
@@ -207,22 +220,22 @@ def plan_tasks(paths: list[str], parts: int = 1, lead_in_s: float = LEAD_IN_SLAC
     return tasks
 
 
-def _earlier_in_run(first: str) -> list[str]:
+def _earlier_in_run(first: str, places: Places) -> list[str]:
     """The files the same monitor run wrote right before `first`, in its directory, oldest first (none for a file
-    named without a run)."""
-    named = LOG_NAME.match(Path(first).name)
-    if named is None or named.group(2) is None:
+    whose index is not known: an older log named without a run, a renamed one whose metadata has none)."""
+    place = places(first)
+    if place is None or place.run is None or place.index is None:
         return []
-    index = int(named.group(3))
     siblings: dict[int, str] = {}
     try:
-        entries = list(Path(first).parent.iterdir())
+        entries = sorted(Path(first).parent.iterdir())
     except OSError:
         return []
     for entry in entries:
-        other = LOG_NAME.match(entry.name)
-        if other is not None and other.group(1, 2) == named.group(1, 2) and int(other.group(3)) < index:
-            siblings[int(other.group(3))] = str(entry)
+        other = places(str(entry)) if entry.name.endswith(".mcap") else None
+        if other is not None and other.run_key == place.run_key and other.index is not None:
+            siblings.setdefault(other.index, str(entry))
+    index = place.index
     earlier: list[str] = []
     while index - 1 in siblings:  # back to the first gap
         index -= 1
@@ -230,29 +243,23 @@ def _earlier_in_run(first: str) -> list[str]:
     return earlier
 
 
-def _sequences(files: list[str]) -> list[list[str]]:
-    """The files cut into sequences, each in the order its monitor wrote them, whatever order they were given in.
+def _sequences(files: list[str], places: Places) -> list[list[str]]:
+    """The files cut into sequences, each in the order its monitor wrote them, whatever order they were given in
+    and whatever they are called.
 
-    A monitor run's files are gathered and taken by their index (`audit f2 f1` pairs, counts and
-    replays as `audit f1 f2` does), not by their time stamp: a clock set back while the monitor ran
-    (a vehicle's time synchronised after boot) stamps later files earlier. Older logs, named without
-    a run, go by name, as a directory lists them. The sequences come in the order their first file
-    was given.
+    A monitor run's files are gathered by the run their metadata names and taken in its order (runs.in_order:
+    `audit f2 f1` pairs, counts and replays as `audit f1 f2` does), cut where a file is missing. The
+    sequences come in the order their first file was given.
     """
-    runs: dict[tuple, list[tuple]] = {}  # (resolved directory, monitor, run) -> (order, path); others alone
+    runs: dict[tuple, list[str]] = {}  # run -> its files; a file of no known run alone
     for path in files:
-        named = LOG_NAME.match(Path(path).name)
-        if named is None:
-            runs[(path,)] = [((), path)]
-            continue
-        monitor, run, index = named.groups()
-        order = (int(index),) if run else (Path(path).name,)
-        runs.setdefault((Path(path).parent.resolve(), monitor, run), []).append((order, path))
+        place = places(path)
+        runs.setdefault(place.run_key if place is not None else (path,), []).append(path)
     sequences: list[list[str]] = []
     for run in runs.values():
         start = len(sequences)
-        for _, path in sorted(run):
-            if len(sequences) > start and _same_sequence(sequences[-1][-1], path):
+        for path in in_order(run, places) if len(run) > 1 else run:
+            if len(sequences) > start and continues(places(sequences[-1][-1]), places(path)):
                 sequences[-1].append(path)
             else:
                 sequences.append([path])
@@ -300,21 +307,6 @@ def _size(path: str) -> int:
         return Path(path).stat().st_size
     except OSError:  # missing: read_log reports it
         return 0
-
-
-def _same_sequence(before: str, after: str) -> bool:
-    """Whether `after` is the file the same monitor run wrote next after `before`."""
-    a, b = Path(before), Path(after)
-    ma, mb = LOG_NAME.match(a.name), LOG_NAME.match(b.name)
-    if a.parent.resolve() != b.parent.resolve() or ma is None or mb is None or ma.group(1, 2) != mb.group(1, 2):
-        return False
-    if int(mb.group(3)) != int(ma.group(3)) + 1:  # a restarted monitor numbers its files from 0 again
-        return False
-    if ma.group(2) is not None:
-        return True
-    # named without a run: an older log, whose metadata names its process where the writer wrote one
-    pids = [log_metadata(path).get("pid") for path in (before, after)]
-    return None in pids or pids[0] == pids[1]
 
 
 def read_frames(

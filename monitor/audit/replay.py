@@ -51,6 +51,7 @@ from discern.sanity import WindowConfig, default_providers
 from .aggregate import Filters, scenario_kind
 from .frames import LEAD_IN_SLACK_S, Frame, FrameTask, PairingCounts, plan_tasks, read_frames
 from .parallel import run_jobs
+from .runs import RunGap, gaps
 
 BATCH = 96  # distinct frames grounded together: the per-rule cost is paid once per batch (rules/batch.py)
 CACHE_LIMIT = 100_000  # decided frames kept per worker for reuse, the least recently used dropped first
@@ -114,6 +115,7 @@ class ReplayTally:
     cpu_s: float = 0.0  # worker CPU time for the whole job (reading included)
     counts: PairingCounts = field(default_factory=PairingCounts)
     recovery: list[FileRecovery] = field(default_factory=list)
+    gaps: list[RunGap] = field(default_factory=list)  # the runs the files leave incomplete, once all are merged
 
     def merge(self, other: "ReplayTally") -> None:
         for name in (
@@ -480,6 +482,7 @@ def replay_logs(
             total.merge(tally)
     finally:
         _init_worker(None)  # drop the rules and caches, or a later fork inherits them
+    total.gaps = gaps(list(paths), total.counts.last_status)
     wall = time.perf_counter() - start
     total.changes.sort(key=lambda c: (c.time_ns, c.vehicle))
     return ReplayResult(total, catalog, wall, max(1, min(workers, len(jobs))), compare_rules, filters, window)

@@ -10,7 +10,10 @@ from html import escape
 from discern.monitor.config import MonitorConfig
 
 from .replay import Change, ReplayResult
-from .report import files_html, files_json, page, plural, recovery_lines, spreadsheet_safe, table, verdict_html
+from .report import (
+    files_html, files_json, gap_lines, gaps_html, gaps_json, page, plural, recovery_lines, spreadsheet_safe, table,
+    verdict_html,
+)
 from .timefmt import iso
 
 CSV_FIELDS = [
@@ -73,7 +76,7 @@ def render_text(result: ReplayResult, listing: bool = True) -> str:
     transition; -q leaves out only the changes one by one, as the audit's leaves out its listing: a file cut
     short or unreadable must not go unsaid."""
     t = result.tally
-    lines = ["Logs:"] + ["  " + line for line in recovery_lines(t.recovery)] + headline(result)
+    lines = ["Logs:"] + ["  " + line for line in recovery_lines(t.recovery) + gap_lines(t.gaps)] + headline(result)
     for c in t.changes if listing else ():
         lines.append("")
         lines.append(
@@ -126,6 +129,7 @@ def render_json(result: ReplayResult) -> str:
     t = result.tally
     doc = {
         "files": files_json(t.recovery),
+        "incomplete_runs": gaps_json(t.gaps),
         "catalog": list(result.catalog.dirs),
         "jurisdiction": result.catalog.jurisdiction,
         "window_s": result.window_s,
@@ -152,7 +156,7 @@ def render_json(result: ReplayResult) -> str:
 
 def render_html(result: ReplayResult) -> str:
     t = result.tally
-    parts = [f"<h2>Logs</h2>{files_html(t.recovery)}", "<h2>Summary</h2>"]
+    parts = [f"<h2>Logs</h2>{files_html(t.recovery)}{gaps_html(t.gaps)}", "<h2>Summary</h2>"]
     parts += [f"<p>{escape(line)}</p>" for line in headline(result)]
     parts.append(
         "<h2>Changes by transition</h2>"

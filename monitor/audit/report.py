@@ -15,6 +15,7 @@ from discern.rules.verdict import JustificationNode
 
 from . import plots
 from .aggregate import Aggregates, Disagreement, Filters, Kind, Tally
+from .runs import RunGap
 from .timefmt import iso
 
 CSV_FIELDS = [
@@ -52,6 +53,31 @@ def recovery_lines(files: list[FileRecovery]) -> list[str]:
             line += f"; stopped: {f.stopped_by}"
         out.append(line)
     return out
+
+
+def gap_lines(gaps: list[RunGap]) -> list[str]:
+    """One line per monitor run the files leave incomplete: its files missing, its records lost."""
+    return [f"incomplete: {gap.describe()}" for gap in gaps]
+
+
+def gaps_json(gaps: list[RunGap]) -> list[dict]:
+    """The runs the files leave incomplete, for the audit's and the replay's JSON alike."""
+    return [
+        {
+            "monitor": g.monitor,
+            "run": g.run,
+            "files_read": g.read,
+            "files_missing": g.missing,
+            "missing_indices": list(g.indices) if g.indices is not None else None,
+            "log_files_opened": g.opened,
+            "log_dropped": g.dropped,
+        }
+        for g in gaps
+    ]
+
+
+def gaps_html(gaps: list[RunGap]) -> str:
+    return "".join(f"<p class='warn'>{escape(line)}</p>" for line in gap_lines(gaps))
 
 
 # Below this much driving, a rate per hour or km is a handful of events scaled up: reported, and said to be rough.
@@ -108,7 +134,7 @@ def totals_lines(tally: Tally, agg: Aggregates) -> list[str]:
 def render_text(tally: Tally, agg: Aggregates, filters: Filters, listing: bool = True) -> str:
     """Without `listing` (-q), the tables per rule, pair, kind and vehicle still follow the totals: a log of
     thousands of disagreements is read from them, its one line per disagreement from the CSV or HTML."""
-    lines = ["Logs:"] + ["  " + line for line in recovery_lines(tally.recovery)]
+    lines = ["Logs:"] + ["  " + line for line in recovery_lines(tally.recovery) + gap_lines(tally.gaps)]
     if filters.describe():
         lines.append("filters: " + "; ".join(filters.describe()))
     lines += totals_lines(tally, agg)
@@ -229,6 +255,7 @@ def files_json(files: list[FileRecovery]) -> list[dict]:
 def render_json(tally: Tally, agg: Aggregates, filters: Filters) -> str:
     doc = {
         "files": files_json(tally.recovery),
+        "incomplete_runs": gaps_json(tally.gaps),
         "filters": filters.describe(),
         "frames": tally.frames,
         "decisions": {d: tally.decisions[d] for d in ("approve", *(k.value for k in Kind))},  # zeros too
@@ -356,7 +383,7 @@ def render_html(tally: Tally, agg: Aggregates, filters: Filters, rule_text: dict
               "disagreements per km" + (" (short run: rough)" if _short_run(agg) else "")),
         _card(f"{lat['p99_ms']:.2f} ms" if lat["samples"] else "n/a", "latency p99"),
     ]
-    parts = [f"<h2>Logs</h2>{files_html(tally.recovery)}"]
+    parts = [f"<h2>Logs</h2>{files_html(tally.recovery)}{gaps_html(tally.gaps)}"]
     notes = [gaps_line(tally)] if gaps_line(tally) else []
     if filters.describe():
         notes.append("filters: " + "; ".join(filters.describe()))

@@ -44,7 +44,7 @@ log = logging.getLogger(__name__)
 
 PathLike = Union[str, os.PathLike]
 RECORD_SIZE_LIMIT = 1 << 30
-METADATA_NAME = "discern"  # the writer's metadata record: monitor_id, schema_version, pid, run, params, jurisdiction, window_s
+METADATA_NAME = "discern"  # the writer's metadata record: monitor_id, schema_version, pid, run, index, params, ...
 MAGIC = b"\x89MCAP0\r\n"  # at both ends of an MCAP file
 RECORD_HEADER = 9  # opcode (1 byte) and record length (8)
 FOOTER_BYTES = RECORD_HEADER + 20  # the footer record: summary start, summary offset start, summary CRC
@@ -259,8 +259,8 @@ def first_log_time_ns(path: PathLike) -> Optional[int]:
 
 
 def log_metadata(path: PathLike) -> dict[str, str]:
-    """The writer's `discern` metadata of a file (monitor_id, schema_version, pid, run, params, jurisdiction,
-    window_s); {} when it has none.
+    """The writer's `discern` metadata of a file (monitor_id, schema_version, pid, run, index, params, code,
+    catalog, jurisdiction, window_s); {} when it has none.
 
     The writer puts it right after the header, so only the file's first records are read.
     """

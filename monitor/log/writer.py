@@ -17,21 +17,25 @@ unlinked file, lost. So every flush first checks that the file is still the one
 at its path, and treats it as a disk error if not; the directory is recreated.
 
 Files are named discern-<monitor id>-<UTC stamp>-<run>-<index>.mcap: the run
-(one writer's life, its id also in the file's `discern` metadata) keeps a
-restarted monitor from overwriting a file of the same second, and an audit from
-reading its files as the continuation of the previous run's; the index counts
-the run's files from 0000.
+(one writer's life) keeps a restarted monitor from overwriting a file of the same
+second, and an audit from reading its files as the continuation of the previous
+run's; the index counts the run's files from 0000. The file's `discern` metadata
+records both too (`run` whole, `index`), so that a file renamed or copied away
+still says where it belongs.
 
 Each vehicle has channels of its own in a file, and a file holds at most MAX_CHANNELS (about
 32,000 vehicles): a record that would need one more starts the next file, so no record is lost
 to a fleet that large.
 
 With `keep_bytes` set, each new file makes room: the oldest files named with the
-monitor's id (earlier runs' first, then this run's by index; never the file being
-written) are deleted until its files take at most that, so that they pass it by
-at most the one file filling up. A writer holds a lock on the file it writes, so
-that no other writer's keep_bytes deletes it: two monitors started with the same
-id in one directory (a mistake, said so at start) lose no file being written.
+monitor's id (this run's that hold nothing but status records first, then earlier
+runs', then this run's by index; never the file being written) are deleted until
+its files take at most that, so that they pass it by at most the one file filling
+up. An idle monitor's status records still fill files, by size; they do not
+displace the files of the drive before them. A writer holds a lock on the file it
+writes, so that no other writer's keep_bytes deletes it: two monitors started with
+the same id in one directory (a mistake, said so at start) lose no file being
+written.
 """
 
 from __future__ import annotations
@@ -100,6 +104,7 @@ class McapLogWriter:
         if not os.access(self.directory, os.W_OK | os.X_OK):  # not found out at the first file's odd temporary name
             raise OSError(f"cannot write into the log directory {self.directory}")
         self.files: list[Path] = []  # this run's files still on disk, the one being written last
+        self._status_only: set[Path] = set()  # those of them finished with no record but status records
         self.opened = 0  # files this run opened: the next one's index
         self.deleted = 0  # files deleted to keep within keep_bytes
         self.records = 0
@@ -278,6 +283,7 @@ class McapLogWriter:
                     "schema_version": str(SCHEMA_VERSION),
                     "pid": str(os.getpid()),
                     "run": self.run,
+                    "index": str(self.opened),
                     "params": json.dumps(self.params, sort_keys=True),
                     "code": reasoning_code_digest(),
                     **self.setup,
@@ -324,7 +330,10 @@ class McapLogWriter:
                 stat = entry.stat()
             except OSError:
                 continue  # gone meanwhile
-            mine.append(((this_run, int(named.group(3)) if this_run else stat.st_mtime), stat.st_size, entry))
+            # an idle stretch's status records go first: they must not cost the drive logged before them its files
+            status_only = this_run and entry in self._status_only
+            order = int(named.group(3)) if this_run else stat.st_mtime
+            mine.append(((not status_only, this_run, order), stat.st_size, entry))
         mine.sort(key=lambda found: found[0])
         total = sum(size for _, size, _ in mine) + self._stream.tell()
         for _, size, entry in mine:
@@ -344,6 +353,7 @@ class McapLogWriter:
             total -= size
             if entry in self.files:
                 self.files.remove(entry)
+            self._status_only.discard(entry)
 
     def _warn_if_shared(self) -> None:
         """Two monitors with one id in one directory cannot be told apart in the log or the status: say so."""
@@ -366,6 +376,8 @@ class McapLogWriter:
         self._stream.close()
         self._stream = self._writer = None
         self._pending = 0
+        if not self._traffic:
+            self._status_only.add(self.files[-1])
 
 
 def _being_written(path: Path) -> bool:
