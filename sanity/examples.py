@@ -189,7 +189,8 @@ def _examples() -> list[Example]:
     left_car = [scene(frame=i + 1, speed=12.0, lane=2, lanes=2, limit=15.0,
                       objects=[obj(7, "car", -3.5, -12.8 + 0.8 * i, 1, vy=20.0)]) for i in range(3)]
     lost = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0)
-    lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)])
+    # 12 m behind: the headway a car keeping pace at 12 m/s needs, so the reading alone does not take the lane
+    lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 12.0)])
     radar_lead = obj(2, "car", -3.5, 40.0, 1, vy=20.0)
 
     def undertake(offside_speed: float) -> Scene:
