@@ -24,7 +24,7 @@ from clingo import Symbol, SymbolType
 
 from discern.rules.facts import cm
 from discern.rules.scene import (MAX_ID, DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour,
-                                 ObjectClass, Scene, SensorSide, SignKind, Source)
+                                 ObjectClass, Scene, SensorSide, SignKind, Size, Source)
 
 CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Source.annotation}
 PICTURE = {Source.camera, Source.fused}  # sources that classify signs from a picture (def.read_from_a_picture)
@@ -165,9 +165,18 @@ class Bodies:
         return Bodies.of(reasoner.slicer.static_atoms, reasoner.params.lane_width)
 
     def footprint(self, obj: DetectedObject) -> tuple[float, float]:
-        if obj.size is not None:
-            return obj.size.length, obj.size.width
+        size = _measured_size(obj)
+        if size is not None:
+            return size.length, size.width
         return self.lengths.get(obj.cls, DEFAULT_SIZE), WIDTH.get(obj.cls, DEFAULT_SIZE)
+
+
+def _measured_size(obj: DetectedObject) -> Optional[Size]:
+    """The size perception gives, or None where it gives none or a length or width of 0: a detector may give 0 for a
+    size it does not know, and taken as measured it would make a camera-only car a toy (san.world.size) and a crossing
+    car's body a point (def.crossing_body_ahead)."""
+    size = obj.size
+    return size if size is not None and size.length > 0 and size.width > 0 else None
 
 
 # The predicates `WindowProvider.facts` gives, and the names of its window_param/2 (a test checks both on every
@@ -664,7 +673,8 @@ def _to_gap(centre: float, length: float) -> float:
 def _world_facts(scene: Scene, bodies: Bodies) -> list[str]:
     """Sizes; limit signs that sit inside the outline of an object, and how sure perception was of each reading;
     camera-only vehicles that sit inside the outline of a confirmed object."""
-    out = [f"obj_size({o.id},{cm(o.size.length)},{cm(o.size.width)})." for o in scene.objects if o.size is not None]
+    sizes = [(o.id, _measured_size(o)) for o in scene.objects]
+    out = [f"obj_size({oid},{cm(size.length)},{cm(size.width)})." for oid, size in sizes if size is not None]
     out.extend(f"sign_within({value},{oid})." for value, oid, _ in _signs_within(scene, bodies))
     out.extend(f"sign_confidence({value},{percent})." for value, percent in _confidences(scene).items())
     camera_only = [o for o in scene.objects if o.sources == [Source.camera]]

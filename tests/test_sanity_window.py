@@ -508,6 +508,16 @@ def test_a_truck_driving_across_the_road_reaches_the_ego_path_with_its_length_no
     assert conflict.startswith("predicted_conflict(3,870,")
 
 
+def test_a_size_of_0_in_length_or_width_is_no_size_and_the_class_gives_the_footprint():
+    """A detector may give 0 for a size it does not know: the rules and the outlines get no size, not a point."""
+    unknown = [{"length": 0.0, "width": 0.0}, {"length": 0.0, "width": 1.8}, {"length": 4.4, "width": 0.0}]
+    frame = scene(objects=[obj(i, "car", 0.0, 10.0 * i, 1, size=size) for i, size in enumerate(unknown, 1)]
+                  + [obj(4, "car", 0.0, 40.0, 1, size={"length": 4.4, "width": 1.8})])
+    assert {f for f in facts([frame]) if f.startswith("obj_size(")} == {"obj_size(4,440,180)."}
+    bodies = Bodies.shipped()
+    assert [bodies.footprint(o) for o in frame.objects] == [(4.5, 1.8)] * 3 + [(4.4, 1.8)]
+
+
 def test_the_window_sizes_and_faces_objects_as_its_reasoners_catalog_and_parameters_say(tmp_path):
     """It kept copies of the catalog's tables, held equal to the shipped catalog by tests: a --rules catalog or a
     --param lane_width went unseen by the window's predicted courses and its choice of facing sensor."""
