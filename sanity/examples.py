@@ -207,6 +207,12 @@ def _examples() -> list[Example]:
                 for i in range(4)]
         return (*seen, scene(frame=5, speed=20.0, lane=2, lanes=2, zone="highway", limit=29.0, objects=[radar_lead]))
 
+    def stopped_then_lost(front: float) -> tuple[Scene, ...]:
+        """A standing car 24.8 to 20 m ahead at 12 m/s, camera and radar; then lost, the front radar reading `front` m."""
+        seen = [scene(frame=i + 1, speed=12.0, limit=15.0, objects=[obj(1, "car", 0.0, 24.8 - 1.2 * i, 1, vy=0.0)])
+                for i in range(5)]
+        return (*seen, scene(frame=6, speed=12.0, limit=15.0, sensors=[sensor("front", front)]))
+
     walker = obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5, sources=("camera", "lidar"))
     stroller = obj(3, "pedestrian", 5.5, 22.0, vy=1.2, vx=0.0, sources=("camera", "lidar"))
     pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
@@ -467,6 +473,10 @@ def _examples() -> list[Example]:
                 "Only the camera reported a standing car 60 m ahead for 0.4 s, while the radar reported the car in the "
                 "next lane; now the camera has lost it too (the near miss: the radar had reported it as well).",
                 ghost_then_gone(("camera",)), Action.cruise, ghost_then_gone(("camera", "radar"))),
+        Example("san.memory.range_clears",
+                "The camera loses a car standing 20 m ahead that it and the radar reported; the front radar now reads "
+                "clear road 60 m ahead, so the car is let go (the near miss: the radar reads 19 m, where the car is).",
+                stopped_then_lost(60.0), Action.accelerate, stopped_then_lost(19.0)),
         Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",
                 (scene(speed=8.0, limit=11.0, objects=[walker]),), Action.cruise,
                 (scene(speed=8.0, limit=11.0, objects=[stroller]),)),
