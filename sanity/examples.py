@@ -162,6 +162,12 @@ def _examples() -> list[Example]:
     highway_70 = [scene(frame=i, speed=31.0, zone="highway", limit=70 * MPH, signs=[limit_sign(70)], objects=truck_behind)
                   for i in (1, 2, 3)]
     highway_40 = scene(frame=4, speed=31.0, zone="highway", limit=40 * MPH, signs=[limit_sign(40)], objects=truck_behind)
+
+    def highway_35_then_85(**extra) -> tuple[Scene, ...]:
+        """A highway's 35 mph read in three frames, then a sign taped to read 85 in three; the ego drives 15.6 m/s."""
+        return tuple(scene(frame=i, speed=15.6, zone="highway", limit=None, signs=[limit_sign(35 if i < 4 else 85)],
+                           **extra) for i in range(1, 7))
+
     stop_line = {"type": "unsignaled", "stage": "arriving", "distance": 30.0, "stop_line": True}
     at_stop = {"type": "four_way", "stage": "at", "distance": 0.0}
     arriving = {"type": "four_way", "stage": "arriving", "distance": 12.0}  # within a comfortable stop (def.line_far_ahead)
@@ -236,6 +242,10 @@ def _examples() -> list[Example]:
                 (scene(speed=21.0, zone="road", limit=24.0),)),
         Example("san.limit.implausible", "A taped sign in the city is read as 85 mph; the ego drives 16 m/s.",
                 city_85, Action.accelerate, (scene(speed=16.0, limit=35 * MPH, signs=[limit_sign(35)]),)),
+        Example("san.limit.large_rise",
+                "On a highway a settled 35 mph sign is followed by one taped to read 85 mph, read in three frames; the "
+                "ego drives 15.6 m/s (the near miss: the map gives 85 mph).",
+                highway_35_then_85(), Action.accelerate, highway_35_then_85(map_speed_limit=85 * MPH)),
         Example("san.limit.unconfirmed", "A single frame reads 45 mph in the city, above the usual 35 mph; the ego drives 17 m/s.",
                 (scene(speed=17.0, limit=45 * MPH),), Action.accelerate,
                 (scene(frame=1, speed=17.0, limit=45 * MPH), scene(frame=2, speed=17.0, limit=45 * MPH))),
