@@ -254,6 +254,7 @@ class Reasoner:
                 literal="not recommended(_)", holds=True, kind="absent",
                 text="there is no evidence that any action is recommended: the monitor brakes, the most cautious action"))
 
+        noted_from = len(rules)  # the notes' own rules follow: the summary names them apart
         notes = solved.answer.of("noted", 1)
         brief = (Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=self._static_atoms)
                  if notes and explain else prover)
@@ -273,7 +274,7 @@ class Reasoner:
                                                   rule=rule_id))
             rules.extend(r for r in found if r not in rules)
         # after the notes: the one line names every rule the verdict cites (the audit lists it alone)
-        summary = _summary(decision, proposed, action, recommended, rules, len(vetoing))
+        summary = _summary(decision, proposed, action, recommended, rules, len(vetoing), noted_from)
         justification = Justification(summary=summary, tree=tree)
         justification.text = render_text(justification)
         return Verdict(
@@ -311,11 +312,14 @@ def _atom(name: str, action: Action) -> clingo.Symbol:
 
 
 def _summary(decision: Decision, proposed: Action, action: Action, recommended: Optional[Action], rules: list[str],
-             vetoing: int) -> str:
-    """A veto names the rules that forbid the proposal, then those its proof uses (a hazard, a limit's reading)."""
-    cited = ", ".join(rules[:vetoing] if vetoing else rules) if rules else "no rule"
-    if vetoing and len(rules) > vetoing:
-        cited += f", using {', '.join(rules[vetoing:])}"
+             vetoing: int, noted_from: int) -> str:
+    """A veto names the rules that forbid the proposal, then those its proof uses (a hazard, a limit's reading), and
+    last, apart, the rules of what the sanity layer noted (`rules[noted_from:]`): a car set aside elsewhere in the
+    scene is no reason for the decision."""
+    decided, noted = rules[:noted_from], rules[noted_from:]
+    cited = ", ".join(decided[:vetoing] if vetoing else decided) if decided else "no rule"
+    if vetoing and len(decided) > vetoing:
+        cited += f", using {', '.join(decided[vetoing:])}"
     if decision is Decision.approve:
         line = f"approve {proposed.value}: permitted ({cited})"
     elif decision is Decision.veto:
@@ -324,6 +328,8 @@ def _summary(decision: Decision, proposed: Action, action: Action, recommended: 
         line = f"override {proposed.value} with {action.value}: {proposed.value} is forbidden by {cited}"
     if recommended is not None and recommended is not action:
         line += f"; recommended: {recommended.value}"
+    if noted:
+        line += f"; noted: {', '.join(noted)}"
     return line
 
 

@@ -162,6 +162,12 @@ def _examples() -> list[Example]:
     highway_70 = [scene(frame=i, speed=31.0, zone="highway", limit=70 * MPH, signs=[limit_sign(70)], objects=truck_behind)
                   for i in (1, 2, 3)]
     highway_40 = scene(frame=4, speed=31.0, zone="highway", limit=40 * MPH, signs=[limit_sign(40)], objects=truck_behind)
+
+    def highway_35_then_85(**extra) -> tuple[Scene, ...]:
+        """A highway's 35 mph read in three frames, then a sign taped to read 85 in three; the ego drives 15.6 m/s."""
+        return tuple(scene(frame=i, speed=15.6, zone="highway", limit=None, signs=[limit_sign(35 if i < 4 else 85)],
+                           **extra) for i in range(1, 7))
+
     stop_line = {"type": "unsignaled", "stage": "arriving", "distance": 30.0, "stop_line": True}
     at_stop = {"type": "four_way", "stage": "at", "distance": 0.0}
     arriving = {"type": "four_way", "stage": "arriving", "distance": 12.0}  # within a comfortable stop (def.line_far_ahead)
@@ -189,7 +195,8 @@ def _examples() -> list[Example]:
     left_car = [scene(frame=i + 1, speed=12.0, lane=2, lanes=2, limit=15.0,
                       objects=[obj(7, "car", -3.5, -12.8 + 0.8 * i, 1, vy=20.0)]) for i in range(3)]
     lost = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0)
-    lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)])
+    # 12 m behind: the headway a car keeping pace at 12 m/s needs, so the reading alone does not take the lane
+    lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 12.0)])
     radar_lead = obj(2, "car", -3.5, 40.0, 1, vy=20.0)
 
     def undertake(offside_speed: float) -> Scene:
@@ -216,6 +223,12 @@ def _examples() -> list[Example]:
                 for i in range(4)]
         return (*seen, scene(frame=5, speed=20.0, lane=2, lanes=2, zone="highway", limit=29.0, objects=[radar_lead]))
 
+    def stopped_then_lost(front: float) -> tuple[Scene, ...]:
+        """A standing car 24.8 to 20 m ahead at 12 m/s, camera and radar; then lost, the front radar reading `front` m."""
+        seen = [scene(frame=i + 1, speed=12.0, limit=15.0, objects=[obj(1, "car", 0.0, 24.8 - 1.2 * i, 1, vy=0.0)])
+                for i in range(5)]
+        return (*seen, scene(frame=6, speed=12.0, limit=15.0, sensors=[sensor("front", front)]))
+
     walker = obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5, sources=("camera", "lidar"))
     stroller = obj(3, "pedestrian", 5.5, 22.0, vy=1.2, vx=0.0, sources=("camera", "lidar"))
     pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
@@ -239,6 +252,10 @@ def _examples() -> list[Example]:
                 (scene(speed=21.0, zone="road", limit=24.0),)),
         Example("san.limit.implausible", "A taped sign in the city is read as 85 mph; the ego drives 16 m/s.",
                 city_85, Action.accelerate, (scene(speed=16.0, limit=35 * MPH, signs=[limit_sign(35)]),)),
+        Example("san.limit.large_rise",
+                "On a highway a settled 35 mph sign is followed by one taped to read 85 mph, read in three frames; the "
+                "ego drives 15.6 m/s (the near miss: the map gives 85 mph).",
+                highway_35_then_85(), Action.accelerate, highway_35_then_85(map_speed_limit=85 * MPH)),
         Example("san.limit.unconfirmed", "A single frame reads 45 mph in the city, above the usual 35 mph; the ego drives 17 m/s.",
                 (scene(speed=17.0, limit=45 * MPH),), Action.accelerate,
                 (scene(frame=1, speed=17.0, limit=45 * MPH), scene(frame=2, speed=17.0, limit=45 * MPH))),
@@ -476,6 +493,10 @@ def _examples() -> list[Example]:
                 "Only the camera reported a standing car 60 m ahead for 0.4 s, while the radar reported the car in the "
                 "next lane; now the camera has lost it too (the near miss: the radar had reported it as well).",
                 ghost_then_gone(("camera",)), Action.cruise, ghost_then_gone(("camera", "radar"))),
+        Example("san.memory.range_clears",
+                "The camera loses a car standing 20 m ahead that it and the radar reported; the front radar now reads "
+                "clear road 60 m ahead, so the car is let go (the near miss: the radar reads 19 m, where the car is).",
+                stopped_then_lost(60.0), Action.accelerate, stopped_then_lost(19.0)),
         Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",
                 (scene(speed=8.0, limit=11.0, objects=[walker]),), Action.cruise,
                 (scene(speed=8.0, limit=11.0, objects=[stroller]),)),

@@ -24,7 +24,7 @@ from clingo import Symbol, SymbolType
 
 from discern.rules.facts import cm
 from discern.rules.scene import (MAX_ID, DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour,
-                                 ObjectClass, Scene, SensorSide, SignKind, Source)
+                                 ObjectClass, Scene, SensorSide, SignKind, Size, Source)
 
 CONFIRMING = {Source.radar, Source.lidar, Source.ultrasonic, Source.fused, Source.annotation}
 PICTURE = {Source.camera, Source.fused}  # sources that classify signs from a picture (def.read_from_a_picture)
@@ -90,6 +90,8 @@ class _Summary:
     readings: frozenset[int]
     primary: Optional[int]
     misread: tuple[tuple[int, str], ...]  # limits read from a picture where a stop sign belonged, with the evidence
+    perceived: Optional[int]  # the perceived limit (the scene's speed_limit)
+    stop_evidence: tuple[str, ...]  # what showed a stop sign belonged at the approach, where none was read as one
     on_vehicles: frozenset[int]  # limits read off signs inside a motor vehicle's outline (a sticker, an advert)
     lights: frozenset[LightColour]
     flashing: frozenset[LightColour]
@@ -111,6 +113,8 @@ class _Summary:
             readings=frozenset(_readings(scene)),
             primary=_primary(scene),
             misread=_misread(scene),
+            perceived=cm(scene.speed_limit) if scene.speed_limit is not None else None,
+            stop_evidence=_stop_evidence(scene),
             on_vehicles=frozenset(value for value, _, cls in _signs_within(scene, bodies) if cls in bodies.motor),
             # a lamp of colour "none" (unlit, glare, unreadable) shows no colour: it is no light seen, and does not
             # make a red seen before any less the last colour seen (the core gives it no fact either)
@@ -165,9 +169,18 @@ class Bodies:
         return Bodies.of(reasoner.slicer.static_atoms, reasoner.params.lane_width)
 
     def footprint(self, obj: DetectedObject) -> tuple[float, float]:
-        if obj.size is not None:
-            return obj.size.length, obj.size.width
+        size = _measured_size(obj)
+        if size is not None:
+            return size.length, size.width
         return self.lengths.get(obj.cls, DEFAULT_SIZE), WIDTH.get(obj.cls, DEFAULT_SIZE)
+
+
+def _measured_size(obj: DetectedObject) -> Optional[Size]:
+    """The size perception gives, or None where it gives none or a length or width of 0: a detector may give 0 for a
+    size it does not know, and taken as measured it would make a camera-only car a toy (san.world.size) and a crossing
+    car's body a point (def.crossing_body_ahead)."""
+    size = obj.size
+    return size if size is not None and size.length > 0 and size.width > 0 else None
 
 
 # The predicates `WindowProvider.facts` gives, and the names of its window_param/2 (a test checks both on every
@@ -314,11 +327,18 @@ def _readings(scene: Scene) -> set[int]:
 
 
 def _misread(scene: Scene) -> tuple[tuple[int, str], ...]:
-    """Limits read from a picture while the ego came up to, or stood at, an intersection whose approach the map or
-    a stop line without traffic lights showed stop-controlled (san.stop.evidence_map, san.stop.evidence_line), and
-    no stop sign was read: where the rules took the sign for a stop sign. Cross traffic and a vehicle ahead stopping
-    are the rules' own evidence, worked out in the frame; they are not remembered. Lights seen in other frames of
-    the approach are the window's to weigh (`_limit_facts`)."""
+    """Limits read from a picture where a stop sign belonged (`_stop_evidence`): where the rules took the sign for a
+    stop sign. The perceived limit is weighed against the limit read before it (`_perceived_misreads`)."""
+    values = sorted({cm(s.value) for s in scene.signs
+                     if s.kind is SignKind.speed_limit and s.value is not None and s.source in PICTURE})
+    return tuple((v, e) for v in values for e in _stop_evidence(scene))
+
+
+def _stop_evidence(scene: Scene) -> tuple[str, ...]:
+    """What showed the approach stop-controlled while the ego came up to, or stood at, the intersection and no stop
+    sign was read: the map or a stop line without traffic lights (san.stop.evidence_map, san.stop.evidence_line).
+    Cross traffic and a vehicle ahead stopping are the rules' own evidence, worked out in the frame; they are not
+    remembered. Lights seen in other frames of the approach are the window's to weigh (`_limit_facts`)."""
     x = scene.intersection
     if x is None or x.stage not in (IntersectionStage.arriving, IntersectionStage.at):
         return ()
@@ -328,9 +348,24 @@ def _misread(scene: Scene) -> tuple[tuple[int, str], ...]:
     evidence = ["the_map_marks_it_stop_controlled"] if x.stop_controlled else []
     if x.stop_line and not lit and x.type is not IntersectionType.signaled:
         evidence.append(LINE_EVIDENCE)
-    values = sorted({cm(s.value) for s in scene.signs
-                     if s.kind is SignKind.speed_limit and s.value is not None and s.source in PICTURE})
-    return tuple((v, e) for v in values for e in evidence)
+    return tuple(evidence)
+
+
+def _perceived_misreads(past: list[_Summary], confirm: int) -> list[tuple[tuple[int, str], ...]]:
+    """Per past frame, the perceived limit where the rules took it for a misread stop sign (def.read_here): read
+    where a stop sign belonged, and higher than the limit believed before its run, as a new sign read there is.
+    Without a limit believed before it the rules weigh it against the zone's usual limit, which the window does not
+    know, so it is not remembered: a limit carried on through a long wait at the line is no sign read there."""
+    runs = _runs(p.primary for p in past)
+    found: list[tuple[tuple[int, str], ...]] = [() for _ in past]
+    for k, run in enumerate(runs):
+        held = _believed(runs[:k], confirm)
+        if run.value is None or held is None or run.value <= runs[held].value:
+            continue
+        for j in range(run.first, run.last + 1):
+            if past[j].perceived == run.value:
+                found[j] = tuple((run.value, e) for e in past[j].stop_evidence)
+    return found
 
 
 def _primary(scene: Scene) -> Optional[int]:
@@ -438,7 +473,8 @@ def _run_facts(value: int, run: _Run, clock: _Clock) -> str:
 def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Clock, signalled: list[bool]) -> list[str]:
     """Limits read over the window. `signalled`: whether each past frame was on an approach where a traffic light was
     seen, whose stop line is no evidence of a stop sign."""
-    out = sorted({f"misread_before({v},{e})." for p, lit in zip(past, signalled) for v, e in p.misread
+    misreads = [p.misread + perceived for p, perceived in zip(past, _perceived_misreads(past, confirm))]
+    out = sorted({f"misread_before({v},{e})." for misread, lit in zip(misreads, signalled) for v, e in misread
                   if not (lit and e == LINE_EVIDENCE)})
     out.extend(sorted({f"sign_on_vehicle_before({v})." for p in past for v in p.on_vehicles}))
     here = len(past)  # the current frame's index
@@ -466,7 +502,8 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
     # a misread stop sign, or a sign on a vehicle, says nothing of the limit before the current reading
     # (san.stop.misread_limit, san.world.sign_on_a_vehicle): taken for the limit read before, it would outweigh the
     # real sign read after it
-    before = _believed([run._replace(value=None) if _no_limit_in(past[run.first], run.value, signalled[run.first])
+    before = _believed([run._replace(value=None) if _no_limit_in(past[run.first], misreads[run.first], run.value,
+                                                                 signalled[run.first])
                         else run for run in runs], confirm)
     if before is not None:
         run = runs[before]
@@ -476,10 +513,10 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
     return out
 
 
-def _no_limit_in(frame: _Summary, value: Optional[int], signalled: bool) -> bool:
-    """Whether the rules took the sign that read `value` in this frame for a stop sign, or it was on a vehicle."""
-    return value in frame.on_vehicles or any(v == value and not (signalled and e == LINE_EVIDENCE)
-                                             for v, e in frame.misread)
+def _no_limit_in(frame: _Summary, misread: tuple[tuple[int, str], ...], value: Optional[int], signalled: bool) -> bool:
+    """Whether the rules took the sign that read `value` in this frame (its `misread` values, the perceived limit's
+    among them) for a stop sign, or it was on a vehicle."""
+    return value in frame.on_vehicles or any(v == value and not (signalled and e == LINE_EVIDENCE) for v, e in misread)
 
 
 # --- lights and signs ---------------------------------------------------------
@@ -670,7 +707,8 @@ def _to_gap(centre: float, length: float) -> float:
 def _world_facts(scene: Scene, bodies: Bodies) -> list[str]:
     """Sizes; limit signs that sit inside the outline of an object, and how sure perception was of each reading;
     camera-only vehicles that sit inside the outline of a confirmed object."""
-    out = [f"obj_size({o.id},{cm(o.size.length)},{cm(o.size.width)})." for o in scene.objects if o.size is not None]
+    sizes = [(o.id, _measured_size(o)) for o in scene.objects]
+    out = [f"obj_size({oid},{cm(size.length)},{cm(size.width)})." for oid, size in sizes if size is not None]
     out.extend(f"sign_within({value},{oid})." for value, oid, _ in _signs_within(scene, bodies))
     out.extend(f"sign_confidence({value},{percent})." for value, percent in _confidences(scene).items())
     camera_only = [o for o in scene.objects if o.sources == [Source.camera]]

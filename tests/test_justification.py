@@ -760,6 +760,25 @@ def test_the_provers_arithmetic_is_clingos_32_bit_arithmetic_undefined_where_cli
             evaluate(term, {})
 
 
+def test_the_one_line_summary_names_the_notes_rules_apart_from_those_the_decision_rests_on():
+    """A possible phantom in another lane was listed after "using", as if the override rested on it; the verdict's
+    rules, which the audit reads, still name it."""
+    stopped = obj("car", 0.0, 20.0, vy=0.0, sources=["radar"])  # the camera misses it
+    phantom = obj("car", 3.5, 60.0, lane=3, vy=25.0, sources=["camera"])
+    frame = scene(speed=25.0, lane=2, lanes=3, limit=None, zone="highway", objects=[stopped, phantom])
+    verdict = Reasoner().decide(frame, "cruise")
+    assert verdict.justification.summary == (
+        "override cruise with change_lane_left: cruise is forbidden by cruise.closing_in, cruise.hazard, "
+        "using brake.obstacle_ahead; noted: san.radar.camera_missed, san.radar.phantom")
+    assert verdict.rules[-2:] == ["san.radar.camera_missed", "san.radar.phantom"]
+
+
+def test_an_approval_names_the_notes_rules_after_its_own():
+    verdict = Reasoner().decide(scene(speed=10.0, limit=85 * MPH), "cruise")
+    assert verdict.justification.summary == ("approve cruise: permitted (dec.permitted, cruise.default); "
+                                             "recommended: accelerate; noted: san.limit.implausible")
+
+
 @pytest.mark.parametrize("proposed", ["cruise", "accelerate", "change_lane_left"])
 def test_the_one_line_summary_names_every_rule_the_verdict_cites(proposed):
     """The audit lists a verdict by its summary alone: the sanity layer's rules, added last, are named there too."""

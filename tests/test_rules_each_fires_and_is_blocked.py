@@ -899,8 +899,10 @@ def test_at_a_roundabout_the_ego_gives_way_to_circulating_traffic_from_the_passi
     reasoner = Reasoner(jurisdiction=jurisdiction)
 
     def entry(x: float) -> object:
+        # a limit usual in a city of either country: one above it, where cross traffic goes through, may be a
+        # misread stop sign (def.read_here)
         kind = "cross_left" if x < 0 else "cross_right"
-        return scene(speed=0, intersection={"type": "roundabout", "stage": "at"}, other_lanes=(kind,),
+        return scene(speed=0, limit=13.0, intersection={"type": "roundabout", "stage": "at"}, other_lanes=(kind,),
                      objects=[obj("car", x, 20, lane=1, kind=kind, velocity={"x": -x / 2.5, "y": 0.0})])
 
     circulating = reasoner.decide(entry(25.0 * side), "accelerate")

@@ -76,6 +76,17 @@ def test_mirrored_random_scenes_get_mirrored_decisions():
         assert outcome(UK.decide(mirror_scene(sc), mirror_action(proposed))) == mirrored(US.decide(sc, proposed))
 
 
+@pytest.mark.parametrize("x", [1.75, 3.5, 5.25])
+def test_a_car_on_either_edge_of_the_shoulder_keeps_the_ego_from_pulling_over_citing_the_same_rules_in_the_uk(x):
+    """A car with no lane on the line between the kerb lane and the shoulder, or on the shoulder's outer edge: the
+    shoulder's edges were included on one kerb side and left out on the other, so the US ego pulled over onto a car
+    5.25 m to its right, and the UK ego cited no shoulder for one on the inner line."""
+    sc = scene(lanes=2, lane=2, limit=13.4, objects=[obj(1, "car", x, 12.0, vy=0.0)])
+    us, uk = US.decide(sc, "pull_over"), UK.decide(mirror_scene(sc), "pull_over")
+    assert outcome(uk) == mirrored(us) and uk.rules == us.rules
+    assert "po.kerb_taken" in us.rules
+
+
 def test_mirroring_twice_gives_the_scene_back():
     sc = MIRROR_CASES["turn with a pedestrian crossing"][0]
     assert mirror_scene(mirror_scene(sc)).model_dump(exclude={"notes"}) == sc.model_dump(exclude={"notes"})

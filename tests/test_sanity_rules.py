@@ -224,6 +224,25 @@ def test_a_camera_only_car_of_unlikely_size_is_braked_for_with_no_radar_or_too_c
         assert "san.world.size" not in verdict.rules
 
 
+@pytest.mark.parametrize("size", [{"length": 0.0, "width": 0.0}, {"length": 0.0, "width": 1.8}])
+def test_a_camera_only_car_given_a_size_of_0_is_of_unknown_size_not_a_toy(size):
+    """A detector may give 0 for a size it does not know: taken as measured, it set a car the running radar did not
+    return aside as a toy, and the ego sped up towards it."""
+    car = obj(5, "car", 0.0, 45.0, 2, vy=0.0, sources=("camera",), size=size)
+    radar_car = obj(8, "car", -3.5, 70.0, 1, vy=15.0)  # keeps the radar running
+    verdict = _decide((scene(speed=15.0, limit=17.9, lanes=2, lane=2, objects=[car, radar_car]),), Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert "san.world.size" not in verdict.rules and "san.radar.phantom_caution" in verdict.rules
+
+
+def test_a_crossing_car_given_a_size_of_0_by_0_reaches_across_the_road_as_long_as_its_class():
+    """Its centre is beside the ego's corridor; taken as 0 m long, its body was a point that left the ego's way free."""
+    car = obj(3, "car", -2.6, 8.0, 1, kind="cross_left", vy=0.0, size={"length": 0.0, "width": 0.0})
+    verdict = _decide((scene(speed=8.0, limit=11.0, other_lanes=("cross_left",), objects=[car]),), Action.accelerate)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert "brake.obstacle_ahead" in verdict.rules
+
+
 # --- possible phantoms: close ones are real, far ones cost speed, people are never doubted
 
 RADAR_CAR = obj(2, "car", -3.5, 60.0, 1, vy=15.0)  # keeps the radar running

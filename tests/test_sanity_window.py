@@ -490,6 +490,26 @@ def test_a_limit_sign_read_beside_a_stop_sign_is_no_misread_stop_sign():
     assert any(f.startswith("misread_before") for f in facts(alone))
 
 
+def test_a_perceived_limit_that_rises_where_a_stop_sign_belongs_is_remembered_as_a_misread_and_is_no_prior():
+    """Most stacks carry the limit the camera reads in the perceived limit, with no sign listed: a stop sign read as
+    45 there was taken for the limit once the ego had passed it, and for the limit read before a later reading."""
+    mapped = {"type": "four_way", "stage": "arriving", "distance": 20.0, "stop_controlled": True}
+    limits = [15.6, 15.6, 20.1, 20.1, 20.1, 20.1, 22.4]  # 35 mph settled, the 45 at the approach and after, then 50
+    frames = [at(round(0.1 * i, 1), limit=v, intersection=mapped if i in (2, 3) else None)
+              for i, v in enumerate(limits)]
+    found = facts(frames)
+    assert "misread_before(2010,the_map_marks_it_stop_controlled)." in found
+    assert "prior_limit(1560)." in found and "prior_limit(2010)." not in found
+
+
+def test_a_perceived_limit_carried_on_through_a_stop_controlled_approach_is_no_misread():
+    """Not higher than the limit read before, or with none read before (a long wait at the line): no sign read there."""
+    mapped = {"type": "four_way", "stage": "at", "distance": 0.0, "stop_controlled": True}
+    for limits in ([11.2] * 6, [15.6, 15.6, 11.2, 11.2, 11.2, 11.2]):
+        frames = [at(round(0.1 * i, 1), limit=v, intersection=mapped if i < 5 else None) for i, v in enumerate(limits)]
+        assert not any(f.startswith("misread_before") for f in facts(frames))
+
+
 def test_an_ultrasonic_reading_beyond_its_reach_neither_clears_nor_keeps_a_lost_car(reasoner):
     """A front ultrasonic sensor reading 60 m is no clear road past a lost car 20 m ahead; a radar reading is."""
     seen = [at(0.1 * i, speed=10.0, objects=[obj(7, "car", 0.0, 20.0, 1, vy=10.0)]) for i in range(3)]
@@ -506,6 +526,16 @@ def test_a_truck_driving_across_the_road_reaches_the_ego_path_with_its_length_no
     crossing = scene(speed=8.0, objects=[obj(3, "truck", -15.0, 5.0, 1, kind="cross_left", vy=0.0, vx=10.0)])
     (conflict,) = [f for f in facts([crossing]) if f.startswith("predicted_conflict")]
     assert conflict.startswith("predicted_conflict(3,870,")
+
+
+def test_a_size_of_0_in_length_or_width_is_no_size_and_the_class_gives_the_footprint():
+    """A detector may give 0 for a size it does not know: the rules and the outlines get no size, not a point."""
+    unknown = [{"length": 0.0, "width": 0.0}, {"length": 0.0, "width": 1.8}, {"length": 4.4, "width": 0.0}]
+    frame = scene(objects=[obj(i, "car", 0.0, 10.0 * i, 1, size=size) for i, size in enumerate(unknown, 1)]
+                  + [obj(4, "car", 0.0, 40.0, 1, size={"length": 4.4, "width": 1.8})])
+    assert {f for f in facts([frame]) if f.startswith("obj_size(")} == {"obj_size(4,440,180)."}
+    bodies = Bodies.shipped()
+    assert [bodies.footprint(o) for o in frame.objects] == [(4.5, 1.8)] * 3 + [(4.4, 1.8)]
 
 
 def test_the_window_sizes_and_faces_objects_as_its_reasoners_catalog_and_parameters_say(tmp_path):
