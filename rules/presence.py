@@ -31,7 +31,7 @@ from .catalog import Catalog, static_fact_refused, static_model, static_predicat
 from .clingo_calls import AtomReader, add_facts
 from .controls import PreparedControls
 from .fact_text import is_plain
-from .specialize import Specializer, without_undefined_negations
+from .specialize import Specializer
 from .terms import ANY, Term, match, pattern_signature, pattern_text
 
 UNSEEN = clingo.Function("__unseen")  # derived by a frame's guard rules when an atom matches a pattern left out
@@ -105,9 +105,7 @@ class PresenceSlicer:
         if found is None:
             guards = _guards(sorted(pattern_text(p) for p in cut.absent))
             within = self.catalog.rules_within(cut.present, cut.absent | cut.unmatched)
-            special = self.specializer.program([s for s in within if id(s) not in self._ahead] + guards)
-            given = cut.present | self.static | self.catalog.fact_predicates
-            found = self._programs[cut] = without_undefined_negations(special, given)
+            found = self._programs[cut] = self.specializer.program([s for s in within if id(s) not in self._ahead] + guards)
         return found
 
     def ground(self, names: frozenset[str], text: str) -> clingo.Control:

@@ -136,46 +136,6 @@ class Specializer:
         return None
 
 
-def without_undefined_negations(statements: list[ast.AST], given: frozenset[str]) -> list[ast.AST]:
-    """The statements with each `not p(...)` dropped where no statement among them derives `p` and `given` (the
-    predicates the facts and the static atoms may give) lacks it: it holds, as clingo itself finds, but only after
-    about 3 us of work per rule and frame (measured: 43 such literals in a 50-object frame's 850, 8 % of its grounding).
-    """
-    derived = set(given)
-    for statement in statements:
-        if statement.ast_type != ast.ASTType.Rule:
-            return statements  # a directive (#external, a program part) may give atoms: leave the statements alone
-        derived |= _names_in(statement.head)
-    found = []
-    for statement in statements:
-        body = [literal for literal in statement.body if not _undefined_negation(literal, derived)]
-        found.append(statement if len(body) == len(statement.body) else statement.update(body=body))
-    return found
-
-
-def _undefined_negation(literal: ast.AST, derived: set[str]) -> bool:
-    if literal.ast_type != ast.ASTType.Literal or literal.sign != ast.Sign.Negation:
-        return False
-    atom = literal.atom
-    return (atom.ast_type == ast.ASTType.SymbolicAtom and atom.symbol.ast_type == ast.ASTType.Function
-            and _plain(atom.symbol) and atom.symbol.name not in derived)
-
-
-class _NameFinder(ast.Transformer):
-    def __init__(self):
-        self.names: set[str] = set()
-
-    def visit_SymbolicAtom(self, atom: ast.AST) -> ast.AST:
-        if atom.symbol.ast_type == ast.ASTType.Function:
-            self.names.add(atom.symbol.name)
-        return atom
-
-
-def _names_in(node: ast.AST) -> set[str]:
-    finder = _NameFinder()
-    finder.visit(node)
-    return finder.names
-
 def _plain(term: ast.AST) -> bool:
     """Whether a term is variables, constants and functions alone. Arithmetic is clingo's to judge: where it is
     undefined (`V/0`), clingo drops the rule's instance, even where no static atom is like the literal's others."""

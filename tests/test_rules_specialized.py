@@ -16,7 +16,7 @@ from discern.rules.catalog import static_model
 from discern.rules.engine import Reasoner
 from discern.rules.fact_text import fact_names
 from discern.rules.facts import Params
-from discern.rules.specialize import Specializer, without_undefined_negations
+from discern.rules.specialize import Specializer
 from tests.scenes import scene
 
 
@@ -164,12 +164,3 @@ def test_a_frame_fact_giving_a_parameter_is_refused_alone_as_in_a_batch():
         reasoner.solve_many([frame, frame])
     with pytest.raises(ValueError, match="frame fact param .* cannot be given per frame"):
         reasoner.solve(*frame)
-
-
-def test_a_negation_of_a_predicate_nothing_in_the_slice_gives_is_left_out_and_the_others_stay():
-    statements = []
-    ast.parse_string("a(X) :- b(X); not c(X); not d(X); not e(X). d(X) :- b(X); X > 1.", statements.append)
-    rules = [s for s in statements if s.ast_type == ast.ASTType.Rule]
-    # c: no rule derives it and neither the facts nor the static atoms give it; d: a rule does; e: the facts do
-    assert [str(s) for s in without_undefined_negations(rules, frozenset({"b", "e"}))] == [
-        "a(X) :- b(X); not d(X); not e(X).", "d(X) :- b(X); X > 1."]
