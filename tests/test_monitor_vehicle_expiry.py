@@ -21,7 +21,9 @@ VEHICLES = ("exp_a", "exp_b", "exp_c")
 @pytest.fixture(scope="module")
 def monitor():
     ep = endpoint(free_port())
-    config = MonitorConfig(monitor_id="expiry", zenoh=ZenohSettings(listen=[ep]), window_s=1.5, budget_ms=200)
+    # A budget that the first frames of three vehicles meet, queued on a cold monitor that grounds each of them with
+    # its whole slice, on a loaded 2-core machine: this is about what the monitor forgets, not about its deadline.
+    config = MonitorConfig(monitor_id="expiry", zenoh=ZenohSettings(listen=[ep]), window_s=1.5, budget_ms=1000)
     with MonitorServer(config) as server:
         session = zenoh.open(ZenohSettings(listen=[], connect=[ep]).to_zenoh())
         try:
@@ -62,7 +64,7 @@ def test_a_vehicles_state_is_dropped_after_it_falls_silent_and_a_returning_vehic
     def forgotten():
         return not (set(VEHICLES) & (set(server._vehicles) | set(server._publishers) | set(server._permitted._last)))
 
-    assert wait_until(forgotten, timeout=12)  # window 1.5 s + budget 0.2 s + the margin, swept every second
+    assert wait_until(forgotten, timeout=12)  # window 1.5 s + budget 1 s + the margin, swept every second
     assert server.status().vehicles == 0
     [back] = publish_and_wait(session, VEHICLES[:1], frame=1)  # an older frame: after the silence, a new episode
     assert back.vehicle == VEHICLES[0] and back.frame_id == 1 and not back.failsafe, back.error
