@@ -9,7 +9,6 @@ import argparse
 import logging
 import signal
 import sys
-import threading
 import time
 from typing import Optional
 
@@ -181,13 +180,34 @@ def _fail(command: str, message: str) -> int:
     return 2
 
 
-def _stop_on_signal() -> threading.Event:
+class StopAsked:
+    """Asked for by SIGTERM, SIGINT or SIGHUP: a plain flag, which a signal handler may set safely.
+
+    A handler setting a threading.Event deadlocked: a signal delivered to one of zenoh's threads runs its handler on
+    the main thread at its next bytecode, which could be inside that Event's own wait, holding the lock `set` takes;
+    the monitor then ran on and never stopped (seen with `kill -TERM` on a serve started in the background).
+    """
+
+    def __init__(self):
+        self.asked = False
+
+    def wait(self, seconds: float) -> bool:
+        """Whether a stop was asked for, after `seconds`."""
+        time.sleep(seconds)
+        return self.asked
+
+
+def _stop_on_signal() -> StopAsked:
     """Set on SIGTERM, SIGINT or SIGHUP: from before the monitor starts, so that a stop while it starts is a clean one."""
-    stop = threading.Event()
+    stop = StopAsked()
+
+    def ask(*_) -> None:
+        stop.asked = True
+
     for sig in STOP_SIGNALS:
         if sig == signal.SIGHUP and signal.getsignal(sig) == signal.SIG_IGN:
             continue  # started under nohup, to outlive its terminal: it does
-        signal.signal(sig, lambda *_: stop.set())
+        signal.signal(sig, ask)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)  # one that came while it started: held till now
     return stop
 

@@ -121,3 +121,37 @@ def test_a_hangup_stops_the_monitor_and_its_router_cleanly(tmp_path):
     report = RecoveryReport()
     assert [r.kind for r in read_log([tmp_path], report) if r.vehicle == "car_1"] == ["proposal", "verdict"]
     assert [f.state for f in report.files] == ["complete"], report.summary()
+
+
+# A signal's handler runs on the main thread at whatever line it has reached, also inside the wait for a stop: a
+# handler that took a lock that wait holds (threading.Event.set) deadlocked, and the monitor never stopped.
+STOP_AT_EVERY_LINE = """
+import signal, sys
+from discern.monitor.commands import _stop_on_signal
+
+stop = _stop_on_signal()
+handler = signal.getsignal(signal.SIGTERM)
+busy = False
+
+def at_every_line(frame, event, arg):
+    global busy
+    if event == "line" and not busy:
+        busy = True
+        handler(signal.SIGTERM, frame)
+        busy = False
+    return at_every_line
+
+sys.settrace(at_every_line)
+stop.wait(0.01)
+sys.settrace(None)
+print("stop asked:", stop.wait(0))
+"""
+
+
+def test_a_stop_signal_handled_at_any_line_of_the_wait_for_a_stop_ends_that_wait():
+    try:
+        done = subprocess.run([sys.executable, "-c", STOP_AT_EVERY_LINE], capture_output=True, text=True, timeout=60,
+                              cwd=REPO)
+    except subprocess.TimeoutExpired:
+        raise AssertionError("the stop handler deadlocked inside the wait for a stop") from None
+    assert done.returncode == 0 and done.stdout.strip() == "stop asked: True", done.stderr
