@@ -147,12 +147,18 @@ def test_a_file_still_being_written_is_read_as_it_was_when_opened(tmp_path):
     assert f.state == "truncated" and f.stopped_by.endswith("before its footer (the monitor was killed, or is still writing it)")
 
 
-def test_files_rotate_by_size_and_read_back_in_order(tmp_path):
-    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_bytes=4096), "rot")
-    for f in range(12):
+def rotated_log(directory, frames: int):
+    """A writer that rotates at 4 KiB, given `frames` proposals slowly enough that its flushes fill several files."""
+    writer = McapLogWriter(LogSettings(directory=directory, flush_seconds=0.02, rotate_bytes=4096), "rot")
+    for f in range(frames):
         writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 8)))
         time.sleep(0.05)
     writer.close()
+    return writer
+
+
+def test_files_rotate_by_size_and_read_back_in_order(tmp_path):
+    writer = rotated_log(tmp_path, 12)
     assert len(writer.files) >= 3 and all(p.exists() for p in writer.files)
     report = RecoveryReport()
     frames = [r.proposal.scene.frame_id for r in read_log(tmp_path, report)]
@@ -205,11 +211,7 @@ def test_under_a_size_to_keep_an_idle_monitors_status_records_do_not_delete_the_
 
 def test_each_file_records_its_run_and_index_among_the_runs_files(tmp_path):
     """What an audit goes by, so that a file renamed or copied away still says where it belongs."""
-    writer = McapLogWriter(LogSettings(directory=tmp_path, flush_seconds=0.02, rotate_bytes=4096), "rot")
-    for f in range(6):
-        writer.write(vehicle_topic("v", "proposal"), "proposal", Proposal(action="cruise", scene=highway_scene(f, 8)))
-        time.sleep(0.05)
-    writer.close()
+    writer = rotated_log(tmp_path, 6)
     assert len(writer.files) >= 2
     recorded = [log_metadata(path) for path in writer.files]
     assert [(m["run"], m["index"]) for m in recorded] == [(writer.run, str(i)) for i in range(len(writer.files))]
