@@ -27,7 +27,7 @@ MAX_PARAM_DECEL = 100.0  # m/s², ten times gravity
 MAX_PARAM_SPEED = 50.0  # m/s: a closing speed (up to twice MAX_SPEED_MS) raised by accel_step, times a minute, still fits
 _TIMES = frozenset({"reaction_s", "headway_s", "turn_gap_s"})
 _DECELERATIONS = frozenset({"decel", "heavy_decel"})
-_SPEEDS = frozenset({"stopped_speed", "drift_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop"})
+_SPEEDS = frozenset({"stopped_speed", "drift_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop", "cyclist_speed"})
 
 
 def _largest(name: str) -> float:
@@ -66,6 +66,7 @@ class Params:
     move_over_dist: float = 150.0  # m, an emergency vehicle nearer than this (either way) or a stopped school bus ahead
     caution_speed: float = 6.7056  # m/s (15 mph), the slowest cautious speed (cautious_speed/1)
     caution_drop: float = 8.9408  # m/s (20 mph), how far below the limit caution takes the ego (US Move Over laws)
+    cyclist_speed: float = 8.9408  # m/s (20 mph, AASHTO's design bicyclist), the fastest a cyclist of unknown speed is taken to ride
 
     @classmethod
     def overrides(cls, pairs: list[str]) -> tuple[dict[str, float], list[str]]:

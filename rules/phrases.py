@@ -62,6 +62,7 @@ _SETTINGS = {
     "speed_margin": ("margin allowed over the limit", "m/s", 100), "turn_speed": ("fastest turning speed", "m/s", 100),
     "caution_speed": ("slowest cautious speed", "m/s", 100),
     "caution_drop": ("drop below the limit that caution calls for", "m/s", 100),
+    "cyclist_speed": ("fastest a cyclist of unknown speed is taken to ride", "m/s", 100),
     "stopped_speed": ("speed under which a vehicle counts as stopped", "m/s", 100), "min_gap": ("minimum gap", "m", 100),
     "drift_speed": ("sideways speed at which a vehicle moves into the next lane", "m/s", 100),
     "range_match": ("distance within which a range reading is an object's", "m", 100),

@@ -77,7 +77,34 @@ class LaneKind(str, Enum):
     shoulder = "shoulder"
 
 
+# What each object class is: the scene schema's description of `class` says it, and the catalog's entity hierarchy
+# (rules/catalog/00_entities.lp) reasons with it. A test holds the two lists together.
+OBJECT_CLASSES = {
+    "car": "a passenger car or van (a motor vehicle)",
+    "truck": "a lorry or truck (a heavy motor vehicle, which brakes less hard than a car)",
+    "bus": "a bus or coach (a heavy motor vehicle); one stopped with flashing red lights is a school bus",
+    "bike": "a motorbike: AV-CSR's name for a motorised two-wheeler, a motor vehicle like `motorcycle` (a pedal "
+            "cycle is `bicycle`)",
+    "motorcycle": "a motorcycle, moped or scooter (a motorised two-wheeler, a motor vehicle)",
+    "bicycle": "a pedal cycle and its rider, e-bikes included (a two-wheeler and a vulnerable road user)",
+    "emergency_vehicle": "an ambulance, fire engine or police vehicle (a motor vehicle; its lights are "
+                         "`emergency_lights`)",
+    "pedestrian": "a person on foot (a vulnerable road user)",
+    "animal": "an animal on or near the road (a vulnerable road user)",
+    "traffic_light": "a traffic signal head detected as an object (its colour is given in `traffic_lights`)",
+    "plastic_bag": "a plastic bag or similar light litter, which can be driven over",
+    "roadblock": "a road block closing the road or lane",
+    "barrier": "a barrier, fence or bollard on the road",
+    "traffic_cone": "a traffic cone",
+    "debris": "debris on the road (fallen load, parts, rocks), which cannot be driven over",
+    "unknown": "an object perception cannot classify (taken to be able to move)",
+}
+
+
 class ObjectClass(str, Enum):
+    __doc__ = "What kind of road user or thing an object is. " + "; ".join(
+        f"`{name}`: {words}" for name, words in OBJECT_CLASSES.items()) + "."
+
     car = "car"
     truck = "truck"
     bus = "bus"

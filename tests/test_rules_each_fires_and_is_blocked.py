@@ -405,11 +405,27 @@ CASES = {
         scene(lane=2, lanes=2, intent="pull_over", other_lanes=("shoulder",),
               objects=[obj("truck", 3.5, 80, lane=1, kind="shoulder", vy=0)]),
     ),
+    "def.rear_closing_unknown_rider": (
+        scene(speed=0, intent="enter_right_lane", other_lanes=("shoulder",), intersection=at_stop,
+              objects=[obj("bicycle", 2.6, -18, lane=1, kind="shoulder")]),
+        scene(speed=12, limit=20, intent="enter_right_lane", other_lanes=("shoulder",), intersection=at_stop,
+              objects=[obj("bicycle", 2.6, -18, lane=1, kind="shoulder")]),
+    ),
+    "def.top_pace": (scene(), None),
+    "def.kerb_strip": (scene(speed=4, objects=[obj("bicycle", 2.6, -5)]), scene(speed=4, objects=[obj("bicycle", 6.0, -5)])),
+    "def.shoulder_from_offset": (scene(speed=4, other_lanes=("shoulder",), objects=[obj("bicycle", 2.6, -5)]),
+                                 scene(speed=4, objects=[obj("bicycle", 2.6, -5)])),
+    "def.beside_kerb_lane": (scene(speed=4, objects=[obj("bicycle", 2.6, -5)]),
+                             scene(speed=4, other_lanes=("sidewalk_right",), objects=[obj("bicycle", 2.6, -5, lane=1, kind="sidewalk_right")])),
+    "def.over_strict_limit": (scene(speed=11.1, limit=8.94, zone="school"), scene(speed=11.1, limit=8.94, zone="city")),
+    "def.strict_limit": (scene(speed=8, limit=8.94, zone="school"), scene(speed=8, limit=8.94, zone="residential")),
+    "jur.us.school_sign_strict": (scene(speed=8, limit=11.2, sign="school_zone", zone="city"),
+                                  scene(speed=30, limit=31.3, sign="school_zone", zone="highway")),
 }
 
 
 # The proposal of a case's scenes where it is not cruise: rules about replacing a forbidden proposal need one.
-PROPOSED = {"dec.replacement_holds_speed": "change_lane_left"}
+PROPOSED = {"dec.replacement_holds_speed": "change_lane_left", "def.rear_closing_unknown_rider": "turn_right"}
 
 
 def fired(sc, proposed: str = "cruise") -> set[str]:
@@ -516,6 +532,49 @@ def test_the_shoulder_is_on_the_kerb_side_of_the_jurisdiction():
     assert "po.kerb_taken" in uk.decide(on_the_uk_shoulder, "pull_over").rules
     offside = scene(lane=1, lanes=2, intent="pull_over", objects=[obj("truck", 3.5 * 2, 4, vy=0)])
     assert uk.decide(offside, "pull_over").decision.value == "approve"
+
+
+def test_a_proof_names_no_shoulder_the_scene_does_not_have():
+    """A pedestrian reported in no lane just beyond the kerb-side lane of a road with a sidewalk and no shoulder was
+    put on "shoulder lane 1", and a proof read "rule def.pedestrian_at_crossing needs that shoulder lanes cross the
+    ego's road" (VRU review, defect 7). It is beside the kerb-side lane, in no lane of the scene."""
+    lanes = {"other_lanes": ("oncoming", "sidewalk_right")}
+    child = obj("pedestrian", 3.5, 18, velocity={"x": -3.0, "y": 0.0})
+    text = REASONER.decide(scene(**lanes, objects=[child]), "accelerate", explain=True).justification.text
+    assert "def.pedestrian_at_crossing" in text and "shoulder" not in text
+    with_shoulder = REASONER.decide(scene(other_lanes=("oncoming", "shoulder"), objects=[child]), "accelerate", explain=True)
+    assert "shoulder lanes cross the ego's road" in with_shoulder.justification.text  # the scene has one
+    pulling_over = decide(scene(lane=2, lanes=2, intent="pull_over", objects=[obj("truck", 3.5, 4, vy=0)]), "pull_over")
+    assert "po.kerb_taken" in pulling_over.rules and "in the shoulder" not in pulling_over.justification.text
+    assert "there is no evidence that there is a shoulder lane" in pulling_over.justification.text
+    assert "truck 1 is beside the kerb-side lane, at the road's kerb-side edge" in pulling_over.justification.text
+
+
+@pytest.mark.parametrize("cls", ["bicycle", "bike", "motorcycle"])
+def test_every_two_wheeler_on_the_inside_is_hooked_by_a_kerb_side_turn(cls):
+    """Highway Code rules 183, 211: a motorcycle (AV-CSR's `bike` too) in the bike lane 8 m behind is on the inside as a
+    cyclist is; mirrored in the UK."""
+    us = scene(speed=4, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"), intersection=at_stop,
+               objects=[obj(cls, 2.6, -8, lane=1, kind="shoulder", vy=6.0)])
+    assert "tr.kerb_side_user" in decide(us, "turn_right").rules
+    uk = scene(speed=4, intent="enter_left_lane", other_lanes=("shoulder", "cross_left"), intersection=at_stop,
+               objects=[obj(cls, -2.6, -8, lane=1, kind="shoulder", vy=6.0)])
+    assert "tl.kerb_side_user" in Reasoner(jurisdiction="uk").decide(uk, "turn_left").rules
+    car = scene(speed=4, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"), intersection=at_stop,
+                objects=[obj("car", 2.6, -8, lane=1, kind="shoulder", vy=6.0)])
+    assert decide(car, "turn_right").decision.value == "approve"
+
+
+def test_a_cyclist_of_unknown_speed_behind_a_stopped_ego_is_taken_at_a_cyclists_pace():
+    """VRU review, defect 4: 18 m behind in the bike lane, of unknown speed, it could be at the corner in 2 s (20 mph);
+    a stopped ego does not take it to keep pace (0 m/s). 50 m behind it is not due within the turn gap."""
+    def waiting(y):
+        return scene(speed=0, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"), intersection=at_stop,
+                     light="green", objects=[obj("bicycle", 2.6, y, lane=1, kind="shoulder")])
+    verdict = decide(waiting(-18), "turn_right")
+    assert verdict.decision.value == "override" and "tr.kerb_side_user" in verdict.rules
+    assert "taken to come as fast as its kind plausibly does: it closes in on the ego at 8.9 m/s" in verdict.justification.text
+    assert decide(waiting(-50), "turn_right").decision.value == "approve"
 
 
 def test_a_car_on_the_shoulder_signalling_into_the_road_claims_the_lane_next_to_it():
@@ -711,7 +770,11 @@ def test_something_standing_in_a_crossing_lane_straight_ahead_is_an_obstacle(cls
 def test_a_school_zone_sign_bounds_the_speed_by_the_school_zones_usual_limit():
     signed = scene(speed=10, limit=15.6, zone="city", sign="school_zone")
     verdict = REASONER.decide(signed, "accelerate", explain=True)
-    assert verdict.action.value == "cruise" and "the speed limit in force is 8.9 m/s (20 mph)" in verdict.justification.text
+    # 22.4 mph is over the 20 mph the sign sets, and a school zone's limit is strictly kept (jur.us.school_sign_strict):
+    # the ego brakes; it held its speed while a 5 mph margin was allowed there too (VRU review, defect 6)
+    assert verdict.action.value == "brake" and "the speed limit in force is 8.9 m/s (20 mph)" in verdict.justification.text
+    assert "jur.us.school_sign_strict" in verdict.justification.text
+    assert decide(scene(speed=8.5, limit=15.6, zone="city", sign="school_zone"), "accelerate").action.value == "cruise"
     assert decide(scene(speed=10, limit=15.6, zone="city"), "accelerate").decision.value == "approve"
 
 

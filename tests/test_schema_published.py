@@ -16,3 +16,15 @@ def test_schema_command_writes_all_three(tmp_path):
     written = write_schemas(tmp_path)
     assert sorted(p.name for p in written) == ["proposal.schema.json", "scene.schema.json", "verdict.schema.json"]
     assert json.loads((tmp_path / "scene.schema.json").read_text())["properties"]["ego"]
+
+
+def test_every_object_class_says_what_it_is():
+    """A class the schema lists without words is a guess for whoever writes an adapter: AV-CSR's `bike` is a
+    motorbike, not a bicycle, and the kerb-side rules treat it as one."""
+    from discern.rules.scene import OBJECT_CLASSES, ObjectClass
+
+    assert set(OBJECT_CLASSES) == {c.value for c in ObjectClass}
+    description = json.loads((PUBLISHED / "scene.schema.json").read_text())["$defs"]["ObjectClass"]["description"]
+    for name, words in OBJECT_CLASSES.items():
+        assert f"`{name}`: {words}" in description
+    assert "`bike`: a motorbike" in description

@@ -39,7 +39,8 @@ from .runs import RunGap, gaps
 from .timefmt import iso
 
 MAX_GAP_S = 5.0
-# the catalog's vulnerable road users (vulnerable/1; a test holds the two together): a `bike` is a motorbike there
+# the catalog's vulnerable road users (vulnerable/1; a test holds the two together): a `bike` is a motorbike
+# (rules/scene.py OBJECT_CLASSES), a two-wheeler but no vulnerable road user there
 VULNERABLE = {ObjectClass.pedestrian, ObjectClass.bicycle, ObjectClass.animal}
 STATIC = {ObjectClass.roadblock, ObjectClass.barrier, ObjectClass.traffic_cone, ObjectClass.debris}
 MERGING = {Intent.merge_into_left_lane, Intent.merge_into_right_lane}
