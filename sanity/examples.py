@@ -203,6 +203,10 @@ def _examples() -> list[Example]:
         return scene(speed=30.0, lane=1, lanes=3, zone="highway", limit=31.3,
                      objects=[obj(1, "car", 3.5, 15.0, 2, vy=offside_speed)])
 
+    def undertake_tailgated(offside_speed: float) -> Scene:
+        return scene(speed=30.0, lane=1, lanes=3, zone="highway", limit=31.3,
+                     objects=[obj(1, "car", 3.5, 15.0, 2, vy=offside_speed), obj(2, "car", 0.0, -5.0, 1, vy=30.0)])
+
     def amber(distance: float) -> Scene:
         return scene(speed=30 * MPH, limit=30 * MPH, lights=[{"colour": "yellow"}],
                      intersection={"type": "signaled", "stage": "arriving", "distance": distance})
@@ -549,6 +553,11 @@ def _examples() -> list[Example]:
                 "On a UK motorway at 30 m/s in the left lane, a car at 22 m/s is 15 m ahead in the lane on the right "
                 "(the near miss: it keeps the ego's pace).",
                 (undertake(22.0),), Action.accelerate, (undertake(30.0),), "uk"),
+        Example("jur.uk.drop_back_not_undertake",
+                "On a UK motorway at 30 m/s in the left lane, a car at 22 m/s is 15 m ahead in the lane on the right "
+                "and a car follows 5 m behind: the ego slows to stay behind the car on the right, and braking is not "
+                "braking for nothing (the near miss: the car on the right does 29 m/s, within the speed margin).",
+                (undertake_tailgated(22.0),), Action.brake, (undertake_tailgated(29.0),), "uk"),
         Example("jur.uk.amber_light",
                 "At 30 mph a UK light turns amber 35 m before the line: the ego can stop, braking firmly, though not "
                 "comfortably (the near miss: 20 m before the line it cannot stop, and goes on).",

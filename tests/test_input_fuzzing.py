@@ -262,7 +262,7 @@ def test_unicode_and_quotes_in_path_ids_reach_the_rules(reasoner):
         return Scene.model_validate({
             "frame_id": 1,
             "ego": {"speed": 10, "lane": 1, "predicted_path": "straße 2"},
-            "objects": [{"id": 1, "class": "pedestrian", "position": {"x": 30, "y": 60}, "predicted_path": 'kreuz"ung'}],
+            "objects": [{"id": 1, "class": "pedestrian", "position": {"x": 30, "y": 20}, "predicted_path": 'kreuz"ung'}],
             "path_crossings": [{"ego_path": "straße 2", "object_path": crossing}],
         })
 

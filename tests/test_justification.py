@@ -421,7 +421,7 @@ def test_static_atoms_found_in_other_frames_serve_a_proof_only_where_they_hold(r
 def explained(reasoner):
     """Every scenario frame and varied scene, decided with its full proof, plus a path crossing."""
     reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
-    crossing = scene(path="p1", objects=[obj("pedestrian", 30, 60, predicted_path="q1")], crossings=[("p1", "q1")])
+    crossing = scene(path="p1", objects=[obj("pedestrian", 30, 20, predicted_path="q1")], crossings=[("p1", "q1")])
     return [reasoners[jurisdiction].decide(sc, proposed, history, explain=True)
             for jurisdiction, sc, proposed, history in [*_frames(), ("us", crossing, "cruise", ())]]
 
@@ -479,7 +479,7 @@ def test_a_node_shown_as_a_fact_is_one_the_frame_or_the_catalog_gives(reasoner, 
     """The numbers behind a failed comparison included derived atoms ('the speed limit in force'), labelled
     facts: a reader took a fallback limit for one perceived."""
     reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
-    crossing = scene(path="p1", objects=[obj("pedestrian", 30, 60, predicted_path="q1")], crossings=[("p1", "q1")])
+    crossing = scene(path="p1", objects=[obj("pedestrian", 30, 20, predicted_path="q1")], crossings=[("p1", "q1")])
     frames = [*_frames(), ("us", crossing, "cruise", ())]
     facts_shown, wrong = 0, []
     for (jurisdiction, sc, proposed, history), verdict in zip(frames, explained, strict=True):
@@ -611,7 +611,7 @@ def test_class_words_say_what_the_object_is(reasoner):
 def test_a_scenes_path_ids_read_as_given_not_as_catalog_words(reasoner):
     """'stop_sign' named a path, not 'the approach is stop-controlled'; 'path_1' is not 'path 1'."""
     sc = scene(speed=10, path="stop_sign", crossings=[("stop_sign", "path_1")],
-               objects=[obj("truck", 3.5, 20, lane=1, vy=5, predicted_path="path_1")])
+               objects=[obj("truck", 3.5, 8, lane=1, vy=5, predicted_path="path_1")])  # inside the gap needed: due
     text = reasoner.decide(sc, "accelerate", explain=True).justification.text
     assert "the ego's predicted path is stop_sign" in text
     assert "truck 1 is predicted to follow path path_1" in text

@@ -34,6 +34,12 @@ car_left_close = obj("car", -3.5, 2, lane=1)
 at_stop = {"type": "four_way", "stage": "at"}
 stopped_45m = obj("car", 0, 45, lane=2, vy=0.0)  # at 30 m/s the ego needs 105 m to stop
 stopped_110m = obj("car", 0, 110, lane=2, vy=0.0)
+# At the limit, a car 3 m behind alongside on the left moving into the ego's lane (cruise forbidden: a sideswipe)
+# and a car 6 m behind in the ego's lane (braking for nothing forbidden); the lane on the right is free.
+sideswiped = {"speed": 31, "limit": 31.3, "zone": "highway", "lanes": 3, "lane": 2}
+sideswiper = obj("car", -2.5, -3, lane=1, velocity={"x": 1.0, "y": 31.0}, indicator="right")
+tailgater_6m = obj("car", 0, -6, lane=2, vy=31.0)
+merging_path = {"speed": 30, "limit": 31.3, "zone": "highway", "lanes": 2, "lane": 2, "path": "sp1", "crossings": [("sp1", "op1")]}
 
 CASES = {
     "brake.hazard": (scene(objects=[ped_ahead]), scene()),
@@ -159,6 +165,10 @@ CASES = {
               crossings=[("sp1", "op1")], other_lanes=("cross_right",)),
         scene(path="sp1", objects=[obj("truck", -8, 10, lane=1, kind="cross_right", predicted_path="op2")],
               crossings=[("sp1", "op1")], other_lanes=("cross_right",)),
+    ),
+    "def.crossing_due": (
+        scene(**merging_path, objects=[obj("car", -3.5, 8, lane=1, vy=30.0, predicted_path="op1")]),
+        scene(**merging_path, objects=[obj("car", -3.5, -40, lane=1, vy=30.0, predicted_path="op1")]),
     ),
     "brake.front_sensor_close": (scene(sensors={"front": 0.3}), scene(sensors={"front": 2.0})),
     "brake.front_range_obstacle": (
@@ -384,6 +394,9 @@ CASES = {
     "dec.suggested": (scene(), None),
     "dec.preference": (scene(speed=5, limit=15), None),
     "dec.fallback_brake": (None, scene()),
+    "dec.fallback_permitted": (scene(**sideswiped, objects=[sideswiper, tailgater_6m]),
+                               scene(**sideswiped, objects=[sideswiper])),
+    "def.fallback_option": (scene(**sideswiped, objects=[sideswiper, tailgater_6m]), scene()),
     "dec.replacement": (scene(objects=[ped_ahead]), scene()),
     "dec.replacement_holds_speed": (scene(speed=10, limit=15), scene(speed=10, limit=15, lane=2, lanes=2)),
     "jur.right_hand_traffic": (scene(), None),
@@ -1055,3 +1068,97 @@ def test_stopped_in_a_queue_short_of_a_red_the_ego_may_move_up_slowly_to_the_lin
     assert reasoner.decide(red(0, 12), "accelerate").decision.value == "approve"
     assert reasoner.decide(red(4, 8), "accelerate").action.value == "brake"  # the line is near now
     assert "acc.red_light" in reasoner.decide(red(8, 100), "accelerate").vetoed_by  # too fast to be moving up
+
+
+UK_REASONER = Reasoner(jurisdiction="uk")
+
+# Rules of the UK pack: a scene where each fires, one where its condition or exception stops it.
+UK_CASES = {
+    "jur.uk.drop_back_not_undertake": (
+        # In the left lane at 30 m/s, a car doing 25 m/s 20 m ahead in the lane on the right, a car 5 m behind.
+        scene(speed=30, limit=31.3, zone="highway", lanes=2, lane=1,
+              objects=[obj("car", 3.5, 20, lane=2, vy=25.0), obj("car", 0, -5, lane=1, vy=30.0)]),
+        # It signals a right turn: it may be passed on its left.
+        scene(speed=30, limit=31.3, zone="highway", lanes=2, lane=1,
+              objects=[obj("car", 3.5, 20, lane=2, vy=25.0, indicator="right"), obj("car", 0, -5, lane=1, vy=30.0)]),
+    ),
+}
+
+
+@pytest.mark.parametrize("rule_id", sorted(UK_CASES))
+def test_uk_rule_fires_in_its_scene_and_not_when_its_condition_fails(rule_id):
+    firing, blocked = UK_CASES[rule_id]
+    assert rule_id in Prover(UK_REASONER.catalog, UK_REASONER.solve(firing, "cruise").answer).fired_rules()
+    assert rule_id not in Prover(UK_REASONER.catalog, UK_REASONER.solve(blocked, "cruise").answer).fired_rules()
+
+
+def test_slowing_behind_a_slower_car_on_the_right_is_not_phantom_braking_in_the_uk():
+    """Highway Code 268 with a car close behind: braking was forbidden (no reason to brake) while holding the speed
+    was forbidden too, and the override braked anyway. Slowing to stay behind is the reason."""
+    firing, _ = UK_CASES["jur.uk.drop_back_not_undertake"]
+    assert UK_REASONER.decide(firing, "brake").decision.value == "approve"
+    held = UK_REASONER.decide(firing, "cruise")
+    assert (held.decision.value, held.action.value) == ("override", "brake")
+
+
+@pytest.mark.parametrize("reasoner, free_side", [(REASONER, "change_lane_right"), (UK_REASONER, "change_lane_right")])
+def test_with_braking_forbidden_and_nothing_called_for_the_override_is_a_permitted_action(reasoner, free_side):
+    """'override brake with brake: brake is forbidden by brake.no_phantom_braking': cruise forbidden by a sideswipe
+    from behind, braking by the car close behind, speeding up by the limit; the free lane on the right is permitted."""
+    sc = scene(**sideswiped, objects=[sideswiper, tailgater_6m])
+    for proposed in ("brake", "cruise", "accelerate", "change_lane_left"):
+        verdict = reasoner.decide(sc, proposed)
+        assert (verdict.decision.value, verdict.action.value) == ("override", free_side), proposed
+    assert "dec.fallback_permitted" in Prover(reasoner.catalog, reasoner.solve(sc, "cruise").answer).fired_rules()
+    # Nothing permitted at all (the lane on the right taken too): braking is still the fallback.
+    boxed = scene(**sideswiped, objects=[sideswiper, tailgater_6m, obj("car", 3.5, 0, lane=3, vy=31.0)])
+    assert reasoner.decide(boxed, "cruise").action.value == "brake"
+
+
+def test_no_override_picks_a_forbidden_action_while_another_is_permitted():
+    """Over every scenario frame of the rules folder, solved alone: the recommended action and the replacement are
+    permitted whenever any action is."""
+    from scenarios.model import Scenario
+
+    reasoners = {"us": REASONER, "uk": UK_REASONER}
+    checked = 0
+    for path in sorted((Path(__file__).parent.parent / "scenarios" / "rules").glob("*.json")):
+        scenario = Scenario.load(path)
+        for frame in scenario.frames:
+            solved = reasoners[scenario.jurisdiction].solve(frame.scene, "brake")
+            if solved.permitted:
+                assert solved.recommended in solved.permitted, (path.name, solved.recommended, solved.permitted)
+            checked += 1
+    assert checked > 100
+
+
+def test_a_standing_obstacle_that_can_be_swerved_around_inside_the_stopping_distance_calls_for_a_free_lane():
+    """Debris, a cone, a roadblock 40 m ahead at 30 m/s (105 m to stop): steer into the free lane, as for a stopped
+    car; a pedestrian is not swerved around, and an obstacle beyond the stopping distance is braked for in time."""
+    highway = {"speed": 30, "limit": 31.3, "zone": "highway", "lanes": 3, "lane": 2}
+    for cls in ("debris", "traffic_cone", "roadblock"):
+        verdict = decide(scene(**highway, objects=[obj(cls, 0, 40, lane=2)]), "cruise")
+        assert (verdict.decision.value, verdict.action.value) == ("override", "change_lane_left"), cls
+        assert "cll.cannot_stop" in fired(scene(**highway, objects=[obj(cls, 0, 40, lane=2)]))
+    assert "cll.cannot_stop" not in fired(scene(**highway, objects=[obj("pedestrian", 0, 40, lane=2)]))
+    assert "cll.cannot_stop" not in fired(scene(**highway, objects=[obj("debris", 0, 120, lane=2)]))
+    assert "cll.cannot_stop" not in fired(scene(**highway, objects=[obj("plastic_bag", 0, 40, lane=2)]))
+    uk = UK_REASONER.decide(scene(**highway, objects=[obj("debris", 0, 40, lane=2)]), "cruise")
+    assert uk.action.value == "change_lane_right"
+
+
+def test_a_declared_path_crossing_is_a_hazard_only_where_and_when_the_ego_meets_it():
+    """A merge 40 m behind, or 180 m ahead at the ego's speed, is no hazard; one 8 m ahead is; one 20 m ahead is
+    inside the headway and calls for dropping back without forbidding holding the speed."""
+    def merging(y: float, vy: float = 30.0):
+        return scene(**merging_path, objects=[obj("car", -3.5, y, lane=1, vy=vy, predicted_path="op1")])
+
+    assert decide(merging(-40), "cruise").decision.value == "approve"
+    assert decide(merging(180), "cruise").decision.value == "approve"
+    near = decide(merging(8), "cruise")
+    assert near.action.value == "brake" and "brake.path_crossing" in near.rules
+    inside = decide(merging(20), "cruise")
+    assert inside.decision.value == "approve" and inside.recommended.value == "brake"
+    slower = decide(merging(40, vy=15.0), "cruise")  # closing at 15 m/s the ego needs 33.75 m: 40 m is enough
+    assert slower.decision.value == "approve" and slower.recommended.value == "brake"
+    assert decide(merging(25, vy=10.0), "cruise").action.value == "brake"  # closing at 20 m/s needs 53.3 m
