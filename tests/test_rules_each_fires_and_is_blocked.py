@@ -110,6 +110,10 @@ CASES = {
               objects=[obj("truck", 3.5, 22, lane=2, vy=0.0)]),
         None,
     ),
+    "san.track.stepped_crossing": (
+        scene(speed=10, limit=11.2, objects=[obj("pedestrian", 3.5, 18, velocity={"x": -3.0, "y": 0.0})]),
+        scene(speed=10, limit=11.2, objects=[obj("pedestrian", 3.5, 24, velocity={"x": -3.0, "y": 0.0})]),
+    ),
     "cruise.short_headway": (scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 20, lane=1, vy=30.0)]),
                              scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 35, lane=1, vy=30.0)])),
     "acc.lead_braking": (
@@ -414,7 +418,7 @@ CASES = {
 
 
 # The proposal of a case's scenes where it is not cruise: rules about replacing a forbidden proposal need one.
-PROPOSED = {"dec.replacement_holds_speed": "change_lane_left"}
+PROPOSED = {"dec.replacement_holds_speed": "change_lane_left", "san.track.stepped_crossing": "accelerate"}
 
 
 def fired(sc, proposed: str = "cruise") -> set[str]:
