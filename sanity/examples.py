@@ -508,6 +508,13 @@ def _examples() -> list[Example]:
                 "Only the camera sees a car pulling out from the right, 20 m ahead, while the radar reports the lead car.",
                 (scene(speed=10.0, limit=13.4, objects=[radar_car, pulling_out]),), Action.accelerate,
                 (scene(speed=10.0, limit=13.4, objects=[radar_car, {**pulling_out, "velocity": {"x": 0.0, "y": 0.0}}]),)),
+        Example("san.track.stepped_crossing",
+                "A child runs across from the right, 18 m ahead, at 3 m/s: at the ego's 10 m/s they clear its path just "
+                "before it gets there, one step of accelerating faster they would not (the near miss: 24 m ahead, they "
+                "clear it either way).",
+                (scene(speed=10.0, limit=11.2, objects=[obj(3, "pedestrian", 3.5, 18.0, vy=0.0, vx=-3.0, sources=("camera", "lidar"))]),),
+                Action.accelerate,
+                (scene(speed=10.0, limit=11.2, objects=[obj(3, "pedestrian", 3.5, 24.0, vy=0.0, vx=-3.0, sources=("camera", "lidar"))]),)),
         # --- jurisdictions
         Example("jur.us", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),
         Example("jur.right_hand_traffic", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),

@@ -22,7 +22,7 @@ from typing import Iterable, NamedTuple, Optional, Sequence
 
 from clingo import Symbol, SymbolType
 
-from discern.rules.facts import cm
+from discern.rules.facts import Params, cm
 from discern.rules.scene import (MAX_ID, DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour,
                                  ObjectClass, Scene, SensorSide, SignKind, Size, Source)
 
@@ -196,7 +196,7 @@ WINDOW_PREDICATES = frozenset({
     ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2), ("track_time", 2), ("remembered_lane", 3),
     ("remembered_velocity", 3), ("remembered_source", 2), ("sensor_still_reads", 4), ("sensor_reads_past", 4),
     ("reported_before", 2), ("ran_beside", 2), ("remembered_conflict", 3), ("lights_frames", 2), ("lights_time", 2),
-    ("crept_at_line", 1),
+    ("crept_at_line", 1), ("stepped_conflict", 3), ("remembered_stepped_conflict", 3),
 })
 WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "track_ms", "window_ms"})
 
@@ -207,12 +207,15 @@ class WindowProvider:
     def __init__(self, config: WindowConfig = WindowConfig()):
         self.config = config
         self.bodies: Optional[Bodies] = None  # the catalog's, set by its Reasoner (bind); else the shipped one's
+        # the speed (m/s) one accelerate adds before the next decision: speeding up is judged on the course it gives
+        self.accel_step: float = Params().accel_step
         # by id() of a live scene: a frame is read again by every later window it sits in
         self._summaries: dict[int, _Summary] = {}
 
     def bind(self, static_atoms: Sequence[Symbol], params) -> None:
         """Called by the Reasoner it feeds: its catalog's and parameters' idea of objects (Bodies)."""
         self.bodies = Bodies.of(static_atoms, params.lane_width)
+        self.accel_step = params.accel_step
 
     def facts(self, scene: Scene, history: Sequence[Scene]) -> str:
         if self.bodies is None:
@@ -220,7 +223,7 @@ class WindowProvider:
         bodies = self.bodies
         out: list[str] = []
         out.extend(_world_facts(scene, bodies))
-        out.extend(_predicted_conflicts(scene, self.config.horizon_s, bodies))
+        out.extend(_predicted_conflicts(scene, self.config.horizon_s, bodies, self.accel_step))
         window = self.window(scene, history)
         if not window and _dark(scene):  # no earlier frame to weigh it against
             out.append("signal_dark.")
@@ -244,7 +247,7 @@ class WindowProvider:
             out.extend(_light_facts(now, past, times, c, clock))
             out.extend(_dark_signal(now, past, c, clock))
             out.extend(_sign_facts(now, past, clock))
-            out.extend(_memory_facts(scene, now, window, past, c, clock, bodies))
+            out.extend(_memory_facts(scene, now, window, past, c, clock, bodies, self.accel_step))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
             at_line = [p.speed for p in past if p.at_line]  # a stop in a queue short of the line is no stop at it
             if at_line:
@@ -761,8 +764,10 @@ def _within_length(y: float, oy: float, length: float) -> bool:
     return near - 1.0 <= y <= far + 1.0
 
 
-def _predicted_conflicts(scene: Scene, horizon: float, bodies: Bodies) -> list[str]:
-    """Objects whose course, kept as it is, meets the ego's corridor within the horizon.
+def _predicted_conflicts(scene: Scene, horizon: float, bodies: Bodies, step: float) -> list[str]:
+    """Objects whose course, kept as it is, meets the ego's corridor within the horizon: at the ego's speed
+    (predicted_conflict), and at the speed one accelerate would give it (stepped_conflict: a child who clears the
+    ego's path just before it arrives at its speed may not at one step faster).
 
     Objects already in the corridor are the lane rules' business; this looks
     for those that will come into it ahead of the ego (crossing, cutting in).
@@ -772,6 +777,9 @@ def _predicted_conflicts(scene: Scene, horizon: float, bodies: Bodies) -> list[s
         found = _conflict(obj, obj.position.x, obj.position.y, scene.ego.speed, horizon, bodies)
         if found is not None:
             out.append(f"predicted_conflict({obj.id},{found[0]},{found[1]}).")
+        stepped = _conflict(obj, obj.position.x, obj.position.y, scene.ego.speed + step, horizon, bodies)
+        if stepped is not None:
+            out.append(f"stepped_conflict({obj.id},{stepped[0]},{stepped[1]}).")
     return out
 
 
@@ -857,7 +865,7 @@ def _ran_beside(oid: int, seen_in: list[int], summaries: list[_Summary]) -> set[
 
 
 def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: list[_Summary],
-                  config: WindowConfig, clock: _Clock, bodies: Bodies) -> list[str]:
+                  config: WindowConfig, clock: _Clock, bodies: Bodies, step: float) -> list[str]:
     """Objects the camera lost, where their track puts them now, and what says they are still there;
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
@@ -923,6 +931,9 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         found = _conflict(obj, x, y, scene.ego.speed, config.horizon_s, bodies)
         if found is not None:
             out.append(f"remembered_conflict({oid},{found[0]},{found[1]}).")
+        stepped = _conflict(obj, x, y, scene.ego.speed + step, config.horizon_s, bodies)
+        if stepped is not None:
+            out.append(f"remembered_stepped_conflict({oid},{stepped[0]},{stepped[1]}).")
     for oid, lit in lights.items():
         if oid in present or oid in kept:  # frames lit at a beacon's pace up to now (one unlit or unseen is dark)
             frames_lit = lit + [len(window)] if oid in present and present[oid].emergency_lights else lit

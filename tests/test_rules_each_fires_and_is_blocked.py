@@ -111,6 +111,15 @@ CASES = {
         scene(speed=11, lanes=2, intersection={"type": "signaled", "stage": "arriving", "distance": 40.0},
               objects=[obj("car", 3.5, 4, lane=2, vy=0.0)]),
     ),
+    "def.crossing_reach": (
+        scene(speed=15, limit=15.6, lanes=2, light="green", intersection={"type": "signaled", "stage": "arriving", "distance": 25.0},
+              objects=[obj("truck", 3.5, 22, lane=2, vy=0.0)]),
+        None,
+    ),
+    "san.track.stepped_crossing": (
+        scene(speed=10, limit=11.2, objects=[obj("pedestrian", 3.5, 18, velocity={"x": -3.0, "y": 0.0})]),
+        scene(speed=10, limit=11.2, objects=[obj("pedestrian", 3.5, 24, velocity={"x": -3.0, "y": 0.0})]),
+    ),
     "cruise.short_headway": (scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 20, lane=1, vy=30.0)]),
                              scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 35, lane=1, vy=30.0)])),
     "acc.lead_braking": (
@@ -438,7 +447,8 @@ CASES = {
 
 
 # The proposal of a case's scenes where it is not cruise: rules about replacing a forbidden proposal need one.
-PROPOSED = {"dec.replacement_holds_speed": "change_lane_left", "def.rear_closing_unknown_rider": "turn_right"}
+PROPOSED = {"dec.replacement_holds_speed": "change_lane_left", "def.rear_closing_unknown_rider": "turn_right",
+            "san.track.stepped_crossing": "accelerate"}
 
 
 def fired(sc, proposed: str = "cruise") -> set[str]:
@@ -474,6 +484,25 @@ def test_a_stop_or_yield_hazard_keeps_the_ego_from_turning_instead_of_braking():
     verdict = decide(stop_ahead, "cruise")
     assert (verdict.decision.value, verdict.action.value) == ("override", "brake")
     assert "tr.hazard" in decide(stop_ahead, "turn_right").rules
+
+
+def test_the_crossing_reach_grows_with_the_stopping_distance():
+    """A crossing held the ego within a fixed 15 m, inside its 34 m stopping distance at 15 m/s (VRU review, defects 1
+    and 2); at city speeds, up to about 8.4 m/s, the window is still 15 m."""
+    def truck_at(speed, line):
+        return scene(speed=speed, limit=15.6, lanes=2, light="green",
+                     intersection={"type": "signaled", "stage": "arriving", "distance": line},
+                     objects=[obj("truck", 3.5, line - 3, lane=2, vy=0.0)])
+    assert "brake.vehicle_stopped_at_crossing" in decide(truck_at(15, 25.0), "cruise").rules
+    assert decide(truck_at(15, 40.0), "cruise").decision.value == "approve"
+
+    def pedestrian_at(speed, y):
+        return scene(speed=speed, limit=15.6, other_lanes=("cross_right",),
+                     objects=[obj("pedestrian", 3.6, y, lane=1, kind="cross_right", vy=0.0)])
+    assert "brake.pedestrian_at_crossing" in decide(pedestrian_at(15, 30.0), "accelerate").rules
+    assert decide(pedestrian_at(15, 38.0), "accelerate").decision.value == "approve"
+    assert "brake.pedestrian_at_crossing" in decide(pedestrian_at(8, 14.0), "accelerate").rules
+    assert decide(pedestrian_at(8, 16.0), "accelerate").decision.value == "approve"
 
 
 def test_a_rolling_stop_at_a_stop_sign_is_not_a_stop():

@@ -311,6 +311,18 @@ def test_a_pedestrian_walking_into_the_road_meets_the_ego_path():
     assert conflict.startswith("predicted_conflict(3,26")
 
 
+def test_a_child_who_clears_the_ego_path_at_its_speed_but_not_one_accelerate_faster_gets_a_stepped_conflict():
+    """VRU review, defect 5: at 10 m/s the child clears the path 0.07 s before the ego gets there; at 10.5 m/s,
+    one accelerate step (accel_step, 0.5 m/s) faster, it does not."""
+    child = scene(speed=10.0, objects=[obj(1, "pedestrian", 3.5, 18.0, vy=0.0, vx=-3.0)])
+    found = facts([child])
+    assert not any(f.startswith("predicted_conflict") for f in found)
+    (stepped,) = [f for f in found if f.startswith("stepped_conflict")]
+    assert stepped.startswith("stepped_conflict(1,16")  # 1.67 s on
+    farther = scene(speed=10.0, objects=[obj(1, "pedestrian", 3.5, 24.0, vy=0.0, vx=-3.0)])
+    assert not any(f.startswith("stepped_conflict") for f in facts([farther]))
+
+
 def test_objects_walking_along_in_the_ego_lane_or_coming_from_behind_get_no_predicted_crossing():
     along = scene(speed=8.0, objects=[obj(3, "pedestrian", 5.5, 22.0, vy=1.2)])
     ahead = scene(speed=8.0, objects=[obj(4, "car", 0.0, 20.0, 1, vy=2.0)])
