@@ -17,7 +17,7 @@ from discern.rules.catalog import CatalogError, catalog_dirs, load_driving_rules
 from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack, reasoner_for
 from discern.rules.fact_text import one_fact_a_line
 from discern.rules.facts import Params
-from discern.rules.render import render_html, render_json
+from discern.rules.render import render_html, render_json, render_text
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
 
 from .config import MAX_PAYLOAD_BYTES, check_max_payload_bytes, path_text
@@ -138,7 +138,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     elif args.explain == "html":
         output = render_html(verdict)
     else:
-        output = verdict.justification.text
+        output = render_text(verdict.justification, full=True) if args.explain == "full" else verdict.justification.text
         if verdict.notes:
             output += "\nnotes:\n" + "\n".join(f"  {n}" for n in verdict.notes)
     if args.out is not None:
@@ -304,9 +304,10 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("scene", type=path_text, help="scene JSON (or a proposal JSON with action and scene)")
     check.add_argument("--proposed", choices=[a.value for a in Action], help="the planner's proposed action; with a proposal file, judged instead of the file's own (what if it had "
                        "proposed this?), which must still be valid")
-    check.add_argument("--explain", choices=["text", "json", "html", "facts"], default="text",
-                       help="print the verdict with its justification as text, as a JSON verdict or as a "
-                       "self-contained HTML page; or, instead of a verdict, the facts the rules are given for the "
+    check.add_argument("--explain", choices=["text", "full", "json", "html", "facts"], default="text",
+                       help="print the verdict with its justification as text (the deciding proof whole, long lists "
+                       "of rules that did not apply as one line, the rest cut short), as every line of the proof "
+                       "(full), as a JSON verdict or as a self-contained HTML page (both with the whole proof); or, instead of a verdict, the facts the rules are given for the "
                        "frame, one a line, to write a rule against (default: %(default)s)")
     check.add_argument("--out", type=path_text, help="write the output to this file")
     check.add_argument("--shadow", action="store_true", help="judge only: veto instead of override")

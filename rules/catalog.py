@@ -35,15 +35,18 @@ from .terms import Literal, Term, compile_literal, compile_term, is_fixed, patte
 
 # Every line that starts with `%!` is an annotation: a keyword, then (after white space) its value.
 _ANNOTATION = re.compile(r"^%!\s*([A-Za-z_]*)(?:\s+(.*?))?\s*$")
-_ANNOTATION_KEYS = ("rule", "says", "source", "pred", "term", "hide", "reads")
+_ANNOTATION_KEYS = ("rule", "says", "source", "pred", "term", "hide", "reads", "denies")
 _PRED = re.compile(r'^(-?[a-z_][A-Za-z0-9_]*)(?:\(([^)]*)\))?\s*::\s*"(.*)"$')
-# A template's placeholder: @(Var), @(Var:format), and either with |words to say when Var is unknown.
+# A template's placeholder: @(Var), @(Var:format), and either with |words to say when Var is unknown; @(name), a
+# constant, reads as that constant's words, so that a pack that words a constant (`%! term yellow :: "amber"`) words
+# every template that names it.
 PLACEHOLDER = re.compile(r"@\((\w+)(?::(\w+))?(?:\|([^)]*))?\)")
 TEMPLATE_FORMATS = frozenset({
     "m", "mps", "ahead", "right",  # centimetres and cm/s as metres; signed positions as "5.0 m behind"
     "along", "across", "closing",  # signed speeds: "12.0 m/s against the ego's heading", "3.0 m/s to the left"
     "decel",  # a deceleration in cm/s²: "3.0 m/s²"
     "limit",  # a speed limit in cm/s: m/s, and the unit of the pack's signs ("15.7 m/s (35 mph)")
+    "speed",  # the ego's speed in cm/s: m/s, and the unit of the pack's signs, the limits' ("15.7 m/s (35 mph)")
     "obj", "ordinal", "ms",  # "car 3"; "2nd"; milliseconds as seconds
     "frames",  # a count of frames: "1 frame", "3 frames"
     "percent",  # a whole percentage: "30 %"
@@ -152,6 +155,9 @@ class Catalog:
     fact_atoms: dict[str, list[Symbol]] = field(default_factory=dict, repr=False)  # the catalog's facts by predicate
     hidden: set[tuple[str, int]] = field(default_factory=set, repr=False)
     words: dict[str, str] = field(default_factory=dict, repr=False)  # a constant's English (`%! term name :: "..."`)
+    # how a negative proof of a predicate reads where "there is no evidence that" + its words would not read as a
+    # denial (`%! denies ab(X) :: "..."`: not "there is no evidence that an exception applies: the light flashes red")
+    denials: dict[tuple[str, int], PredTemplate] = field(default_factory=dict, repr=False)
     # (rule id, head signature) -> how an atom reads when that rule derived it (`%! reads`)
     rule_templates: dict[tuple[str, tuple[str, int]], PredTemplate] = field(default_factory=dict, repr=False)
     _slices: dict[frozenset[str], tuple[frozenset[str], frozenset[str]]] = field(default_factory=dict, repr=False)
@@ -425,7 +431,7 @@ def _annotations(text: str, path: str) -> _Annotations:
             if not arity.isdigit():
                 raise CatalogError(f"{path}:{number}: hide needs name/arity, got {value!r}")
             hidden.add((name, int(arity)))
-        elif key in ("pred", "term", "reads"):  # a term's words (hazard(obstacle(3))) are written like a predicate's
+        elif key in ("pred", "term", "reads", "denies"):  # a term's words (hazard(obstacle(3))) are written like a predicate's
             if key == "reads" and not current:
                 raise CatalogError(f"{path}:{number}: 'reads' before any '%! rule'")
             pred = _PRED.match(value)
@@ -435,7 +441,7 @@ def _annotations(text: str, path: str) -> _Annotations:
             args = tuple(p.strip() for p in params.split(",")) if params else ()
             for placeholder in PLACEHOLDER.finditer(template):
                 param, fmt = placeholder.group(1), placeholder.group(2)
-                if param not in args:
+                if param not in args and not param[:1].islower():  # a constant's name reads as its words
                     raise CatalogError(f"{path}:{number}: {placeholder.group(0)} names no parameter of {name}{args}")
                 if fmt is not None and fmt not in TEMPLATE_FORMATS:
                     raise CatalogError(f"{path}:{number}: unknown format {fmt!r} in {placeholder.group(0)}"
@@ -480,12 +486,16 @@ def _compile_file(path: str, text: str, catalog: Catalog, places: _Places) -> No
     for key, line, template in found.templates:
         constant = key == "term" and not template.params  # a constant's words: its own, apart from any predicate's
         what = template.name if constant else template.signature
+        if key == "denies":  # how "there is no evidence of it" reads: one wording too, apart from the atom's
+            what = "not " + "/".join(map(str, template.signature))
         if what in declared:  # the later one would replace the shipped wording, unsaid
             named = template.name if constant else "/".join(map(str, template.signature))
             raise CatalogError(f"{path}:{line}: a second '%! {key}' for {named}: it has words at {declared[what]}"
                                " already (one wording each)")
         declared[what] = f"{path}:{line}"
-        if constant:
+        if key == "denies":
+            catalog.denials[template.signature] = template
+        elif constant:
             catalog.words[template.name] = template.template
         else:
             catalog.templates[template.signature] = template

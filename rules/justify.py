@@ -16,7 +16,7 @@ from typing import Iterator, Optional
 from clingo import Symbol
 
 from .answer_set import AnswerSet
-from .catalog import DEFINITION_PREFIXES, SETTING_PREFIX, TRACED, Catalog, CompiledRule
+from .catalog import DEFINITION_PREFIXES, SETTING_PREFIX, TRACED, Catalog, CompiledRule, frame_predicates
 from .phrases import Phrasebook
 from .terms import Env, Literal, Term, Unbound, Undefined, check_comparison, evaluate, is_assignment, match
 from .verdict import JustificationNode
@@ -62,6 +62,7 @@ class Prover:
         self._proved: dict[Symbol, tuple[int, JustificationNode]] = {}
         self._derivations: dict[Symbol, list[tuple[CompiledRule, Env]]] = {}
         self._static_atoms = static_atoms
+        self._nothing_gives: dict[tuple, bool] = {}  # a negated literal's pattern -> whether nothing can give it
 
     # -- derivations --
     def derivations(self, sym: Symbol) -> Iterator[tuple[CompiledRule, Env]]:
@@ -184,9 +185,36 @@ class Prover:
             for position, lit in enumerate(rule.body):
                 if position in rule.assignments or (lit.is_atom and not lit.negated and self._hidden(lit)):
                     continue
+                if lit.is_atom and lit.negated and self._never(lit.atom, env):
+                    continue  # an exception this catalog has no rule for (right on red, in the UK pack): no reason
                 children.append(self._literal_holds(rule, lit, env, depth + 1, path | {sym}))
         return JustificationNode(literal=str(sym), holds=True, text=self.phrases.atom(sym, rule.info.id),
                                  rule=rule.info.id, children=children)
+
+    def _never(self, term: Term, env: Env) -> bool:
+        """Whether nothing can give an atom of this pattern: no rule of the loaded catalog can derive it (none has a
+        head that matches), no catalog fact and no frame fact is of its predicate. `not ab(turn_on_red(right))` under
+        the UK pack, which has no right on red, holds in every frame: it is no reason, and no exception to name."""
+        name, args = self._pattern(term, env)
+        key = (name, tuple(args))
+        found = self._nothing_gives.get(key)
+        if found is None:
+            found = (name, len(args)) not in _frame_predicates() and name not in self.catalog.fact_predicates and not any(
+                self._capable(rule, args) for rule in self.catalog.by_head.get((name, len(args)), ()))
+            self._nothing_gives[key] = found
+        return found
+
+    def _capable(self, rule: CompiledRule, args: list[Optional[Symbol]]) -> bool:
+        """Whether the rule's head matches the pattern's known arguments."""
+        if rule.head[0] != "f":
+            return True
+        env: Optional[Env] = {}
+        for sub, value in zip(rule.head[2], args):
+            if value is not None:
+                env = match(sub, value, env, self.answer.shape)
+                if env is None:
+                    return False
+        return True
 
     def _hidden(self, lit: Literal) -> bool:
         atom = lit.atom
@@ -214,7 +242,7 @@ class Prover:
         shown = ", ".join("_" if a is None else str(a) for a in args)
         goal = f"{name}({shown})" if args else name
         literal = f"not {goal}"
-        text = "there is no evidence that " + self.phrases.sentence(name, args)
+        text = self.phrases.denial(name, args)
         rules = self.catalog.by_head.get((name, len(args)), [])
         if not rules:
             return JustificationNode(literal=literal, holds=True, text=text, kind="absent")
@@ -290,7 +318,8 @@ class Prover:
                                      children=self._sources_of(rule, lit, failure.env))
         if failure.witness is None:  # a positive literal with nothing to match
             child = self.why_not(lit.atom, failure.env, depth, negative_left)
-            child.text = "that " + child.text.removeprefix("there is no evidence that ") + ", and there is no evidence of it"
+            name, args = self._pattern(lit.atom, failure.env)
+            child.text = "that " + self.phrases.sentence(name, args) + ", and there is no evidence of it"
             child.literal = child.literal.removeprefix("not ")  # the atom the rule needs, which does not hold
             child.holds = False
             child.kind = "blocked"
@@ -471,6 +500,15 @@ class Prover:
                     self._derivations.setdefault(atom, derivations)
             return [atom for atom, _ in found]
         return self.answer.with_first(name, arity, first)  # not as clingo derived them: read clingo's
+
+
+_FRAME_PREDICATES: list[frozenset] = []
+
+
+def _frame_predicates() -> frozenset[tuple[str, int]]:
+    if not _FRAME_PREDICATES:
+        _FRAME_PREDICATES.append(frame_predicates())
+    return _FRAME_PREDICATES[0]
 
 
 def _next_ready(body: list[Literal], env: Env) -> int:

@@ -6,7 +6,7 @@ import functools
 import re
 from typing import Optional
 
-from clingo import Number, Symbol, SymbolType
+from clingo import Function, Number, Symbol, SymbolType
 from clingo.ast import BinaryOperator, ComparisonOperator as _CMP, UnaryOperator
 
 from .answer_set import AnswerSet
@@ -74,7 +74,7 @@ _SETTINGS = {
 }
 _DISTANCE_UNIT = ("m", 100)  # a setting _SETTINGS does not name: a distance in cm
 _SETTING_FORMATS = {"s": "ms", "m": "m", "m/s": "mps", "m/s²": "decel"}  # a setting's unit (_SETTINGS) as a template format
-_UNKNOWN = {"percent": "some confidence", "obj": "some object", "m": "some distance", "mps": "some speed", "decel": "some deceleration", "limit": "some speed", "ms": "some time",
+_UNKNOWN = {"percent": "some confidence", "obj": "some object", "m": "some distance", "mps": "some speed", "speed": "some speed", "decel": "some deceleration", "limit": "some speed", "ms": "some time",
             "ahead": "somewhere", "right": "somewhere", "along": "some speed", "across": "some speed",
             "closing": "some speed", "lane": "a lane", "detail": "", "paren": ""}
 _SIGN_UNITS = {"mph": 44.704}  # cm/s per unit a pack's speed_unit/1 may name
@@ -90,8 +90,9 @@ class Phrasebook:
         self._classes: dict[int, str] = {}  # object id -> its class in words ("" when it has none)
         self._sign_unit: Optional[str] = None  # read from the answer set when a limit is first shown
 
-    def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str, digits: int = 1) -> str:
-        """`digits`: decimals of metres, m/s and seconds; more where a comparison's sides would read alike."""
+    def value(self, sym: Optional[Symbol], fmt: Optional[str], param: str, digits: int = 1, unit_digits: int = 1) -> str:
+        """`digits`: decimals of metres, m/s and seconds; more where a comparison's sides would read alike;
+        `unit_digits`: of a speed in the unit of the pack's signs (mph), likewise."""
         if sym is None:
             return _UNKNOWN.get(fmt or "", f"some {param}")
         if fmt in _WRAPPED:
@@ -104,7 +105,8 @@ class Phrasebook:
             if args and (sym.name, len(args)) in self.catalog.templates:  # a term with words of its own
                 return self.sentence(sym.name, list(args))
             if kind == SymbolType.Function and not args and sym.name in self.catalog.words:
-                return self.catalog.words[sym.name]
+                words = self.catalog.words[sym.name]
+                return self._filled(PredTemplate(sym.name, (), words), []) if "@(" in words else words
             return _words(sym)
         n = sym.number
         if n and round(n / 100, digits) == 0:  # 4 cm/s is "0.04 m/s", not "0.0 m/s"
@@ -122,8 +124,8 @@ class Phrasebook:
             return f"{n / 100:.{digits}f} m/s²"
         if fmt == "closing":  # its sign is in the words around it: a template's `[closes in|pulls away]`
             return f"{abs(n) / 100:.{digits}f} m/s"
-        if fmt == "limit":
-            return f"{n / 100:.{digits}f} m/s" + self._in_sign_unit(n)
+        if fmt in ("limit", "speed"):
+            return f"{n / 100:.{digits}f} m/s" + self._in_sign_unit(n, unit_digits)
         if fmt == "ms":
             if 0 < abs(n) < 100:  # a 40 ms reading is "0.04 s", not "0.0 s"
                 return f"{n / 1000:g} s"
@@ -143,15 +145,21 @@ class Phrasebook:
             return f"{cls} {n}" if cls else f"object {n}"
         return str(n)
 
-    def _in_sign_unit(self, cms: int) -> str:
-        """A limit as its sign shows it, in the unit the jurisdiction pack names: a reader checks '85 mph', not 38.0 m/s."""
+    def _in_sign_unit(self, cms: int, digits: int = 1) -> str:
+        """A limit as its sign shows it, in the unit the jurisdiction pack names: a reader checks '85 mph', not 38.0 m/s.
+        The ego's speed too, so that it reads against the limit in one unit."""
+        unit = self.sign_unit()
+        if not unit:
+            return ""
+        shown = round(cms / _SIGN_UNITS[unit], digits)
+        return f" ({shown:g} {unit})"
+
+    def sign_unit(self) -> str:
+        """The unit the pack's signs give speeds in (speed_unit/1), if Discern knows it; "" if none."""
         if self._sign_unit is None:
             units = [unit.arguments[0].name for unit in self._answer.of("speed_unit", 1)]
             self._sign_unit = units[0] if units and units[0] in _SIGN_UNITS else ""
-        if not self._sign_unit:
-            return ""
-        shown = round(cms / _SIGN_UNITS[self._sign_unit], 1)
-        return f" ({shown:g} {self._sign_unit})"
+        return self._sign_unit
 
     def sentence(self, name: str, args: list[Optional[Symbol]]) -> str:
         if name in ("param", "window_param") and len(args) == 2 and args[0] is not None and args[1] is not None:
@@ -166,6 +174,14 @@ class Phrasebook:
             return f"{name}({inner})" if args else name
         return self._filled(template, args)
 
+    def denial(self, name: str, args: list[Optional[Symbol]]) -> str:
+        """That there is no evidence of an atom: "there is no evidence that" and its words, or the predicate's own
+        denial (`%! denies`), where its words end in a detail that would read as a claim after the colon."""
+        template = self.catalog.denials.get((name, len(args)))
+        if template is not None:
+            return self._filled(template, args)
+        return "there is no evidence that " + self.sentence(name, args)
+
     def _filled(self, template: PredTemplate, args: list[Optional[Symbol]]) -> str:
         values = dict(zip(template.params, args))
         chosen = template.template
@@ -176,8 +192,9 @@ class Phrasebook:
         parts = _template_parts(chosen)
         words = [parts[0]]
         for i in range(1, len(parts), 4):  # (placeholder's parameter, its format, its unknown words, the text after)
-            value, unknown = values.get(parts[i]), parts[i + 2]
-            words.append(unknown if value is None and unknown is not None else self.value(value, parts[i + 1], parts[i]))
+            param, unknown = parts[i], parts[i + 2]
+            value = values.get(param) if param in values or not param[:1].islower() else Function(param)
+            words.append(unknown if value is None and unknown is not None else self.value(value, parts[i + 1], param))
             words.append(parts[i + 3])
         text = _LOOSE_SPACE.sub("", "".join(words))
         return _ARTICLE.sub(_article, text) if "a @(" in chosen else text
@@ -243,6 +260,10 @@ class Phrasebook:
             digits = _digits_to_tell_apart(numbers, "mps")
             shown = [self._sideways(term, value, formats, digits) for term, value in zip(terms, values)]
             return " ".join([shown[0]] + [w for op, side in zip(ops, shown[1:]) for w in (CMP_TEXT.get(op, "?"), side)])
+        if fmt in ("speed", "mps") and any(formats.get(v) == "limit" for t in terms for v in term_vars(t)):
+            fmt = "limit"  # the ego's speed against a limit: both in m/s and in the unit of the signs
+        elif fmt == "speed":
+            fmt = "mps"
         if fmt in _MOTION:
             if len(terms) == 2 and len(numbers) == 2 and any(not term_vars(t) and v.number == 0 for t, v in zip(terms, values)):
                 return self._motion_against_zero(terms, values, ops[0], fmt)
@@ -270,21 +291,40 @@ class Phrasebook:
                          for t, v in zip(terms, values)]
                 return " ".join([shown[0]] + [w for op, value in zip(ops, shown[1:]) for w in (_AXES[fmt][op], value)])
         digits = _digits_to_tell_apart(numbers, fmt)
+        unit = self.sign_unit() if fmt == "limit" else ""
+        unit_digits = _digits_to_tell_apart(numbers, fmt, _SIGN_UNITS[unit]) if unit else 1
         settings = _setting_scales(rule)
+        if fmt == "limit":  # a setting added to a limit shows its decimals, and the sides theirs: '13.41 + 2.24'
+            digits = max([digits] + [_setting_digits(env[v].number, settings[v]) for t in terms if t[0] == "b"
+                                     for v in term_vars(t) if v in settings and v in env])
         shown = [lit.source if value is None else self._side(term, value, fmt, max(digits, _setting_digits(
-                     value.number, settings[term[1]]) if term[0] == "v" and term[1] in settings else digits), formats, env)
+                     value.number, settings[term[1]]) if term[0] == "v" and term[1] in settings else digits), formats,
+                     env, unit_digits, settings)
                  for term, value in zip(terms, values)]
         return " ".join([shown[0]] + [w for op, side in zip(ops, shown[1:]) for w in (CMP_TEXT.get(op, "?"), side)])
 
-    def _side(self, term: Term, value: Symbol, fmt: Optional[str], digits: int, formats: dict[str, str], env: Env) -> str:
-        """One side of a comparison. A limit plus an allowance (`R + S`, a reading's rounding slack) shows the
-        limit as its sign gives it and the allowance apart: '13.4 m/s (30 mph) + 0.05 m/s', not one sum
-        '13.5 m/s (30.1 mph)' that no sign shows."""
+    def _side(self, term: Term, value: Symbol, fmt: Optional[str], digits: int, formats: dict[str, str], env: Env,
+              unit_digits: int = 1, settings: Optional[dict[str, int]] = None) -> str:
+        """One side of a comparison. A limit plus an allowance (`R + S`, a reading's rounding slack; `S + M`, the
+        margin over the limit) shows the limit as its sign gives it and the allowance apart: '13.4 m/s (30 mph) +
+        0.05 m/s', not one sum '13.5 m/s (30.1 mph)' that no sign shows. Where the other side is so close that
+        its speed in mph needs more decimals to tell them apart, the sum follows, in those decimals: '15.66 m/s
+        (35.03 mph) > 13.41 m/s (30 mph) + 2.24 m/s (5 mph) = 15.65 m/s (35.01 mph)', since 30 mph is 13.41 m/s
+        only to the centimetre."""
         if fmt == "limit" and term[0] == "b" and term[1] in _PLUS_MINUS and term[2][0] == term[3][0] == "v":
             limit, allowance = term[2][1], term[3][1]
-            if formats.get(limit) == "limit" and allowance not in formats and limit in env and allowance in env:
-                return (f"{self.value(env[limit], 'limit', '', digits)} {_PLUS_MINUS[term[1]]} "
-                        f"{env[allowance].number / 100:g} m/s")
+            setting = settings is not None and allowance in settings and formats.get(allowance) == "mps"
+            if (formats.get(limit) == "limit" and (allowance not in formats or setting) and limit in env
+                    and allowance in env):
+                added = env[allowance].number
+                shown = (f"{added / 100:.{_setting_digits(added, settings[allowance])}f} m/s{self._in_sign_unit(added)}"
+                         if setting else f"{added / 100:g} m/s")
+                side = f"{self.value(env[limit], 'limit', '', digits)} {_PLUS_MINUS[term[1]]} {shown}"
+                if unit_digits > 1:
+                    side += f" = {self.value(value, 'limit', '', digits, unit_digits)}"
+                return side
+        if fmt == "limit" and term[0] == "v" and formats.get(term[1]) == "limit":
+            return self.value(value, fmt, "", digits)  # a limit as its sign gives it
         if fmt == "m" and value.type == SymbolType.Number and value.number > 0:
             # A distance that is a position says along which axis: "4.0 m ahead < 15.0 m" and "4.0 m to the
             # side < 15.0 m", not the same "4.0 m < 15.0 m" twice under one conclusion.
@@ -293,7 +333,7 @@ class Phrasebook:
                 return self.value(value, formats[term[1]], "", digits)
             if term[0] == "u" and term[1] == int(UnaryOperator.Absolute) and axis in _AXES:
                 return f"{self.value(value, 'm', '', digits)} {_ABSOLUTE[axis]}"
-        return self.value(value, fmt, "", digits)
+        return self.value(value, fmt, "", digits, unit_digits)
 
     def _motion_against_zero(self, terms: list[Term], values: list[Symbol], op: int, fmt: str) -> str:
         """'VX < 0' as '15.0 m/s to the left is a move to the left', and 'C > 0' of a closing speed as 'the gap
@@ -418,8 +458,14 @@ def _nonzero_side(terms: list[Term], values: list[Symbol], op: int) -> tuple[int
     return op, values[0]
 
 
-def _digits_to_tell_apart(numbers: list[int], fmt: Optional[str]) -> int:
-    """One decimal, or two where two different numbers would both read '8.9 m/s' (895 against 894 cm/s)."""
+def _digits_to_tell_apart(numbers: list[int], fmt: Optional[str], unit: Optional[float] = None) -> int:
+    """One decimal, or two where two different numbers would both read '8.9 m/s' (895 against 894 cm/s). `unit`:
+    cm/s in a sign's unit (mph): as many decimals, up to three, as tell the numbers apart in it."""
+    if unit is not None:
+        for digits in (1, 2, 3):
+            if all(a == b or round(a / unit, digits) != round(b / unit, digits) for a, b in zip(numbers, numbers[1:])):
+                return digits
+        return 3
     scale = 1000 if fmt == "ms" else 100
     for a, b in zip(numbers, numbers[1:]):
         if a != b and round(a / scale, 1) == round(b / scale, 1):
@@ -433,7 +479,7 @@ _SIGNED = {  # (at zero, positive, negative); the sign of a position or speed sa
     "along": ("0.0 m/s along the ego's heading", "{} m/s along the ego's heading", "{} m/s against the ego's heading"),
     "across": ("0.0 m/s sideways", "{} m/s to the right", "{} m/s to the left"),
 }
-_COMPARED = {"m": "m", "mps": "mps", "decel": "decel", "limit": "limit", "ms": "ms", "frames": "frames", "ordinal": "ordinal",
+_COMPARED = {"m": "m", "mps": "mps", "speed": "speed", "decel": "decel", "limit": "limit", "ms": "ms", "frames": "frames", "ordinal": "ordinal",
              "percent": "percent", "ahead": "ahead", "right": "right", "along": "along", "across": "across", "closing": "closing"}
 _LESS, _LESS_EQ, _MORE, _MORE_EQ = (int(o) for o in (_CMP.LessThan, _CMP.LessEqual, _CMP.GreaterThan,
                                                       _CMP.GreaterEqual))

@@ -4,15 +4,20 @@ from __future__ import annotations
 
 import html
 import json
+import re
 from typing import Optional
 
 from .verdict import Justification, JustificationNode, Verdict
 
 
-def _line(node: JustificationNode, again: bool = False) -> str:
+def _line(node: JustificationNode, again: bool = False, folded: str = "", cut: bool = False) -> str:
     text = node.text
     if again:
         text += ", as shown above"
+    elif folded:
+        text += folded
+    elif cut:
+        text += ", because …"
     elif node.children and node.kind in ("derived", "negation", "blocked"):
         text += ", because"
     if node.rule and node.kind != "blocked":
@@ -21,6 +26,34 @@ def _line(node: JustificationNode, again: bool = False) -> str:
 
 
 SHARED_REASONS = 3  # a list of this many reasons or more, argued before under another line, points back to it
+# A negative proof over this many rules or more (the 26 rules that find no hazard) reads as one line naming them: the
+# text says which rules were tried, the tree (JSON, HTML one click away, `render_text(..., full=True)`) why each failed.
+FOLD_RULES = 3
+# The proofs that support a verdict without deciding it (what replaces a forbidden proposal, what is recommended, what
+# the sanity layer noted) are cut this many levels below their first line in the text; the tree keeps them whole.
+SUPPORT_DEPTH = 4
+_DECIDING = ("forbidden(", "permitted(", "applicable(")  # the roots a verdict rests on: proved in full
+_RULE_TRIED = re.compile(r"^rule (\S+) ")  # a negative proof's reason for one rule: "rule brake.red_light needs ..."
+
+
+def folded_rules(node: JustificationNode) -> list[str]:
+    """The rules a negative proof tried, in order, where it reads as one line: a `negation` (or a rule `blocked` on
+    something there is no evidence of) whose reasons are, each, one rule's, over FOLD_RULES rules or more. Empty
+    where the node is shown with its reasons."""
+    if node.kind not in ("negation", "blocked") or len(node.children) < FOLD_RULES:
+        return []
+    tried: list[str] = []
+    for child in node.children:
+        found = _RULE_TRIED.match(child.text)
+        if found is None:
+            return []
+        if found.group(1) not in tried:
+            tried.append(found.group(1))
+    return tried if len(tried) >= FOLD_RULES else []
+
+
+def _folded_words(tried: list[str]) -> str:
+    return f"; none of the {len(tried)} rules for it applies: {', '.join(tried)}"
 
 
 class _Shown:
@@ -41,39 +74,49 @@ class _Shown:
             found = self._of[id(node)] = self._ids.setdefault(key, len(self._ids))
         return found
 
-    def again(self, node: JustificationNode) -> bool:
-        """Whether this reason, with reasons of its own, was argued before; notes it as argued now."""
+    def again(self, node: JustificationNode, note: bool = True) -> bool:
+        """Whether this reason, with reasons of its own, was argued before; notes it as argued now unless `note`
+        is False (a line whose reasons the text cuts: a later one shows them)."""
         if not node.children:
             return False
         key = self._id(node)
         reasons = tuple(self._id(c) for c in node.children) if len(node.children) >= SHARED_REASONS else None
         if key in self._argued or reasons in self._argued:
             return True
-        self._argued.add(key)
-        if reasons is not None:
-            self._argued.add(reasons)
+        if note:
+            self._argued.add(key)
+            if reasons is not None:
+                self._argued.add(reasons)
         return False
 
 
-def render_text(justification: Justification) -> str:
+def render_text(justification: Justification, full: bool = False) -> str:
     """Each reason is argued once: where the same conclusion comes up again, the line points back to it
-    instead of repeating its whole subtree, so a proof that leans on one fact five times stays readable."""
+    instead of repeating its whole subtree, so a proof that leans on one fact five times stays readable.
+
+    The deciding proof comes first with its numbers; a negative proof over many rules reads as one line naming them
+    (FOLD_RULES), and the proofs that only support the verdict (the replacement's, the notes') are cut at
+    SUPPORT_DEPTH. `full`: every line of the tree, as `discern check --explain full` prints it."""
     lines = [justification.summary]
     shown = _Shown()
     for root in justification.tree:
-        _walk(root, 1, lines, shown)
+        limit = None if full or root.literal.startswith(_DECIDING) else SUPPORT_DEPTH
+        _walk(root, 1, lines, shown, not full, limit)
     return "\n".join(lines)
 
 
-def _walk(node: JustificationNode, depth: int, lines: list[str], shown: _Shown) -> None:
+def _walk(node: JustificationNode, depth: int, lines: list[str], shown: _Shown, fold: bool,
+          limit: Optional[int]) -> None:
     # A module function, not a closure that calls itself: that is a reference cycle per verdict, the only
     # garbage a decision worker left for the full collections it now keeps to a minimum (decision_worker.py).
-    again = shown.again(node)
-    lines.append("  " * depth + "- " + _line(node, again))
-    if again:
+    cut = limit is not None and depth > limit and bool(node.children)
+    again = shown.again(node, note=not cut)
+    tried = folded_rules(node) if fold and not again else []
+    lines.append("  " * depth + "- " + _line(node, again, _folded_words(tried) if tried else "", cut and not tried))
+    if again or tried or cut:
         return
     for child in node.children:
-        _walk(child, depth + 1, lines, shown)
+        _walk(child, depth + 1, lines, shown, fold, limit)
 
 
 def render_json(verdict: Verdict) -> str:
@@ -112,7 +155,8 @@ def _html_node(node: JustificationNode, shown: _Shown, open_depth: Optional[int]
     cls = "holds" if node.holds and node.kind != "blocked" else "fails"  # why a rule did not apply: grey
     rule = f'<span class="rule">{html.escape(node.rule)}</span>' if node.rule and node.kind != "blocked" else ""
     again = shown.again(node)
-    text = html.escape(_line(node, again).split("  [")[0])
+    tried = [] if again else folded_rules(node)  # one line naming the rules tried; their reasons one click away
+    text = html.escape(_line(node, again, _folded_words(tried) if tried else "").split("  [")[0])
     label = f'<span class="{cls}{" again" if again else ""}">{text}</span>{rule}<span class="kind">{node.kind}</span>'
     if not node.children:
         return f'<div class="leaf">{label}</div>'

@@ -39,6 +39,13 @@ class Justification(BaseModel):
     text: str = Field("", description="the proof rendered as indented prose")
     tree: list[JustificationNode] = Field(default_factory=list)
 
+    def full_text(self) -> str:
+        """Every line of the proof as prose: `text` folds long lists of rules that did not apply and cuts the proofs
+        that support the verdict without deciding it (`discern check --explain full` prints this)."""
+        from .render import render_text  # here: render imports this module
+
+        return render_text(self, full=True)
+
 
 class Verdict(BaseModel):
     model_config = ConfigDict(extra="forbid")

@@ -548,7 +548,7 @@ def test_a_rule_whose_arithmetic_clingo_leaves_undefined_is_explained_not_raised
     with open(rules / "40_lane_change.lp", "a") as f:
         f.write("\n%! rule test.arith\n%! says Never.\n%! source test\nforbidden(cruise) :- ego_speed(S), X = S/0, X < 1.\n")
     empty = {"frame_id": 1, "ego": {"speed": 12.0, "lane": 1}, "speed_limit": 13.0, "lanes": [{"kind": "current", "id": 1}]}
-    assert main(["check", write(tmp_path, empty), "--proposed", "cruise", "--rules", str(rules), "--explain", "text"]) == 0
+    assert main(["check", write(tmp_path, empty), "--proposed", "cruise", "--rules", str(rules), "--explain", "full"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("approve cruise")
     assert "rule test.arith needs that X = (S/0) can be evaluated (a division by zero), which is false" in out

@@ -28,7 +28,7 @@ def test_veto_names_the_vetoing_rules_and_the_numbers(reasoner):
     verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
     assert verdict.decision.value == "override" and verdict.action.value == "brake"
     assert {"acc.lane_not_clear", "acc.hazard", "brake.obstacle_ahead"} <= set(verdict.rules)
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert "pedestrian 1 is 6.0 m ahead" in text and "6.0 m ahead < 10.0 m" in text
     assert "accelerate is forbidden, because  [acc.hazard]" in text
 
@@ -37,7 +37,7 @@ def test_a_veto_proves_every_hazard_that_forbids_the_proposal_not_only_the_first
     """A safety assessor reading the veto must see the red light behind the pedestrian, with its rule named."""
     objects = [obj("pedestrian", 0, 6, lane=1), obj("car", 0.2, 9, lane=1, vy=0.0)]
     verdict = reasoner.decide(scene(speed=12, objects=objects, light="red"), "cruise")
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert text.count("cruise is forbidden, because  [cruise.hazard]") == 3
     for hazard in ("pedestrian 1 is in the way", "car 2 is in the way", "the traffic light is red"):
         assert f"there is a hazard: {hazard}" in text
@@ -62,7 +62,7 @@ def test_an_exception_that_rules_a_rule_out_is_tagged_with_its_own_rule():
                intersection={"type": "signaled", "stage": "at", "distance": 0.0})
     verdict = us.decide(sc, "turn_right", explain=True)
     assert verdict.decision.value == "approve"
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert ("rule tr.red_light is ruled out, because an exception applies: turning right on red is allowed, because  "
             "[jur.us.right_on_red]") in text
 
@@ -77,21 +77,21 @@ def test_a_verdict_names_apart_the_rules_that_forbid_the_proposal_from_those_the
 
 def test_negative_justification_says_there_is_no_evidence(reasoner):
     verdict = reasoner.decide(scene(speed=5, limit=15), "accelerate", explain=True)
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert "there is no evidence that accelerate is forbidden, because" in text
     assert "rule acc.red_light needs that the traffic light is red, and there is no evidence of it" in text
 
 
 def test_what_no_frame_can_change_is_stated_not_spelled_out_class_by_class(reasoner):
     verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate", explain=True)
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert "there is no evidence that a pedestrian is a motor vehicle\n" in text
     assert "rule def.motor_vehicle" not in text and "rule ent.transitive" not in text
 
 
 def test_preference_is_explained_by_the_better_actions_not_by_rank_numbers(reasoner):
     verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert "rule dec.preference does not apply, because" in text
     assert "that pull over is called for and permitted, and there is no evidence of it" in text
     assert not re.search(r"\b(\d+) < \1\b", text)
@@ -99,7 +99,7 @@ def test_preference_is_explained_by_the_better_actions_not_by_rank_numbers(reaso
 
 def test_articles_agree_with_the_word_they_precede(reasoner):
     texts = [reasoner.decide(scene(speed=4, objects=[obj(kind, 0, 5, lane=1)]), "accelerate", explain=True)
-             .justification.text for kind in ("unknown", "debris")]
+             .justification.full_text() for kind in ("unknown", "debris")]
     assert "object 1 is an object of unknown kind" in texts[0] and "object 1 is debris" in texts[1]
     assert not [text for text in texts if re.search(r"\ba (?:[aeiu]|debris)", text)]
 
@@ -108,23 +108,23 @@ def test_intents_lane_kinds_and_zero_offsets_read_as_english(reasoner):
     turning = scene(speed=5, lanes=2, intent="enter_left_lane", other_lanes=("oncoming",),
                     intersection={"type": "four_way", "stage": "at"},
                     objects=[obj("car", 0, 40, lane=1, kind="oncoming", vy=-15), obj("car", 3.5, 0, lane=2)])
-    text = reasoner.decide(turning, "turn_left", explain=True).justification.text
+    text = reasoner.decide(turning, "turn_left", explain=True).justification.full_text()
     assert "the route asks to turn into the road on the left" in text
     assert "car 1 is in the oncoming lane 1" in text
     assert "car 1 is 40.0 m ahead and in line with the ego" in text
     beside = reasoner.decide(scene(lanes=2, objects=[obj("car", 3.5, 0, lane=2, vy=10)]), "change_lane_right", explain=True)
-    assert "car 1 is level with the ego and 3.5 m to the right" in beside.justification.text
-    assert "car 1 is in the same-direction lane 2" in beside.justification.text
+    assert "car 1 is level with the ego and 3.5 m to the right" in beside.justification.full_text()
+    assert "car 1 is in the same-direction lane 2" in beside.justification.full_text()
     pulling_out = obj("car", 3.5, 6, lane=1, kind="shoulder", vy=8, indicator="left")
     signalling = reasoner.decide(scene(lane=2, lanes=2, other_lanes=("shoulder",), objects=[pulling_out]), "accelerate")
-    assert "car 1 has its left lights on" in signalling.justification.text
+    assert "car 1 has its left lights on" in signalling.justification.full_text()
 
 
 def test_a_stop_control_that_is_not_there_reads_without_a_placeholder(reasoner):
     major_road = scene(limit=None, other_lanes=("cross_left",), intersection={"type": "four_way", "stage": "arriving", "road": "major"},
                        objects=[obj("car", -20, 12, lane=1, kind="cross_left", velocity={"x": 8.0, "y": 0.0})],
                        signs=[{"kind": "speed_limit", "value": 20.0, "source": "camera"}])
-    text = reasoner.decide(major_road, "accelerate", explain=True).justification.text
+    text = reasoner.decide(major_road, "accelerate", explain=True).justification.full_text()
     assert "rule brake.stop_sign needs that the ego's approach is stop-controlled, and there is no evidence of it" in text
     assert "speed limit of some speed" not in text and "stop-controlled: " not in text
 
@@ -161,14 +161,14 @@ def test_the_rules_that_find_no_hazard_are_listed_once_under_the_several_rules_t
     """Accelerating and changing lanes are each forbidden by a hazard: the 20-odd hazard rules that do not fire are
     the same list under both, argued once and pointed back to the second time."""
     near = scene(speed=10, lanes=2, lane=2, intersection={"type": "four_way", "stage": "arriving", "distance": 20.0})
-    text = reasoner.decide(near, "change_lane_left", explain=True).justification.text
+    text = reasoner.decide(near, "change_lane_left", explain=True).justification.full_text()
     assert text.count("rule brake.red_light needs that the traffic light is red") == 1, text
     assert "rule acc.hazard needs that there is a hazard, and there is no evidence of it, as shown above" in text
 
 
 def test_a_reason_that_comes_up_again_is_argued_once_and_then_pointed_back_to(reasoner):
     verdict = reasoner.decide(scene(speed=15, objects=[obj("pedestrian", 0, 12, lane=1)]), "accelerate", explain=True)
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert text.count("pedestrian 1 is in the ego's lane, because  [def.in_ego_lane]") == 1
     assert "pedestrian 1 is in the ego's lane, as shown above  [def.in_ego_lane]" in text
     folded = render_html(verdict)
@@ -183,7 +183,7 @@ def test_a_reason_that_comes_up_again_is_argued_once_and_then_pointed_back_to(re
 
 def test_a_failed_comparison_says_whose_numbers_it_compares(reasoner):
     verdict = reasoner.decide(scene(speed=15, objects=[obj("pedestrian", 0, 12, lane=1)]), "brake", explain=True)
-    lines = verdict.justification.text.splitlines()
+    lines = verdict.justification.full_text().splitlines()
     failed = next(i for i, line in enumerate(lines) if "rule def.tailgater needs that pedestrian 1, 12.0 m ahead, is behind the ego, which is false, because" in line)
     assert "pedestrian 1 is 12.0 m ahead and in line with the ego" in lines[failed + 1]
 
@@ -191,7 +191,7 @@ def test_a_failed_comparison_says_whose_numbers_it_compares(reasoner):
 def test_veto_proof_is_compact_unless_an_explanation_is_asked_for(reasoner):
     sc = scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)])
     brief = reasoner.decide(sc, "accelerate").justification.text
-    full = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    full = reasoner.decide(sc, "accelerate", explain=True).justification.full_text()
     assert "braking from 4.0 m/s takes 5.3 m" in full and "braking from" not in brief
     assert "pedestrian 1 is 6.0 m ahead" in brief and len(brief) < len(full)
 
@@ -238,7 +238,7 @@ def test_a_lost_object_kept_in_the_scene_is_proved_alike_alone_and_in_a_batch(re
     alone = reasoner.decide(now, "change_lane_left", history, explain=True)
     batched = reasoner.decide_many([Request(now, Action.change_lane_left, history, explain=True),
                                     Request(now, Action.cruise, history)])[0]
-    assert alone.decision.value == "override" and "car 7 is 10.4 m behind" in alone.justification.text
+    assert alone.decision.value == "override" and "car 7 is 10.4 m behind" in alone.justification.full_text()
     assert alone.model_dump(exclude={"latency_ms"}) == batched.model_dump(exclude={"latency_ms"})
 
 
@@ -362,7 +362,7 @@ def test_an_atom_a_rule_computes_in_its_head_is_proved_by_that_rule_not_shown_as
     assert proof.rule == "def.closing_known"
     assert [child.text for child in proof.children] == [
         "car 1 moves at 5.0 m/s along the ego's heading and 0.0 m/s sideways",
-        "car 1 is 16.0 m ahead and in line with the ego", "car 1, 16.0 m ahead, is not behind the ego", "the ego drives at 15.0 m/s"]
+        "car 1 is 16.0 m ahead and in line with the ego", "car 1, 16.0 m ahead, is not behind the ego", "the ego drives at 15.0 m/s (33.6 mph)"]
     assert prover.why(Function("left_lane", [Number(1)])).rule == "def.adjacent_lanes"
 
 
@@ -441,7 +441,7 @@ def test_no_proof_step_gives_the_same_reason_twice(explained):
 
 def test_a_value_no_fact_gives_reads_as_words_not_as_a_variable(explained):
     # With the worked examples of docs/sanity.md, which a test keeps equal to the engine's own output.
-    texts = [verdict.justification.text for verdict in explained] + [SANITY_DOC.read_text(encoding="utf-8")]
+    texts = [verdict.justification.full_text() for verdict in explained] + [SANITY_DOC.read_text(encoding="utf-8")]
     assert not [line for text in texts for line in text.splitlines() if re.search(r"\bsome [A-Z]|\w ,", line)]
     said = "\n".join(texts)
     assert "rule def.lane_exists needs that a lane is next to the ego on the right, and there is no evidence of it" in said
@@ -450,7 +450,7 @@ def test_a_value_no_fact_gives_reads_as_words_not_as_a_variable(explained):
 
 
 def test_counts_of_frames_in_a_comparison_read_with_their_unit(explained):
-    texts = [verdict.justification.text for verdict in explained] + [SANITY_DOC.read_text(encoding="utf-8")]
+    texts = [verdict.justification.full_text() for verdict in explained] + [SANITY_DOC.read_text(encoding="utf-8")]
     said = "\n".join(texts)
     assert "rule def.reading_settled needs that 1 frame ≥ 2 frames, which is false" in said
     bare = re.compile(r"(?<![\w.])\d+ [<>≤≥=≠] \d+(?![\w.])")  # "1 ≥ 2": numbers with nothing to say what they count
@@ -471,7 +471,7 @@ def test_no_rule_is_said_to_need_exactly_what_it_was_asked_to_explain(explained)
                     circular.append(node.text)
             pending.extend((child, node) for child in node.children)
     assert checked > 1000 and not circular
-    said = "\n".join(verdict.justification.text for verdict in explained)
+    said = "\n".join(verdict.justification.full_text() for verdict in explained)
     assert "rule def.limit_doubted needs that the limit reading of 15.0 m/s (33.6 mph) is doubted for some reason" in said
 
 
@@ -520,20 +520,20 @@ def test_an_explained_approval_of_cruise_shows_the_catalog_fact_that_calls_for_i
     assert verdict.decision.value == "approve" and verdict.recommended.value != "cruise"
     assert "cruise.default" in verdict.rules
     assert set(verdict.rules) <= _tree_rules(list(verdict.justification.tree))
-    assert "there is a reason to cruise  [cruise.default]" in verdict.justification.text
+    assert "there is a reason to cruise  [cruise.default]" in verdict.justification.full_text()
 
 
 def test_a_headway_is_compared_in_metres_not_as_a_speed(reasoner):
     verdict = reasoner.decide(scene(speed=10, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate", explain=True)
     # the headway one accel_step on: 10.5 m/s for 1 s, against the 19.7 m needed to stop from 10.5 m/s
-    assert "10.5 m ≤ 19.7 m" in verdict.justification.text and "m/s ≤ 19.7" not in verdict.justification.text
+    assert "10.5 m ≤ 19.7 m" in verdict.justification.full_text() and "m/s ≤ 19.7" not in verdict.justification.full_text()
 
 
 def test_two_different_numbers_never_read_alike_in_a_comparison(reasoner):
     """895 > 894 cm/s read '8.9 m/s > 8.9 m/s', a comparison that looks false."""
     sc = scene(speed=8.95, intent="enter_left_lane", other_lanes=("cross_left",),
                intersection={"type": "four_way", "stage": "arriving", "distance": 5.0})
-    text = reasoner.decide(sc, "turn_left", explain=True).justification.text
+    text = reasoner.decide(sc, "turn_left", explain=True).justification.full_text()
     assert "8.95 m/s > 8.94 m/s" in text
 
 
@@ -542,7 +542,7 @@ def test_a_turn_held_by_a_hazard_says_in_words_that_it_is_not_the_red_light(reas
                intersection={"type": "four_way", "distance": 12.0})  # within a comfortable stop (def.line_far_ahead)
     verdict = reasoner.decide(sc, "turn_left", explain=True)
     assert "tl.hazard" in verdict.rules
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert "≠" not in text and "there is no evidence that the hazard is a red light" in text
     assert "there is a hazard: the approach is stop-controlled" in text
 
@@ -557,7 +557,7 @@ def test_a_red_light_still_leaves_turning_to_its_own_rules(reasoner):
 
 def test_evidence_of_a_stop_sign_is_not_stated_as_the_stop_control_it_proves(reasoner):
     sc = scene(speed=10, limit=11.176, intersection={"type": "unsignaled", "distance": 30.0, "stop_line": True})
-    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.full_text()
     assert "there is evidence of a stop sign: a stop line and no traffic lights, because  [san.stop.evidence_line]" in text
     assert text.count("the ego's approach is stop-controlled: a stop line and no traffic lights") == 1
 
@@ -566,17 +566,17 @@ def test_signed_speeds_are_said_with_their_direction(reasoner):
     oncoming = scene(speed=5, intent="enter_left_lane", other_lanes=("oncoming", "cross_left"),
                      objects=[obj("car", -3.5, 35, lane=1, kind="oncoming", vy=-12)],
                      intersection={"type": "four_way", "stage": "at", "distance": 0.0})
-    text = reasoner.decide(oncoming, "turn_left", explain=True).justification.text
+    text = reasoner.decide(oncoming, "turn_left", explain=True).justification.full_text()
     assert "car 1 moves at 12.0 m/s against the ego's heading and 0.0 m/s sideways" in text
     pulling_away = scene(speed=10, lane=2, lanes=2, objects=[obj("car", -3.5, 5, lane=1, vy=15)])
-    text = reasoner.decide(pulling_away, "change_lane_left", explain=True).justification.text
+    text = reasoner.decide(pulling_away, "change_lane_left", explain=True).justification.full_text()
     assert "car 1 pulls away from the ego at 5.0 m/s" in text
     assert "moves at -" not in text
 
 
 def test_a_position_compared_with_the_ego_is_said_as_a_side_not_a_negative_distance(reasoner):
     text = reasoner.decide(scene(speed=10, objects=[obj("car", 0, -4, lane=1, vy=10)]), "brake",
-                           explain=True).justification.text
+                           explain=True).justification.full_text()
     assert "car 1 is 4.0 m behind and in line with the ego" in text
     assert "car 1, 4.0 m behind, is behind the ego" in text
     assert not re.search(r"-\d+\.\d m\b", text)
@@ -587,24 +587,24 @@ def test_times_are_rounded_to_a_tenth_of_a_second():
         scene(speed=5, intent="enter_right_lane", other_lanes=("cross_right",), sign="stop",
               intersection={"type": "four_way", "stage": "at", "distance": 0.0},
               objects=[obj("car", -25, 5, lane=1, kind="cross_right", velocity={"x": 15.0, "y": 0.0})]),
-        "turn_right", explain=True).justification.text
+        "turn_right", explain=True).justification.full_text()
     assert "car 1 reaches the ego's path in 1.7 s" in prover_text
 
 
 def test_intersection_types_read_as_words(reasoner):
     sc = scene(speed=5, intent="enter_right_lane", other_lanes=("cross_right",),
                intersection={"type": "t_intersect", "stage": "at", "distance": 0.0})
-    text = reasoner.decide(sc, "turn_right", explain=True).justification.text
+    text = reasoner.decide(sc, "turn_right", explain=True).justification.full_text()
     assert "the intersection ahead is a T-junction" in text and "t intersect" not in text
 
 
 def test_class_words_say_what_the_object_is(reasoner):
     """AV-CSR files a bicycle under automobile; the text says vehicle, which is true, and names unknowns as objects."""
     sc = scene(speed=10, objects=[obj("unknown", 0, 6, lane=1)])
-    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.full_text()
     assert "unknown object 1 is 6.0 m ahead" in text and "unknown 1" not in text
     slow_bicycle = scene(speed=10, lanes=2, lane=2, objects=[obj("bicycle", 0, 30, lane=2, vy=3)])
-    text = reasoner.decide(slow_bicycle, "change_lane_left", explain=True).justification.text
+    text = reasoner.decide(slow_bicycle, "change_lane_left", explain=True).justification.full_text()
     assert "a bicycle is a kind of vehicle  [ent.hierarchy]" in text
 
 
@@ -612,7 +612,7 @@ def test_a_scenes_path_ids_read_as_given_not_as_catalog_words(reasoner):
     """'stop_sign' named a path, not 'the approach is stop-controlled'; 'path_1' is not 'path 1'."""
     sc = scene(speed=10, path="stop_sign", crossings=[("stop_sign", "path_1")],
                objects=[obj("truck", 3.5, 8, lane=1, vy=5, predicted_path="path_1")])  # inside the gap needed: due
-    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.full_text()
     assert "the ego's predicted path is stop_sign" in text
     assert "truck 1 is predicted to follow path path_1" in text
     assert "path stop_sign crosses path path_1" in text
@@ -623,37 +623,37 @@ def test_a_position_compared_with_a_distance_setting_gives_the_setting_no_side(r
     sc = scene(speed=5, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"),
                intersection={"type": "t_intersect", "stage": "at"},
                objects=[obj("bicycle", 2.5, -4, lane=1, kind="shoulder", vy=5)])
-    text = reasoner.decide(sc, "turn_right", explain=True).justification.text
+    text = reasoner.decide(sc, "turn_right", explain=True).justification.full_text()
     assert "tr.kerb_side_user" in text and "bicycle 1, 4.0 m behind, is behind the ego" in text
     assert "4.0 m < 15.0 m" in text and "-4.0 m" not in text and "15.0 m ahead" not in text
 
 
 def test_a_signed_speed_against_zero_reads_in_words_not_with_a_minus_sign(reasoner):
     cyclist = scene(speed=10, objects=[obj("bicycle", 0, 25, lane=1, vy=12.0)])  # riding away faster than the ego
-    text = reasoner.decide(cyclist, "accelerate", explain=True).justification.text
+    text = reasoner.decide(cyclist, "accelerate", explain=True).justification.full_text()
     assert "needs that the gap shrinks (it grows by 1.5 m/s), which is false" in text and "-1.5 m/s >" not in text
     crossing = scene(speed=0, sign="stop", other_lanes=("cross_right",), intersection={"type": "four_way", "stage": "at"},
                      objects=[obj("car", 30, 18, lane=1, kind="cross_right", velocity={"x": -15.0, "y": 0.0})])
-    text = reasoner.decide(crossing, "accelerate", explain=True).justification.text
+    text = reasoner.decide(crossing, "accelerate", explain=True).justification.full_text()
     assert "15.0 m/s to the left is a move to the left" in text and "-15.0 m/s <" not in text
 
 
 def test_a_closing_speed_that_agrees_with_its_need_reads_once(reasoner):
     """'the gap shrinks (it shrinks by 5.0 m/s)' said the same thing twice."""
     sc = scene(speed=10, objects=[obj("bicycle", 0, 25, lane=1, vy=5.0)])
-    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.full_text()
     assert "the gap shrinks by 5.5 m/s" in text and "(it shrinks" not in text
 
 
 def test_a_closing_speed_a_rule_assumes_reads_as_assumed_not_as_measured(reasoner):
     """A car of unknown speed 'closes in at 0.0 m/s' read like a measurement; the rule's own words say why."""
     sc = scene(speed=10, objects=[obj("car", 0, 6, lane=1), obj("car", 0, -8, lane=1)])
-    text = reasoner.decide(sc, "accelerate", explain=True).justification.text
+    text = reasoner.decide(sc, "accelerate", explain=True).justification.full_text()
     assert ("car 1, whose speed is unknown, is taken to keep pace with the traffic: the ego closes in on it at "
             "0.0 m/s, because  [def.closing_unknown_vehicle]") in text
     assert "the ego closes in on car 1 at" not in text
     cone = scene(speed=10, objects=[obj("roadblock", 0, 9, lane=1)])
-    text = reasoner.decide(cone, "accelerate", explain=True).justification.text
+    text = reasoner.decide(cone, "accelerate", explain=True).justification.full_text()
     assert ("roadblock 1, whose speed is unknown, is taken to stand still: the ego closes in on it at its own "
             "10.0 m/s") in text
 
@@ -661,14 +661,14 @@ def test_a_closing_speed_a_rule_assumes_reads_as_assumed_not_as_measured(reasone
 def test_a_rule_ruled_out_by_what_holds_says_so_without_a_double_negative(reasoner):
     """'needs that it is not so that X, but it is' made the reader undo two negations."""
     taped = sanity_scene(speed=16.0, limit=85 * MPH, signs=[limit_sign(85)])
-    text = reasoner.decide(taped, "accelerate", explain=True).justification.text
+    text = reasoner.decide(taped, "accelerate", explain=True).justification.full_text()
     assert "it is not so that" not in text
     assert "rule def.trusted_reading is ruled out, because the limit reading of 38.0 m/s (85 mph) is doubted" in text
 
 
 def test_signed_positions_that_differ_never_read_alike(reasoner):
     sc = scene(speed=10, lane=2, lanes=2, objects=[obj("car", -1.76, 4)])
-    text = reasoner.decide(sc, "change_lane_left", explain=True).justification.text
+    text = reasoner.decide(sc, "change_lane_left", explain=True).justification.full_text()
     assert "1.76 m to the left is not right of 1.75 m to the left" in text
 
 
@@ -677,14 +677,14 @@ def test_a_reading_of_a_few_hundredths_of_a_second_is_not_zero_seconds(reasoner)
                     / "flicker_65_at_50hz_does_not_raise_the_limit.json")
     history = [f.scene for f in scenario.frames[:-1]]
     last = scenario.frames[-1]
-    text = reasoner.decide(last.scene, last.proposed, history=history, explain=True).justification.text
+    text = reasoner.decide(last.scene, last.proposed, history=history, explain=True).justification.full_text()
     assert "has been read for 0.04 s in a row" in text and "for 0.0 s" not in text
     assert "the time that confirms a reading is 0.2 s" in text and "confirm ms" not in text
 
 
 def test_settings_read_by_their_meaning_not_their_parameter_names(reasoner):
     text = reasoner.decide(scene(speed=10, objects=[obj("car", 0, 12, lane=1, vy=0)]), "cruise",
-                              explain=True).justification.text
+                              explain=True).justification.full_text()
     assert "the reaction time is 1.0 s" in text and "the firm braking deceleration is 6.0 m/s²" in text
     assert "the reaction is" not in text and "the decel is" not in text
 
@@ -694,7 +694,7 @@ def test_reasons_worded_alike_are_both_argued_when_their_own_reasons_differ(reas
     sc = scene(speed=10, lane=2, lanes=2, intent="merge_into_left_lane", objects=[
         obj("car", -3.5, 50, lane=1, vy=10), obj("car", -3.5, -40, lane=1, vy=12), obj("truck", -3.5, 30, lane=1, vy=11)])
     verdict = reasoner.decide(sc, "change_lane_left", explain=True)
-    text = verdict.justification.text
+    text = verdict.justification.full_text()
     assert "the ego needs 10.0 m of gap to car 1  [def.gap_needed]" in text
     assert "moving into the lane of car 1 needs a headway gap of 10.0 m to it  [def.headway_gap]" in text
     html_page = render_html(verdict)
@@ -714,7 +714,7 @@ def test_an_oncoming_car_of_unknown_speed_is_not_said_to_keep_pace_with_the_traf
 
 def test_a_thing_behind_that_cannot_move_is_said_to_stand_not_to_keep_pace(reasoner):
     sc = scene(speed=10, lane=1, lanes=2, objects=[obj("traffic_cone", 3.5, -4, lane=2)])
-    text = reasoner.decide(sc, "change_lane_right", explain=True).justification.text
+    text = reasoner.decide(sc, "change_lane_right", explain=True).justification.full_text()
     assert "traffic cone 1 behind cannot move by itself and stands: it falls back at 10.0 m/s" in text
     assert "keep pace" not in text
 
@@ -725,7 +725,7 @@ def test_a_time_made_of_a_distance_and_a_speed_reads_in_seconds():
     from discern.rules.engine import reasoner_for
 
     scenario = runner.load(Path(__file__).resolve().parents[1] / "scenarios" / "rules" / "tr.crossing_user.stepping_in.json")
-    text = runner.run(scenario, reasoner_for("us"))[0].verdict.justification.text
+    text = runner.run(scenario, reasoner_for("us"))[0].verdict.justification.full_text()
     assert "1.8 s < 5.0 s" in text and "m/s < 50.0 m/s" not in text
 
 
@@ -733,7 +733,7 @@ def test_a_70_mph_sign_read_as_31_3_m_s_is_usual_on_a_highway(reasoner):
     """31.3 m/s is 70 mph rounded; it once read as above the usual 31.29 m/s and was doubted as unusual."""
     sc = sanity_scene(speed=25.0, zone="highway", limit=31.3, signs=[{"kind": "speed_limit", "value": 31.3, "source": "camera"}])
     verdict = reasoner.decide(sc, "accelerate", explain=True)
-    assert "is doubted: unusual" not in verdict.justification.text and not any(r.startswith("san.limit") for r in verdict.rules)
+    assert "is doubted: unusual" not in verdict.justification.full_text() and not any(r.startswith("san.limit") for r in verdict.rules)
 
 
 @pytest.mark.parametrize("expression", [

@@ -11,7 +11,7 @@ from tests.scenes import obj, scene
 
 
 def _text(reasoner, sc, action):
-    return reasoner.decide(sc, action, explain=True).justification.text
+    return reasoner.decide(sc, action, explain=True).justification.full_text()
 
 
 def test_an_object_pulling_away_is_not_said_to_be_closed_in_on_at_a_negative_speed(reasoner):

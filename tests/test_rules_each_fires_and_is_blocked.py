@@ -894,7 +894,7 @@ def test_a_lane_change_leaves_the_time_headway_to_a_vehicle_at_its_speed_and_les
     assert beside(-20, vy=20, speed=30).decision.value == "approve"  # falling back: 20 - (30² - 20²)/12 < 0
     assert "cll.lane_taken" in beside(12, vy=31, speed=30).rules  # barely faster: 30 - 61/12 = 24.9 m needed
     falling_back = scene(speed=30, limit=35, lane=2, lanes=2, objects=[obj("car", -3.5, -20, lane=1, vy=20)])
-    text = REASONER.decide(falling_back, "change_lane_left", explain=True).justification.text
+    text = REASONER.decide(falling_back, "change_lane_left", explain=True).justification.full_text()
     assert "moving into the lane of car 1 needs a headway gap of 0.0 m to it  [def.headway_gap]" in text
 
 

@@ -173,7 +173,7 @@ def test_the_ego_does_not_overtake_a_car_signalling_towards_the_passing_side(rea
 def test_a_speed_setting_reads_in_the_unit_of_the_packs_signs_too():
     """The margin over the limit is shown as a driver reads limits: '2.24 m/s (5 mph)'."""
     over = scene(speed=15.2, zone="city", limit=13.41)
-    text = UK.decide(over, "cruise", explain=True).justification.text
+    text = UK.decide(over, "cruise", explain=True).justification.full_text()
     assert "the margin allowed over the limit is 2.24 m/s (5 mph)" in text
 
 
