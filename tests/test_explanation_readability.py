@@ -2,6 +2,7 @@
 one line, exceptions worded as denials, the pack's words for colours, and speeds in the unit of its signs."""
 
 import json
+import re
 
 import jsonschema
 import pytest
@@ -56,14 +57,16 @@ def test_a_negative_proof_over_many_rules_reads_as_one_line_naming_them_and_keep
     verdict = _decide(TAILGATED, "brake", "uk")
     text = verdict.justification.text
     line = next(line for line in text.splitlines() if "there is no evidence that there is a reason to brake" in line)
-    assert "none of the 14 rules for it applies: brake.hazard, brake.yellow_light_unknown" in line
+    named = re.search(r"none of the (\d+) rules for it applies: (.*)$", line)
+    assert named and named.group(2).startswith("brake.hazard, brake.yellow_light_unknown")
+    assert int(named.group(1)) == len(named.group(2).split(", ")) > 10
     assert "rule brake.red_light needs" not in text  # the hazard rules one click away, not 26 lines
     tree = json.loads(render_json(verdict))
     jsonschema.validate(tree, SCHEMA)
     assert "brake.red_light" in json.dumps(tree["justification"]["tree"])  # as child nodes in the JSON
     assert set(verdict.rules) <= _tags(verdict.justification.tree)
     page = render_html(verdict)
-    assert "none of the 14 rules for it applies" in page and "rule brake.red_light needs" in page  # folded, there
+    assert f"none of the {named.group(1)} rules for it applies" in page and "rule brake.red_light needs" in page  # folded, there
 
 
 def test_the_replacements_proof_is_cut_short_in_the_text_but_whole_in_the_full_text():
