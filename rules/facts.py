@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass, fields
 
 from clingo import String
 
-from .scene import MAX_RANGE_M, Action, Scene
+from .scene import MAX_RANGE_M, Action, Scene, TrafficLight
 
 
 def cm(metres: float) -> int:
@@ -174,8 +174,8 @@ def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
             out.append(f"obj_track_age({oid},{obj.track_age}).")
     for light in scene.traffic_lights:
         if light.colour.value != "none":
-            out.append(f"traffic_light({light.colour.value}).")
-            out.append(f"light_{'flashing' if light.flashing else 'steady'}({light.colour.value}).")
+            out.append(f"traffic_light({lamp(light)}).")
+            out.append(f"light_{'flashing' if light.flashing else 'steady'}({lamp(light)}).")
     for sign in scene.signs:
         out.append(f"traffic_sign({sign.kind.value}).")
         if sign.value is not None:
@@ -200,6 +200,14 @@ def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
     if proposed is not None:
         out.append(f"proposed({proposed.value}).")
     return "".join(out)
+
+
+def lamp(light: TrafficLight) -> str:
+    """The constant the rules know a lit light by: its colour for a ball, `red_left_arrow` for an arrow. An arrow is a
+    lamp of its own, so that what is seen of it (lit, flashing, remembered) is never taken for the ball's; the catalog
+    reads its movement and colour off `arrow_lamp/3`. The facts stay plain constants (fact_text.py)."""
+    colour = light.colour.value
+    return colour if light.direction is None else f"{colour}_{light.direction.value}_arrow"
 
 
 def _const(name: str) -> str:

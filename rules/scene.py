@@ -150,6 +150,14 @@ class LightColour(str, Enum):
     none = "none"
 
 
+class ArrowDirection(str, Enum):
+    """The movement an arrow light governs; a light without one is a ball, governing the whole approach."""
+
+    straight = "straight"
+    left = "left"
+    right = "right"
+
+
 class SignKind(str, Enum):
     stop = "stop"
     yield_ = "yield"
@@ -285,6 +293,9 @@ class TrafficLight(Strict):
     colour: LightColour
     flashing: bool = False
     source: Source = Source.camera
+    direction: Optional[ArrowDirection] = Field(
+        None, description="the movement an arrow governs (straight, left or right); omitted, the light is a ball "
+        "(a round light), which governs every movement no lit arrow governs")
 
 
 class TrafficSign(Strict):

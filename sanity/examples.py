@@ -241,6 +241,16 @@ def _examples() -> list[Example]:
     # a flashing red reported by perception, the ego slowing to a stop over four frames
     flashing_red_at = tuple(scene(frame=i, speed=max(0.0, 3.0 - i), limit=13.0, lights=[{"colour": "red", "flashing": True}],
                                   intersection=at_stop) for i in range(1, 5))
+    # a flashing yellow left arrow beside a red ball, half a second on and off, dark now; the near miss: a steady one
+    # hidden now, which is remembered but does not flash
+    signal_line = {"type": "signaled", "stage": "at", "distance": 0.0}
+
+    def left_arrow_beside_red(flashing: bool, lit: tuple[bool, ...]) -> tuple[Scene, ...]:
+        arrow = {"colour": "yellow", "direction": "left", "flashing": flashing}
+        return tuple(scene(frame=i + 1, timestamp=0.5 * i, speed=0.0, limit=13.0, intent="enter_left_lane", intersection=signal_line,
+                           lights=[{"colour": "red"}, arrow] if on else [{"colour": "red"}]) for i, on in enumerate(lit))
+    fya_dark = left_arrow_beside_red(True, (True, False, True, False))
+    steady_arrow_dark = left_arrow_beside_red(False, (True, True, True, False))
     return [
         # --- speed limits
         Example("san.limit.sign", "No limit in the perceived state, but the camera reads a 25 mph sign; the ego drives 12 m/s.",
@@ -447,6 +457,9 @@ def _examples() -> list[Example]:
                 tuple(flashing_red), Action.cruise, steady_red),
         Example("san.lights.flashing_red_stop", "Arriving at an intersection whose light flashes red.",
                 tuple(flashing_red), Action.cruise, steady_red),
+        Example("san.lights.flashing_arrow_governs",
+                "Stopped at the line to turn left, beside a steady red ball, the ego sees a yellow left arrow perception "
+                "reports flashing, dark now between flashes.", fya_dark, Action.turn_left, steady_arrow_dark),
         Example("san.lights.dark_signal",
                 "The traffic lights of the intersection 20 m ahead are all dark; the ego drives 12 m/s (US: an all-way stop).",
                 (scene(speed=12.0, limit=15.6, lights=[{"colour": "none"}], intersection=dark_signal),), Action.accelerate,

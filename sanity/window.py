@@ -22,7 +22,7 @@ from typing import Iterable, NamedTuple, Optional, Sequence
 
 from clingo import Symbol, SymbolType
 
-from discern.rules.facts import Params, cm
+from discern.rules.facts import Params, cm, lamp
 from discern.rules.scene import (MAX_ID, DetectedObject, IntersectionStage, IntersectionType, LaneKind, LightColour,
                                  ObjectClass, Scene, SensorSide, SignKind, Size, Source)
 
@@ -93,9 +93,10 @@ class _Summary:
     perceived: Optional[int]  # the perceived limit (the scene's speed_limit)
     stop_evidence: tuple[str, ...]  # what showed a stop sign belonged at the approach, where none was read as one
     on_vehicles: frozenset[int]  # limits read off signs inside a motor vehicle's outline (a sticker, an advert)
-    lights: frozenset[LightColour]
-    flashing: frozenset[LightColour]
-    steady: frozenset[LightColour]  # colours some light of which is not flagged flashing
+    # lit lamps by the rules' name for them (rules.facts.lamp): a ball's colour, or an arrow's, `red_left_arrow`
+    lights: frozenset[str]
+    flashing: frozenset[str]
+    steady: frozenset[str]  # lamps some light of which is not flagged flashing
     stop_sign: bool
     school_sign: bool
     dark: bool  # traffic lights in view, none of them lit
@@ -118,9 +119,9 @@ class _Summary:
             on_vehicles=frozenset(value for value, _, cls in _signs_within(scene, bodies) if cls in bodies.motor),
             # a lamp of colour "none" (unlit, glare, unreadable) shows no colour: it is no light seen, and does not
             # make a red seen before any less the last colour seen (the core gives it no fact either)
-            lights=frozenset(l.colour for l in scene.traffic_lights if l.colour is not LightColour.none),
-            flashing=frozenset(l.colour for l in scene.traffic_lights if l.flashing and l.colour is not LightColour.none),
-            steady=frozenset(l.colour for l in scene.traffic_lights if not l.flashing and l.colour is not LightColour.none),
+            lights=frozenset(lamp(l) for l in scene.traffic_lights if l.colour is not LightColour.none),
+            flashing=frozenset(lamp(l) for l in scene.traffic_lights if l.flashing and l.colour is not LightColour.none),
+            steady=frozenset(lamp(l) for l in scene.traffic_lights if not l.flashing and l.colour is not LightColour.none),
             stop_sign=any(s.kind is SignKind.stop for s in scene.signs),
             school_sign=any(s.kind is SignKind.school_zone for s in scene.signs),
             dark=_dark(scene),
@@ -531,28 +532,35 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
         return []
     frames = past + [now]
     out = []
-    for colour in (LightColour.red, LightColour.yellow):
-        # perception's flag: in how many of the latest frames that show the colour, back to a steady report of it,
+    # each lamp on its own: a ball and each arrow flash, and are remembered, apart (a flashing yellow arrow beside a
+    # steady yellow ball is no flashing ball)
+    for name in sorted({name for f in frames for name in f.lights if _colour(name) is not LightColour.green}):
+        # perception's flag: in how many of the latest frames that show the lamp, back to a steady report of it,
         # and over how long: at 50 Hz, or with one camera frame delivered twice, two flags are a glint, not a flash
-        states = [None if colour not in f.lights else colour not in f.steady for f in frames]
+        states = [None if name not in f.lights else name not in f.steady for f in frames]
         flagged, first, last = _recent_run(states, times, config)
         if flagged:
-            out.append(f"light_flashing_frames({colour.value},{flagged})."
-                       f"light_flashing_time({colour.value},{clock.lasted(first, last)}).")
+            out.append(f"light_flashing_frames({name},{flagged}).light_flashing_time({name},{clock.lasted(first, last)}).")
         # a yellow lit now needs a whole lit phase seen as well as a dark one: a steady yellow hidden for a moment
         # and back is on, off, on too, and taking it for flashing would let the ego run it
-        if _flashes([colour in f.lights for f in frames], times, config, whole_lit=colour is LightColour.yellow):
-            out.append(f"light_flashes({colour.value}).")
+        if _flashes([name in f.lights for f in frames], times, config, whole_lit=_colour(name) is LightColour.yellow):
+            out.append(f"light_flashes({name}).")
     last = next((p for p in reversed(past) if p.lights), None)
     if not now.lights and last is not None:
-        # the colours when last seen, as the rules judged them then: a red beside a green arrow still held the ego
-        # (a green alone is remembered as nothing); a yellow perception flagged flashing calls for caution, not for
-        # a stop, and only a steady one is remembered
-        if LightColour.red in last.lights:
-            out.append("light_seen_recently(red).")
-        if LightColour.yellow in last.steady:
-            out.append("light_seen_recently(yellow).")
+        # the lamps when last seen, as the rules judged them then: a red ball beside a green arrow still held the
+        # movements the arrow does not govern (a green ball alone is remembered as nothing); a yellow perception
+        # flagged flashing calls for caution, not for a stop, and only a steady one is remembered. Every arrow is
+        # remembered, green too: it, not the ball, governed its movement
+        for name in sorted(last.lights):
+            colour = _colour(name)
+            if colour is LightColour.red or colour is LightColour.yellow and name in last.steady or name != colour.value:
+                out.append(f"light_seen_recently({name}).")
     return out
+
+
+def _colour(name: str) -> LightColour:
+    """The colour of a lamp named as rules.facts.lamp names it."""
+    return LightColour(name.partition("_")[0])
 
 
 def _dark(scene: Scene) -> bool:

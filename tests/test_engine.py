@@ -22,6 +22,9 @@ def random_scene(rng: random.Random):
     extra = {}
     if rng.random() < 0.4:
         extra["intersection"] = {"type": "four_way", "stage": rng.choice(["arriving", "at", "enter"])}
+    if rng.random() < 0.3:  # an arrow beside the ball, or alone
+        arrow = {"colour": rng.choice(["red", "yellow", "green"]), "direction": rng.choice(["straight", "left", "right"])}
+        extra["traffic_lights"] = [arrow] + ([{"colour": rng.choice(["red", "green"])}] if rng.random() < 0.7 else [])
     return scene(speed=rng.uniform(0, 30), lane=rng.randint(1, lanes), lanes=lanes, limit=rng.choice([None, 15, 30]),
                  objects=objects, light=rng.choice([None, "red", "green", "yellow"]),
                  sensors=rng.choice([None, {"left": rng.uniform(0, 3)}]),
@@ -53,6 +56,22 @@ def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program(jurisdi
         history = (previous.model_copy(update={"frame_id": sc.frame_id - 1, "timestamp": sc.timestamp - 0.1}),)
         assert set(reasoner.solve(sc, "cruise", history).answer.all()) == full_model(reasoner, sc, history)
         previous = sc
+
+
+def test_an_arrow_is_a_lamp_of_its_own_in_the_facts_and_a_ball_keeps_its_colour():
+    lights = [{"colour": "green"}, {"colour": "red", "direction": "left"}, {"colour": "yellow", "direction": "straight", "flashing": True},
+              {"colour": "none", "direction": "right"}]
+    facts = scene_facts(scene(traffic_lights=lights))
+    for fact in ("traffic_light(green).", "light_steady(green).", "traffic_light(red_left_arrow).",
+                 "light_steady(red_left_arrow).", "light_flashing(yellow_straight_arrow)."):
+        assert fact in facts
+    assert "right_arrow" not in facts and "traffic_light(red)." not in facts
+
+
+def test_a_light_without_a_direction_is_a_ball_and_a_direction_must_be_a_movement():
+    assert Scene.model_validate({**scene().model_dump(by_alias=True), "traffic_lights": [{"colour": "red"}]}).traffic_lights[0].direction is None
+    with pytest.raises(ValueError, match="direction"):
+        scene(traffic_lights=[{"colour": "red", "direction": "u_turn"}])
 
 
 def test_fact_names_found_for_slicing_include_zero_arity_facts():

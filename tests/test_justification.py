@@ -79,7 +79,7 @@ def test_negative_justification_says_there_is_no_evidence(reasoner):
     verdict = reasoner.decide(scene(speed=5, limit=15), "accelerate", explain=True)
     text = verdict.justification.full_text()
     assert "there is no evidence that accelerate is forbidden, because" in text
-    assert "rule acc.red_light needs that the traffic light is red, and there is no evidence of it" in text
+    assert "rule acc.red_light needs that the light for the ego's movement is a steady red, and there is no evidence of it" in text
 
 
 def test_what_no_frame_can_change_is_stated_not_spelled_out_class_by_class(reasoner):
@@ -162,7 +162,7 @@ def test_the_rules_that_find_no_hazard_are_listed_once_under_the_several_rules_t
     the same list under both, argued once and pointed back to the second time."""
     near = scene(speed=10, lanes=2, lane=2, intersection={"type": "four_way", "stage": "arriving", "distance": 20.0})
     text = reasoner.decide(near, "change_lane_left", explain=True).justification.full_text()
-    assert text.count("rule brake.red_light needs that the traffic light is red") == 1, text
+    assert text.count("rule brake.red_light needs that the light for the ego's movement is a steady red") == 1, text
     assert "rule acc.hazard needs that there is a hazard, and there is no evidence of it, as shown above" in text
 
 

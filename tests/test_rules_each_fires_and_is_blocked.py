@@ -32,7 +32,10 @@ ped_ahead = obj("pedestrian", 0, 6, lane=1)
 box_ahead = obj("roadblock", 0, 15, lane=2)
 car_left_close = obj("car", -3.5, 2, lane=1)
 at_stop = {"type": "four_way", "stage": "at"}
-stopped_45m = obj("car", 0, 45, lane=2, vy=0.0)  # at 30 m/s the ego needs 105 m to stop
+stopped_45m = obj("car", 0, 45, lane=2, vy=0.0)
+green_ball, red_ball = {"colour": "green"}, {"colour": "red"}
+red_left_arrow, green_left_arrow = {"colour": "red", "direction": "left"}, {"colour": "green", "direction": "left"}
+red_right_arrow = {"colour": "red", "direction": "right"}  # at 30 m/s the ego needs 105 m to stop
 stopped_110m = obj("car", 0, 110, lane=2, vy=0.0)
 # At the limit, a car 3 m behind alongside on the left moving into the ego's lane (cruise forbidden: a sideswipe)
 # and a car 6 m behind in the ego's lane (braking for nothing forbidden); the lane on the right is free.
@@ -380,6 +383,15 @@ CASES = {
     ),
     "tl.red_light": (scene(light="red", intersection=at_stop), scene(light="green", intersection=at_stop)),
     "tr.red_light": (scene(light="red", intersection=at_stop), scene(light="green", intersection=at_stop)),
+    "tr.red_arrow": (scene(intersection=at_stop, traffic_lights=[green_ball, red_right_arrow]),
+                     scene(intersection=at_stop, traffic_lights=[red_ball])),
+    "def.ego_movement": (scene(), None),
+    "def.light_for": (scene(light="red"), scene()),
+    "def.faces_light": (scene(traffic_lights=[green_ball, red_left_arrow]), scene(traffic_lights=[red_left_arrow])),
+    "def.protected_turn": (
+        scene(intersection=at_stop, traffic_lights=[red_ball, green_left_arrow]),
+        scene(intersection=at_stop, traffic_lights=[red_ball, {**green_left_arrow, "flashing": True}]),
+    ),
     "tr.crossing_user": (
         scene(intersection=at_stop, other_lanes=("cross_left",), objects=[obj("pedestrian", 4, 4, lane=1, kind="cross_left")]),
         scene(intersection=at_stop, other_lanes=("cross_left",), objects=[obj("pedestrian", -4, 4, lane=1, kind="cross_left")]),
@@ -1191,3 +1203,54 @@ def test_a_declared_path_crossing_is_a_hazard_only_where_and_when_the_ego_meets_
     slower = decide(merging(40, vy=15.0), "cruise")  # closing at 15 m/s the ego needs 33.75 m: 40 m is enough
     assert slower.decision.value == "approve" and slower.recommended.value == "brake"
     assert decide(merging(25, vy=10.0), "cruise").action.value == "brake"  # closing at 20 m/s needs 53.3 m
+
+
+at_signal = {"type": "signaled", "stage": "at", "distance": 0.0}
+
+
+def test_a_red_left_arrow_beside_a_green_ball_stops_the_left_turn_and_not_the_traffic_going_straight():
+    lights = scene(speed=3, intent="enter_left_lane", intersection=at_signal, other_lanes=("cross_left",),
+                   traffic_lights=[green_ball, red_left_arrow])
+    assert decide(lights, "cruise").decision.value == "approve"
+    assert decide(lights, "turn_right").decision.value == "approve"
+    turn = decide(lights, "turn_left")
+    assert (turn.decision.value, turn.action.value) == ("override", "brake") and "tl.red_light" in turn.vetoed_by
+    assert "the light for going left is red (left arrow)" in turn.justification.text
+
+
+def test_a_green_right_arrow_beside_a_red_ball_lets_the_right_turn_go_and_holds_the_traffic_going_straight():
+    lights = scene(speed=0, intent="enter_right_lane", intersection=at_signal, other_lanes=("cross_right",),
+                   traffic_lights=[red_ball, {"colour": "green", "direction": "right"}])
+    assert decide(lights, "turn_right").decision.value == "approve"
+    straight = decide(lights, "accelerate")
+    assert straight.decision.value == "override" and "acc.red_light" in straight.vetoed_by
+
+
+def test_no_right_turn_on_a_red_right_arrow_after_a_stop_where_a_red_ball_allows_one():
+    stopped = {"speed": 0, "intent": "enter_right_lane", "intersection": at_signal, "other_lanes": ("cross_left",)}
+    assert decide(scene(**stopped, light="red"), "turn_right").decision.value == "approve"
+    arrow = decide(scene(**stopped, traffic_lights=[red_ball, red_right_arrow]), "turn_right")
+    assert (arrow.decision.value, arrow.action.value) == ("override", "brake") and "tr.red_arrow" in arrow.vetoed_by
+
+
+@pytest.mark.parametrize("jurisdiction, turn, side", [("us", "left", -3.5), ("uk", "right", 3.5)])
+def test_a_green_arrow_protects_a_turn_from_oncoming_traffic_but_not_from_someone_crossing(jurisdiction, turn, side):
+    reasoner = Reasoner(jurisdiction=jurisdiction)
+    arrow = {"colour": "green", "direction": turn}
+    waiting = {"speed": 0, "intent": f"enter_{turn}_lane", "intersection": at_signal, "other_lanes": ("oncoming", f"cross_{turn}"),
+               "objects": [obj("car", side, 12, lane=1, kind="oncoming", vy=-10)]}
+    assert reasoner.decide(scene(**waiting, traffic_lights=[red_ball, arrow]), f"turn_{turn}").decision.value == "approve"
+    unprotected = reasoner.decide(scene(**waiting, light="green"), f"turn_{turn}")
+    assert f"t{turn[0]}.yield_oncoming" in unprotected.vetoed_by
+    crossing = obj("pedestrian", side / 2, 6, lane=1, kind=f"cross_{turn}")
+    walker = scene(**{**waiting, "objects": [*waiting["objects"], crossing]}, traffic_lights=[red_ball, arrow])
+    assert f"t{turn[0]}.crossing_user" in reasoner.decide(walker, f"turn_{turn}").vetoed_by
+
+
+def test_an_arrow_for_another_movement_has_no_bearing_on_the_egos():
+    lights = scene(speed=10, limit=20, intersection={"type": "signaled", "stage": "arriving", "distance": 30},
+                   traffic_lights=[green_ball, red_left_arrow, {"colour": "yellow", "direction": "right"}])
+    assert decide(lights, "cruise").decision.value == "approve"
+    straight_red = scene(speed=10, limit=20, intersection={"type": "signaled", "stage": "arriving", "distance": 30},
+                         traffic_lights=[green_ball, {"colour": "red", "direction": "straight"}])
+    assert "brake.red_light" in decide(straight_red, "cruise").rules

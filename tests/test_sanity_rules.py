@@ -753,6 +753,17 @@ def test_a_flashing_red_at_an_intersection_is_a_stop_sign_in_the_us_and_holds_th
     assert "san.lights.flashing_red_stop" in uk.rules
 
 
+def test_a_flashing_red_left_arrow_is_a_stop_for_the_left_turn_and_not_for_the_traffic_going_straight():
+    lights = [{"colour": "green"}, {"colour": "red", "direction": "left", "flashing": True}]
+    rolling = tuple(scene(frame=i, speed=2.0, limit=13.0, lights=lights, intent="enter_left_lane",
+                          intersection={"type": "signaled", "stage": "at", "distance": 0.0}) for i in range(1, 6))
+    for jurisdiction in ("us", "uk"):
+        turn = _run(rolling, Action.turn_left, jurisdiction)
+        assert (turn.decision, turn.action) == (Decision.override, Action.brake)
+        assert "san.lights.flashing_red_stop" in turn.rules
+        assert _run(rolling, Action.cruise, jurisdiction).decision is Decision.approve
+
+
 # --- caution is a speed cap, not a standstill
 
 def _flashing_yellow(speed: float):

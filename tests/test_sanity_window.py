@@ -592,3 +592,29 @@ def test_one_frame_delivered_twice_is_seen_for_one_frame_not_two():
     assert "reading_time(2012,100)." in facts([first, again])
     untimed = [scene(frame=1, timestamp=0.0, signs=sign), scene(frame=2, timestamp=0.0, signs=sign)]
     assert "reading_time(2012,200)." in facts(untimed)
+
+
+def test_an_arrow_flashes_apart_from_the_ball_and_from_the_other_arrows():
+    """A flashing yellow left arrow beside a steady yellow ball is no flashing ball, nor a flashing right arrow."""
+    ball, left, right = {"colour": "yellow"}, {"colour": "yellow", "direction": "left"}, {"colour": "yellow", "direction": "right"}
+    lit = [(i // 5) % 2 == 0 for i in range(21)]  # the left arrow at 1 Hz; the ball and the right arrow steady
+    frames = [at(round(0.1 * i, 1), lights=[ball, right, {**left, "flashing": True}] if on else [ball, right])
+              for i, on in enumerate(lit)]
+    found = facts(frames)
+    assert {"light_flashes(yellow_left_arrow).", "light_flashing_frames(yellow_left_arrow,11)."} <= found
+    assert not any(f.startswith(("light_flashes(yellow)", "light_flashes(yellow_right", "light_flashing_frames(yellow,"))
+                   for f in found)
+
+
+def test_arrows_out_of_view_are_remembered_each_apart_from_the_ball_green_ones_too():
+    """A green arrow governed its movement rather than the red ball beside it: its memory keeps the ball off it."""
+    lights = [{"colour": "red"}, {"colour": "green", "direction": "left"}, {"colour": "red", "direction": "right"}]
+    found = facts([at(0.0, lights=lights), at(0.1)])
+    assert {"light_seen_recently(red).", "light_seen_recently(green_left_arrow).",
+            "light_seen_recently(red_right_arrow)."} <= found
+    assert "light_seen_recently(green)." not in facts([at(0.0, lights=[{"colour": "green"}]), at(0.1)])
+
+
+def test_an_unlit_arrow_beside_a_lit_ball_is_no_dark_signal():
+    frames = [at(round(0.1 * i, 1), lights=[{"colour": "green"}, {"colour": "none", "direction": "left"}]) for i in range(3)]
+    assert "signal_dark." not in facts(frames)
