@@ -39,13 +39,13 @@ def highway_scene(frame_id: int, n_objects: int = 8, *, lanes: int = 3, seed: in
     objects = []
     for i in range(n_objects):
         lane, row = 1 + i % lanes, i // lanes
-        # Rows of traffic alternately ahead of and behind the ego, 20 m apart;
+        # Rows of traffic alternately ahead of and behind the ego, 35 m apart;
         # the car ahead in the ego's lane is slowly being caught up.
-        ahead = (row // 2 + 1) * 20.0 * (1 if row % 2 == 0 else -1)
+        ahead = (row // 2 + 1) * 35.0 * (1 if row % 2 == 0 else -1)
         speed = 22.0 + rng.uniform(-3, 3)
         if lane == ego_lane and row == 0:
-            ahead = max(6.0, 40.0 - t * 3.0)
-        if lane == ego_lane and ahead > 0:  # caught up at about 1 m/s: followed at a safe gap for the first 2 s
+            ahead = max(6.0, 60.0 - t * 3.0)
+        if lane == ego_lane and ahead > 0:  # caught up at about 1 m/s: followed past the two-second headway for the first 2 s
             speed = 24.0 + rng.uniform(-0.5, 0.5)
         objects.append(
             DetectedObject(

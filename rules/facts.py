@@ -25,9 +25,10 @@ MIN_PARAM = 0.01  # the smallest parameter value the facts (in cm and ms) do not
 MAX_PARAM_TIME_S = 60.0
 MAX_PARAM_DECEL = 100.0  # m/s², ten times gravity
 MAX_PARAM_SPEED = 50.0  # m/s: a closing speed (up to twice MAX_SPEED_MS) raised by accel_step, times a minute, still fits
-_TIMES = frozenset({"reaction_s", "headway_s", "turn_gap_s"})
+_TIMES = frozenset({"reaction_s", "headway_s", "slow_headway_s", "turn_gap_s"})
 _DECELERATIONS = frozenset({"decel", "heavy_decel"})
-_SPEEDS = frozenset({"stopped_speed", "drift_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop", "cyclist_speed"})
+_SPEEDS = frozenset({"stopped_speed", "drift_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop",
+                     "cyclist_speed", "fast_traffic_speed"})
 
 
 def _largest(name: str) -> float:
@@ -46,7 +47,9 @@ class Params:
     decel: float = 6.0  # m/s^2, firm braking on a dry road
     heavy_decel: float = 4.5  # m/s^2, a loaded truck's or bus's full braking (FMVSS 121: 250 ft from 60 mph, 4.7 m/s^2)
     min_gap: float = 10.0  # m, AV-CSR's fixed gap: the floor of every gap
-    headway_s: float = 1.0  # time gap kept to a vehicle ahead when following
+    headway_s: float = 2.0  # time gap kept to a vehicle ahead when following in faster-moving traffic (Highway Code 126)
+    slow_headway_s: float = 1.0  # time gap kept below fast_traffic_speed, where the gap needed to stop is the rule
+    fast_traffic_speed: float = 17.8816  # m/s (40 mph), from this speed on traffic is faster-moving: headway_s applies
     swerve_dist: float = 20.0  # m, AV-CSR's look-ahead for swerving around objects
     overtake_dist: float = 40.0  # m, how far ahead a slower vehicle makes the ego overtake
     merge_dist: float = 150.0  # m, an ending lane closer than this must be left
@@ -104,6 +107,7 @@ class Params:
             [
                 f"param(reaction_ms,{int(round(values.pop('reaction_s') * 1000))}).",
                 f"param(headway_ms,{int(round(values.pop('headway_s') * 1000))}).",
+                f"param(slow_headway_ms,{int(round(values.pop('slow_headway_s') * 1000))}).",
                 f"param(turn_gap_ms,{int(round(values.pop('turn_gap_s') * 1000))}).",
                 f"param(decel,{cm(values.pop('decel'))}).",
             ]

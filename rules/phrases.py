@@ -53,7 +53,9 @@ _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8
 # Settings (param/2 and the sanity window's window_param/2) by name: the words, unit and scale of each. A name
 # not here is a distance in cm, its words its name ("crossing_dist": "the crossing distance is 15 m").
 _SETTINGS = {
-    "reaction_ms": ("reaction time", "s", 1000), "headway_ms": ("headway kept", "s", 1000),
+    "reaction_ms": ("reaction time", "s", 1000), "headway_ms": ("headway kept in faster-moving traffic", "s", 1000),
+    "slow_headway_ms": ("headway kept in slower traffic", "s", 1000),
+    "fast_traffic_speed": ("speed from which traffic is faster-moving", "m/s", 100),
     "turn_gap_ms": ("time a turn takes to clear", "s", 1000), "decel": ("firm braking deceleration", "m/s²", 100),
     "heavy_decel": ("full braking deceleration of a truck or bus", "m/s²", 100),
     "accel_step": ("speed one step of accelerating adds", "m/s", 100),

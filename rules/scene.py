@@ -390,9 +390,13 @@ class Scene(Strict):
         for obj in self.objects:
             if obj.lane is not None and (obj.lane.kind, obj.lane.id) not in known:
                 # A detection beyond the mapped lanes is still an obstacle: keep it.
+                # A same-direction label naming no listed lane places it nowhere: the rules place it by its
+                # measured position (def.lane_from_offset); another kind's label still says which way it goes.
+                placed = (", and placed by its measured position, as one reported without a lane is"
+                          if obj.lane.kind is LaneKind.current else "")
                 self.notes.append(
                     f"object {obj.id} is in lane {obj.lane.kind.value}/{obj.lane.id}, "
-                    "which the scene does not list; kept"
+                    f"which the scene does not list; kept{placed}"
                 )
         object_paths = {o.predicted_path for o in self.objects if o.predicted_path is not None}
         for crossing in self.path_crossings:  # one that cannot apply is said so, not dropped unseen

@@ -58,7 +58,7 @@ def highway(frame: int, speed: float = 31.0):
         limit=30.0,
         zone="highway",
         frame=frame,
-        objects=(obj("car", 0.0, 60.0, lane=2, vy=31.0), obj("car", -3.5, -10.0, lane=1, vy=30.0)),
+        objects=(obj("car", 0.0, 80.0, lane=2, vy=31.0), obj("car", -3.5, -10.0, lane=1, vy=30.0)),  # past two seconds
     )
 
 

@@ -49,7 +49,7 @@ def test_check_shows_the_scenes_warnings_in_every_format(tmp_path, capsys, expla
     data["objects"][0]["lane"] = {"kind": "current", "id": 9}
     main(["check", write(tmp_path, data), "--proposed", "cruise", "--explain", explain])
     out = capsys.readouterr().out
-    note = "object 1 is in lane current/9, which the scene does not list; kept"
+    note = "object 1 is in lane current/9, which the scene does not list; kept, and placed by its measured position, as one reported without a lane is"
     assert note in out
     if explain == "json":
         assert json.loads(out)["notes"] == [note]

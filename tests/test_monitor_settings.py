@@ -268,9 +268,10 @@ def test_a_monitor_decides_with_the_reasoning_parameters_it_is_given_and_logs_th
     from tests.monitor_process import serve
     from tests.scenes import obj, scene
 
-    # closing in at 15 m/s from 60 m: the ego covers 20 m in its headway and needs (20² - 5²) / (2 * 6) = 31.25 m
-    # more than the car to stop braking at the default 6 m/s² (51.25 m in all), but 46.9 m more at 4 (66.9 m)
-    ahead = scene(speed=20, limit=30, zone="highway", objects=[obj("car", 0, 60, lane=1, vy=5)])
+    # closing in at 15 m/s from 80 m: the ego covers 40 m in its headway (two seconds at 20 m/s) and needs
+    # (20² - 5²) / (2 * 6) = 31.25 m more than the car to stop braking at the default 6 m/s² (71.25 m in all), but
+    # 46.9 m more at 4 (86.9 m)
+    ahead = scene(speed=20, limit=30, zone="highway", objects=[obj("car", 0, 80, lane=1, vy=5)])
     assert Reasoner().decide(ahead, "cruise").action.value == "cruise"
     proc, ep = serve("--id", "trucks", "--budget-ms", "5000", "--param", "decel=4", "--log-dir", str(tmp_path))
     try:

@@ -73,12 +73,20 @@ CASES = {
     ),
     "def.heavy_headway_gap": (scene(speed=30, lanes=2, lane=2, objects=[obj("truck", -3.5, -30, lane=1, vy=30)]),
                               scene(speed=30, lanes=2, lane=2, objects=[obj("car", -3.5, -30, lane=1, vy=30)])),
-    "def.lane_heavy_headway": (
+    "def.lane_merge_rear_gap": (
         scene(speed=25, limit=31.3, zone="highway", lanes=2, lane=2, lane_ends={2: 100}, intent="merge_into_left_lane",
-              objects=[obj("truck", -3.5, -12, lane=1, vy=30)]),
-        scene(speed=25, limit=31.3, zone="highway", lanes=2, lane=2, lane_ends={2: 100}, intent="merge_into_left_lane",
-              objects=[obj("car", -3.5, -12, lane=1, vy=30)]),
+              objects=[obj("car", -3.5, -20, lane=1, vy=30)]),
+        scene(speed=25, limit=31.3, zone="highway", lanes=2, lane=2, objects=[obj("car", -3.5, -20, lane=1, vy=30)]),
     ),
+    "def.merge_rear_gap": (scene(speed=25, lanes=2, lane=2, objects=[obj("car", -3.5, -20, lane=1, vy=30)]),
+                           scene(speed=25, lanes=2, lane=2, objects=[obj("car", -3.5, 20, lane=1, vy=30)])),
+    "def.lane_unlisted": (
+        scene(speed=30, limit=31.3, zone="highway", lanes=3, lane=2, objects=[obj("car", -3.0, 15, lane=9, vy=28)]),
+        scene(speed=30, limit=31.3, zone="highway", lanes=3, lane=2, objects=[obj("car", -3.0, 15, lane=1, vy=28)]),
+    ),
+    "def.time_headway": (scene(), None),
+    "def.pull_over_reason": (scene(intent="pull_over"), scene()),
+    "po.no_reason": (scene(speed=30, limit=31.3, zone="highway"), scene(speed=30, limit=31.3, zone="highway", intent="pull_over")),
     "cll.give_room": (
         scene(speed=29, limit=31.3, zone="highway", lanes=2, lane=2, objects=[obj("pedestrian", 2.6, 35, vy=0)]),
         scene(speed=29, limit=31.3, zone="highway", lanes=2, lane=2, objects=[obj("pedestrian", -2.6, 35, vy=0)]),
@@ -124,7 +132,7 @@ CASES = {
         scene(speed=10, limit=11.2, objects=[obj("pedestrian", 3.5, 24, velocity={"x": -3.0, "y": 0.0})]),
     ),
     "cruise.short_headway": (scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 20, lane=1, vy=30.0)]),
-                             scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 35, lane=1, vy=30.0)])),
+                             scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 65, lane=1, vy=30.0)])),
     "acc.lead_braking": (
         scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 35, lane=1, vy=30.0, indicator="brake_light")]),
         scene(speed=30, limit=31.3, zone="highway", objects=[obj("car", 0, 35, lane=1, vy=30.0)]),
@@ -679,21 +687,22 @@ def test_a_car_drifting_into_the_egos_lane_without_a_signal_is_a_cut_in():
 
 
 def test_a_lane_change_in_front_of_a_faster_car_leaves_it_room_to_brake_no_harder_than_the_ego():
-    """RSS with equal braking: a car behind at 40 m/s needs 40 m of headway plus (40² - 25²) / 12 = 81 m more than
-    the ego at 25 m/s; 41 m, past the gap it needs to stop firmly (33.8 m), forced it to brake hard."""
+    """RSS with equal braking: a car behind at 40 m/s needs 80 m of headway (two seconds) plus (40² - 25²) / 12 = 81 m
+    more than the ego at 25 m/s; 41 m, past the gap it needs to stop firmly (33.8 m), forced it to brake hard."""
     def behind(gap: float):
         return scene(speed=25, lane=2, lanes=2, limit=29, zone="highway",
                      objects=[obj("car", -3.5, -gap, lane=1, vy=40.0)])
 
     close = decide(behind(41), "change_lane_left")
     assert close.decision.value == "override" and "cll.lane_taken" in close.rules
-    assert "moving into the lane of car 1 needs a headway gap of 121.2 m to it" in close.justification.text
-    assert decide(behind(125), "change_lane_left").decision.value == "approve"
+    assert "moving into the lane of car 1 needs a headway gap of 161.2 m to it" in close.justification.text
+    assert decide(behind(165), "change_lane_left").decision.value == "approve"
 
 
 def test_a_merge_the_route_needs_does_not_cut_in_ahead_of_a_truck_closer_than_it_needs_to_stop():
-    """A zip merge takes only the gap needed from a car, 10 m at 5 m/s closing; a truck at 30 m/s behind the ego at
-    25 m/s brakes at 4.5 m/s²: 30 + 30²/9 - 25²/12 = 77.9 m (def.heavy_headway_gap). The ego slows and merges behind."""
+    """A forced merge leaves the follower room to stop, its reaction time's travel plus how much farther it takes to
+    stop than the ego; a truck at 30 m/s behind the ego at 25 m/s brakes at 4.5 m/s²: 30 + 30²/9 - 25²/12 = 77.9 m
+    (def.merge_rear_gap). The ego slows and merges behind."""
     def merging(cls: str, gap: float):
         return decide(scene(speed=25, limit=31.3, zone="highway", lanes=2, lane=2, lane_ends={2: 100},
                             intent="merge_into_left_lane", objects=[obj(cls, -3.5, -gap, lane=1, vy=30)]),
@@ -704,7 +713,13 @@ def test_a_merge_the_route_needs_does_not_cut_in_ahead_of_a_truck_closer_than_it
     assert truck.action.value == "brake"
     assert merging("truck", 25).decision.value == "override"
     assert merging("truck", 80).decision.value == "approve"
-    assert merging("car", 12).decision.value == "approve"  # the zip merge's gap needed, 10 m
+    # A car needs its reaction time's travel plus how much farther it takes to stop: 30 + (30² - 25²)/12 = 52.9 m
+    # (def.merge_rear_gap). Until 2026-11-29 it took only the gap needed, 10 m, and a 12 m gap was approved.
+    assert merging("car", 12).decision.value == "override"
+    assert merging("car", 55).decision.value == "approve"
+    queue = scene(speed=5, limit=31.3, zone="highway", lanes=2, lane=2, lane_ends={2: 30}, intent="merge_into_left_lane",
+                  objects=[obj("car", -3.5, -10.5, lane=1, vy=6)])
+    assert decide(queue, "change_lane_left").decision.value == "approve"  # Highway Code 134: in a slow queue, in turn
 
 
 def test_a_vulnerable_road_user_just_beside_the_lane_is_given_room_by_moving_over_where_the_next_lane_is_free():
@@ -891,7 +906,7 @@ def test_a_cross_car_standing_in_the_junction_still_holds_a_turn():
 def test_a_headway_in_a_lane_change_proof_reads_in_metres():
     behind = scene(speed=20, lane=2, lanes=2, objects=[obj("car", -3.5, -15, lane=1, vy=20)])
     text = REASONER.decide(behind, "change_lane_left", explain=True).justification.text
-    assert "15.0 m < 20.0 m" in text and "15000" not in text
+    assert "15.0 m < 40.0 m" in text and "15000" not in text  # two seconds at 20 m/s (def.time_headway)
 
 
 def test_a_lane_change_leaves_the_time_headway_to_a_vehicle_at_its_speed_and_less_to_one_pulling_away():
@@ -900,11 +915,12 @@ def test_a_lane_change_leaves_the_time_headway_to_a_vehicle_at_its_speed_and_les
         return decide(scene(speed=speed, limit=35, lane=2, lanes=2, objects=[obj("car", -3.5, y, lane=1, vy=vy)]),
                       "change_lane_left")
 
-    assert "cll.lane_taken" in beside(20, vy=25).rules  # 20 m at 25 m/s: 0.8 s
-    assert beside(20, vy=30).decision.value == "approve"  # 30 m/s ahead: 25 - (30² - 25²)/12 = 2.1 m needed
+    assert "cll.lane_taken" in beside(20, vy=25).rules  # 20 m at 25 m/s: 0.8 s, under two seconds
+    assert "cll.lane_taken" in beside(20, vy=30).rules  # 30 m/s ahead: 50 - (30² - 25²)/12 = 27.1 m needed
+    assert beside(30, vy=30).decision.value == "approve"
     assert "cll.lane_taken" in beside(-20, vy=25).rules  # the car behind would follow at 0.8 s
-    assert beside(-20, vy=20, speed=30).decision.value == "approve"  # falling back: 20 - (30² - 20²)/12 < 0
-    assert "cll.lane_taken" in beside(12, vy=31, speed=30).rules  # barely faster: 30 - 61/12 = 24.9 m needed
+    assert beside(-20, vy=20, speed=30).decision.value == "approve"  # falling back: 40 - (30² - 20²)/12 < 0
+    assert "cll.lane_taken" in beside(12, vy=31, speed=30).rules  # barely faster: 62 - 61/12 = 56.9 m needed
     falling_back = scene(speed=30, limit=35, lane=2, lanes=2, objects=[obj("car", -3.5, -20, lane=1, vy=20)])
     text = REASONER.decide(falling_back, "change_lane_left", explain=True).justification.full_text()
     assert "moving into the lane of car 1 needs a headway gap of 0.0 m to it  [def.headway_gap]" in text
@@ -979,15 +995,15 @@ def test_accelerating_allows_for_the_headway_one_step_faster_needs():
 
 
 def test_closing_at_speed_on_a_slower_car_more_than_a_seconds_travel_ahead_is_too_close_to_hold_the_speed():
-    """At 30 m/s behind a car at 22 m/s, 35 m is more than the 30 m a second takes, but the ego needs
+    """At 30 m/s behind a car at 22 m/s, 65 m is more than the 60 m two seconds take, but the ego needs
     (30² - 22²) / (2 * 6) = 34.7 m more than the car to brake to a stop: it drops back (RSS, equal braking)."""
-    closing = scene(speed=30, limit=31.3, zone="highway", lanes=2, objects=[obj("car", 0, 35, lane=1, vy=22)])
+    closing = scene(speed=30, limit=31.3, zone="highway", lanes=2, objects=[obj("car", 0, 65, lane=1, vy=22)])
     for proposed in ("cruise", "accelerate"):
         verdict = decide(closing, proposed)
         assert verdict.decision.value == "override" and verdict.action.value == "brake", proposed
     text = REASONER.decide(closing, "cruise", explain=True).justification.text
-    assert "the ego's headway is 64.7 m" in text
-    same_speed = scene(speed=30, limit=31.3, zone="highway", lanes=2, objects=[obj("car", 0, 35, lane=1, vy=30)])
+    assert "the ego's headway is 94.7 m" in text
+    same_speed = scene(speed=30, limit=31.3, zone="highway", lanes=2, objects=[obj("car", 0, 65, lane=1, vy=30)])
     assert decide(same_speed, "cruise").decision.value == "approve"
 
 

@@ -449,7 +449,7 @@ def test_a_cyclist_only_the_camera_sees_is_never_set_aside_for_its_size(length):
 def test_a_lead_car_braking_at_speed_is_no_sign_that_the_ego_must_stop():
     """Brake lights at 14 m/s, 40 m short of a junction, are a car slowing, not a car stopping at a stop line."""
     def lead(vy: float):
-        return scene(speed=18.0, zone="rural", limit=20.1, signs=[{"kind": "speed_limit", "value": 20.1}],
+        return scene(speed=17.0, zone="rural", limit=20.1, signs=[{"kind": "speed_limit", "value": 20.1}],
                      intersection={"type": "four_way", "stage": "arriving", "distance": 60.0},
                      objects=[obj(3, "car", 0.0, 40.0, 1, vy=vy, indicator="brake_light")])
     assert _decide((lead(14.0),), Action.cruise).decision is Decision.approve
@@ -625,8 +625,10 @@ def _labelled(x: float, y: float, lane: int, kind: str = "current", cls: str = "
 def test_an_object_straight_ahead_in_a_lane_the_scene_does_not_list_is_in_the_ego_lane():
     verdict = _decide((_labelled(0.0, 5.0, 7),), Action.accelerate)
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
-    assert "san.lane.position_over_label" in verdict.rules
-    assert "the lane label of car 1 contradicts where it is measured: it names a lane the scene does not have" in verdict.justification.text
+    # Placed by its measured offset as one with no lane is (def.lane_from_offset, the proof's first reason since
+    # 2026-11-29); the position-over-label rule holds too.
+    assert "car 1 is labelled in a lane the scene does not list" in verdict.justification.text
+    assert "san.lane.position_over_label" in fired(reasoner_for("us"), (_labelled(0.0, 5.0, 7),))
 
 
 def test_a_pedestrian_labelled_on_the_sidewalk_but_straight_ahead_is_in_the_ego_lane():
