@@ -714,7 +714,7 @@ def test_a_merge_the_route_needs_does_not_cut_in_ahead_of_a_truck_closer_than_it
     assert merging("truck", 25).decision.value == "override"
     assert merging("truck", 80).decision.value == "approve"
     # A car needs its reaction time's travel plus how much farther it takes to stop: 30 + (30² - 25²)/12 = 52.9 m
-    # (def.merge_rear_gap). Until 2026-11-29 it took only the gap needed, 10 m, and a 12 m gap was approved.
+    # (def.merge_rear_gap). Until 2026-11-28 it took only the gap needed, 10 m, and a 12 m gap was approved.
     assert merging("car", 12).decision.value == "override"
     assert merging("car", 55).decision.value == "approve"
     queue = scene(speed=5, limit=31.3, zone="highway", lanes=2, lane=2, lane_ends={2: 30}, intent="merge_into_left_lane",

@@ -626,7 +626,7 @@ def test_an_object_straight_ahead_in_a_lane_the_scene_does_not_list_is_in_the_eg
     verdict = _decide((_labelled(0.0, 5.0, 7),), Action.accelerate)
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
     # Placed by its measured offset as one with no lane is (def.lane_from_offset, the proof's first reason since
-    # 2026-11-29); the position-over-label rule holds too.
+    # 2026-11-28); the position-over-label rule holds too.
     assert "car 1 is labelled in a lane the scene does not list" in verdict.justification.text
     assert "san.lane.position_over_label" in fired(reasoner_for("us"), (_labelled(0.0, 5.0, 7),))
 
