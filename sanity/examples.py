@@ -544,6 +544,12 @@ def _examples() -> list[Example]:
                 (scene(speed=0.0, limit=11.0, intent="enter_right_lane", lights=[{"colour": "red"}], intersection=at_stop),),
                 Action.turn_right,
                 (scene(speed=4.0, limit=11.0, intent="enter_right_lane", lights=[{"colour": "red"}], intersection=at_stop),)),
+        Example("jur.us.school_sign_strict",
+                "A school-zone sign on a city street, the ego at 10 m/s (22.4 mph) against the sign's 20 mph: within "
+                "the 5 mph margin kept elsewhere, but a school zone's limit is kept strictly (the near miss: a plain "
+                "20 mph limit, which the margin lets the ego hold 22.4 mph under).",
+                (scene(speed=10.0, limit=15.6, signs=[{"kind": "school_zone"}]),), Action.cruise,
+                (scene(speed=10.0, limit=20 * MPH),)),
         Example("jur.us.flashing_red",
                 "Stopped at the line of an intersection whose light flashes red (US: a stop sign; under the UK's pack "
                 "the ego waits while it flashes).",
