@@ -81,8 +81,8 @@ def test_a_derived_pattern_absent_from_earlier_frames_is_matched_when_a_frame_ha
     reasoner, fresh = Reasoner(), Reasoner()
     right, left = (scene(intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
                          objects=[obj("pedestrian", x, 4, lane=1, kind="cross_left")]) for x in (4.0, -4.0))
-    kind = kind_of(reasoner, right)
-    assert kind == kind_of(reasoner, left)  # the same facts but for a position: one kind
+    kind = kind_of(reasoner, right, "turn_left")  # the proposal is a fact of the kind: the movement a light governs
+    assert kind == kind_of(reasoner, left, "turn_left")  # the same facts but for a position: one kind
     reasoner.decide(right, "turn_left")
     assert "crossing_user(_,left)" in {pattern_text(p) for p in reasoner.slicer.learned(kind).absent}
     verdict = reasoner.decide(left, "turn_left")

@@ -178,13 +178,15 @@ def test_a_stop_sign_with_no_intersection_known_is_stopped_at_then_passed_when_c
 def test_the_ego_slows_early_for_a_pedestrian_or_a_standing_car_within_its_comfortable_stopping_distance():
     """At 20 m/s braking comfortably (3 m/s²) takes 86.7 m with the reaction; firm braking (6 m/s²) 53.3 m."""
     pedestrian = scene(speed=20, limit=29, zone="highway", objects=[obj("pedestrian", 0, 60, lane=1)])
-    standing_car = scene(speed=20, limit=29, zone="highway", objects=[obj("car", 0, 54, lane=1, velocity=STANDING)])
+    # 80 m: past the two-second following gap to a standing car (which forbids both itself, nearer), inside 86.7 m
+    standing_car = scene(speed=20, limit=29, zone="highway", objects=[obj("car", 0, 80, lane=1, velocity=STANDING)])
     for sc in (pedestrian, standing_car):
         for proposed in ("accelerate", "cruise"):
             verdict = REASONERS["us"].decide(sc, proposed, explain=True)
             assert overridden_with_brake(verdict), proposed
             assert ("acc.lane_not_clear" if proposed == "accelerate" else "cruise.closing_in") in verdict.rules
-            assert "nearer than the ego" in verdict.justification.text and "braking comfortably" in verdict.justification.text
+            text = verdict.justification.full_text()
+            assert "nearer than the ego" in text and "braking comfortably" in text
     # beyond the comfortable stopping distance one step of accelerating on, from 10.5 m/s: 10.5 m + 10.5²/6 m = 28.9 m
     far = scene(speed=10, limit=15.6, objects=[obj("car", 0, 29.5, lane=1, velocity=STANDING)])
     assert decide(far, "accelerate").decision.value == "approve"

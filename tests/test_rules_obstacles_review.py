@@ -36,7 +36,7 @@ def test_a_car_with_hazard_lights_and_no_known_speed_is_taken_to_stand(sources):
 
 
 def test_a_car_with_hazard_lights_and_a_known_speed_is_closed_in_on_at_that_speed():
-    moving = obj("car", 0, 45, lane=1, vy=30.0, indicator="hazard")
+    moving = obj("car", 0, 65, lane=1, vy=30.0, indicator="hazard")  # past the two-second headway at 30 m/s
     verdict = decide(highway(moving, lane=1, lanes=1), "cruise")
     assert verdict.decision.value == "approve"
     # it still warns: the ego does not speed up towards it (acc.lead_braking)
