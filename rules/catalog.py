@@ -23,7 +23,7 @@ import difflib
 import hashlib
 import re
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cache, cached_property
 from importlib import resources
 from pathlib import Path
 from typing import Hashable, Iterable, Optional, Sequence
@@ -819,8 +819,10 @@ VERDICT_CONSTANTS = ("permitted", "recommended", "replacement")  # the actions e
 VERDICT_READS = frozenset({(name, 1) for name in VERDICT_CONSTANTS} | {("applicable", 1), ("forbidden", 1), ("noted", 1)})
 
 
+@cache
 def frame_predicates() -> frozenset[tuple[str, int]]:
-    """The predicates a frame's facts may give: the scene's, the sanity window's and the parameters'."""
+    """The predicates a frame's facts may give: the scene's, the sanity window's and the parameters'
+    (a fixed set, kept: a veto's proof asks it of every exception it meets)."""
     from discern.sanity.window import WINDOW_PREDICATES  # here, not at the top: the sanity layer imports from rules
 
     return SCENE_PREDICATES | WINDOW_PREDICATES | {("param", 2)}

@@ -199,7 +199,7 @@ class Prover:
         key = (name, tuple(args))
         found = self._nothing_gives.get(key)
         if found is None:
-            found = (name, len(args)) not in _frame_predicates() and name not in self.catalog.fact_predicates and not any(
+            found = (name, len(args)) not in frame_predicates() and name not in self.catalog.fact_predicates and not any(
                 self._capable(rule, args) for rule in self.catalog.by_head.get((name, len(args)), ()))
             self._nothing_gives[key] = found
         return found
@@ -500,15 +500,6 @@ class Prover:
                     self._derivations.setdefault(atom, derivations)
             return [atom for atom, _ in found]
         return self.answer.with_first(name, arity, first)  # not as clingo derived them: read clingo's
-
-
-_FRAME_PREDICATES: list[frozenset] = []
-
-
-def _frame_predicates() -> frozenset[tuple[str, int]]:
-    if not _FRAME_PREDICATES:
-        _FRAME_PREDICATES.append(frame_predicates())
-    return _FRAME_PREDICATES[0]
 
 
 def _next_ready(body: list[Literal], env: Env) -> int:
