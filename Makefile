@@ -20,8 +20,10 @@ $(BIN)/.installed: pyproject.toml
 demo: $(BIN)/.installed malloc
 	$(BIN)/discern demo
 
+# Tests run on every core, then those that time a monitor alone (the wall_clock marker, pyproject.toml).
 test: $(BIN)/.installed browser
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto -m "not wall_clock"
+	$(BIN)/python -m pytest -m wall_clock
 
 # The audit's HTML report is checked in a real headless browser.
 browser:

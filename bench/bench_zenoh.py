@@ -13,7 +13,6 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -29,18 +28,13 @@ import zenoh  # noqa: E402
 from bench.report import machine, pct, write_section  # noqa: E402
 from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.monitor import keys  # noqa: E402
-from discern.monitor.config import ZenohSettings  # noqa: E402
+from discern.monitor.config import ZenohSettings, free_port  # noqa: E402
 from discern.monitor.example_planner import highway_scene, planner_action  # noqa: E402
 from discern.rules.scene import Proposal  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DRAIN_S = 2.0
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Monitors:

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import os
 import re
-import signal
 import sys
 from pathlib import Path
 from typing import Mapping, Optional
@@ -83,24 +82,3 @@ def in_use() -> str:
         if found:
             return f"{name} ({found.group(0)}, preloaded)"
     return "glibc malloc"
-
-
-# A closed terminal's SIGHUP stops the monitor as SIGTERM does: by default it killed it as kill -9 would (exit 129,
-# no summary line, a log file without its footer).
-STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
-
-
-def discern_command() -> int:
-    """The `discern` console script: on jemalloc where the machine has it, then the CLI."""
-    if sys.argv[1:2] in (["serve"], ["router"]):
-        # A stop asked for while the monitor starts is held, not lost, until serve's own handlers take it (the
-        # mask survives the relaunch's exec; a blocked signal stays pending even where a shell ignores it)
-        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-    try:
-        relaunch()
-    except AllocatorError as exc:
-        print(f"discern: error: {exc}", file=sys.stderr)
-        return 2
-    from discern.monitor.cli import main
-
-    return main()

@@ -17,7 +17,7 @@ from discern.rules.catalog import CatalogError, catalog_dirs, load_driving_rules
 from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack, reasoner_for
 from discern.rules.fact_text import one_fact_a_line
 from discern.rules.facts import Params
-from discern.rules.render import render_html, render_json, render_text
+from discern.rules.render import render_html, render_json
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
 
 from .config import MAX_PAYLOAD_BYTES, check_max_payload_bytes, path_text
@@ -138,7 +138,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     elif args.explain == "html":
         output = render_html(verdict)
     else:
-        output = render_text(verdict.justification, full=True) if args.explain == "full" else verdict.justification.text
+        output = verdict.justification.full_text() if args.explain == "full" else verdict.justification.text
         if verdict.notes:
             output += "\nnotes:\n" + "\n".join(f"  {n}" for n in verdict.notes)
     if args.out is not None:

@@ -15,7 +15,7 @@ from typing import Optional
 from discern.rules.engine import JURISDICTIONS
 
 from . import keys
-from .allocator import STOP_SIGNALS
+from .entry import STOP_SIGNALS
 from .config import (
     BUDGET_MAX_MS,
     DEFAULT_ENDPOINT,

@@ -27,6 +27,13 @@ from .config_syntax import json5_fault
 
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+
+
+def free_port() -> int:
+    """A loopback port nothing holds now, for a monitor beside another (the demo's, a test's, a benchmark's)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
 MODES = ("peer", "client", "router")
 DEFAULT_LOG_DIR = Path("discern-log")  # `discern serve` records everything unless told not to
 

@@ -22,7 +22,8 @@ import zlib
 from dataclasses import replace
 from typing import Callable, Optional
 
-from .decision_worker import STOP, STOP_SIGNALS, Job, Outcome, WorkerSettings, worker_main
+from .decision_worker import STOP, Job, Outcome, WorkerSettings, worker_main
+from .entry import STOP_SIGNALS
 
 log = logging.getLogger(__name__)
 
@@ -67,9 +68,6 @@ class DecisionPool:
 
     def submit(self, job: Job, still_open: Callable[[], bool]) -> None:
         self._queues[self.worker_of(job.vehicle)].put((job, still_open))
-
-    def pids(self) -> list[int]:
-        return [slot.process.pid for slot in self._slots if slot is not None]
 
     def stop(self) -> None:
         with self._changed:

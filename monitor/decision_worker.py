@@ -42,6 +42,7 @@ from discern.rules.facts import Params
 from discern.rules.scene import Proposal, Scene
 from discern.sanity import WindowConfig, default_providers
 
+from .entry import STOP_SIGNALS
 from .protocol import RULE_BAD_INPUT, InputError, decode_proposal, encode, failsafe_verdict, peek_frame
 from .vehicle_state import EXPIRY_SWEEP_S, VehicleState
 
@@ -57,8 +58,6 @@ MAX_BATCH = 32
 FULL_COLLECTION_S = 300.0
 NO_AUTOMATIC_FULL_COLLECTION = 1_000_000  # young collections between full ones: in effect, never
 STOP = None  # sent down a worker's pipe: finish what was sent, then exit
-# Ctrl-C, a service manager's stop, and the hangup of a closed terminal (sent to the whole job): a worker ignores them
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 @dataclass(frozen=True)

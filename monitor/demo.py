@@ -49,15 +49,13 @@ def verdict(reasoner: Reasoner) -> None:
 
 def _endpoint() -> str:
     """The monitor's default endpoint, or a free loopback port if something already holds it."""
-    from .config import DEFAULT_ENDPOINT
+    from .config import DEFAULT_ENDPOINT, free_port
 
     host, port = DEFAULT_ENDPOINT.removeprefix("tcp/").rsplit(":", 1)
     with socket.socket() as probe:
         if probe.connect_ex((host, int(port))) != 0:
             return DEFAULT_ENDPOINT
-    with socket.socket() as free:
-        free.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{free.getsockname()[1]}"
+    return f"tcp/127.0.0.1:{free_port()}"
 
 
 # The demo's monitor logs into a folder of its own under --out, as this monitor id: `discern serve --log-dir out/log`

@@ -83,8 +83,11 @@ def invalid_proposal(exc: ValidationError, payload: bytes) -> InputError:
 
 
 _AT = re.compile(r" at line (\d+) column (\d+)$")
+# A key (group 2: its colon), a string, a bracket or a comma: enough of JSON to tell where in the document a key is.
+# A string left open runs to the end of the payload, so that each byte is scanned once: tried again from each quote
+# inside it, as a plain `"..."` is, a payload of escaped quotes took seconds (17 KB) to hours (1 MB).
+_TOKEN = re.compile(rb'"((?:[^"\\]++|\\.)*+)(?:"(\s*:)?|\\?\Z)|[{}\[\],]', re.DOTALL)
 _SURROGATE = re.compile(rb"\\u[dD][89a-fA-F][0-9a-fA-F]{2}")
-_PATH_TOKEN = re.compile(rb'"((?:[^"\\]|\\.)*)"(\s*:)?|[{}\[\],]')
 
 
 def _json_problem(message: str, payload: bytes) -> str:
@@ -106,7 +109,7 @@ def _json_problem(message: str, payload: bytes) -> str:
 def _field_at(payload: bytes, offset: int) -> str:
     """The field path (`scene.notes.0`) of the value at `offset` in a JSON document."""
     path: list = []  # per open container: its current key, or its current index
-    for token in _PATH_TOKEN.finditer(payload, 0, offset):
+    for token in _TOKEN.finditer(payload, 0, offset):
         text = token.group(0)
         if token.group(2) and path:
             path[-1] = token.group(1).decode("utf-8", "replace")[:64]
@@ -141,10 +144,6 @@ def decode_proposal(payload: bytes, key_vehicle: str) -> Proposal:
     return proposal
 
 
-# A key (group 2: its colon), a string, or a bracket: enough of JSON to tell where in the document a key is.
-# A string left open runs to the end of the payload, so that each byte is scanned once: tried again from each quote
-# inside it, as a plain `"..."` is, a payload of escaped quotes took seconds (17 KB) to hours (1 MB).
-_TOKEN = re.compile(rb'"((?:[^"\\]++|\\.)*+)(?:"(\s*:)?|\\?\Z)|[{}\[\]]', re.DOTALL)
 # A number ended by what may follow a value: one cut off (an oversized payload's head) is none.
 _NUMBER = re.compile(rb'\s*(-?\d{1,20}(?:\.\d{1,20})?(?:[eE][+-]?\d{1,3})?)(?=\s*[,}])')
 _WORD = re.compile(rb'\s*"([a-z_]{1,32})"')

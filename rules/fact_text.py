@@ -14,7 +14,7 @@ import functools
 import re
 
 _FACT_NAME = re.compile(r"(?:^|\.)([a-z_][A-Za-z0-9_]*)")  # the predicate names of fact text without strings
-QUOTED = r'"(?:[^"\\]|\\.)*"'  # a clingo string: its dots end no fact
+QUOTED = r'"(?:[^"\\]++|\\.)*+"'  # a clingo string: its dots end no fact (possessive: never retried from inside)
 _QUOTED_OR_NAME = re.compile(rf'{QUOTED}|(?:^|(?<=\.))([a-z_][A-Za-z0-9_]*)')
 _QUOTED_OR_STOP = re.compile(rf'({QUOTED})|\.')
 # Possessive quantifiers: the text is matched once, without backtracking (half the time).

@@ -27,7 +27,7 @@ def _line(node: JustificationNode, again: bool = False, folded: str = "", cut: b
 
 SHARED_REASONS = 3  # a list of this many reasons or more, argued before under another line, points back to it
 # A negative proof over this many rules or more (the 26 rules that find no hazard) reads as one line naming them: the
-# text says which rules were tried, the tree (JSON, HTML one click away, `render_text(..., full=True)`) why each failed.
+# text says which rules were tried, the tree (JSON, HTML one click away, `Justification.full_text()`) why each failed.
 FOLD_RULES = 3
 # The proofs that support a verdict without deciding it (what replaces a forbidden proposal, what is recommended, what
 # the sanity layer noted) are cut this many levels below their first line in the text; the tree keeps them whole.

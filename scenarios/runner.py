@@ -11,7 +11,6 @@ from pydantic import ValidationError
 
 from discern.monitor.protocol import MAX_ERRORS_NAMED
 from discern.rules.engine import Reasoner
-from discern.rules.render import render_text
 from discern.rules.scene import describe_errors
 from discern.rules.verdict import Verdict
 
@@ -52,7 +51,7 @@ def check(verdict: Verdict, expect: Expectation) -> list[str]:
         if phrase in verdict.justification.text:
             continue
         if full is None:
-            full = render_text(verdict.justification, full=True)
+            full = verdict.justification.full_text()
         if phrase not in full:
             problems.append(f"justification lacks {phrase!r}")
     return problems

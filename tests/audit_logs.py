@@ -17,7 +17,6 @@ from __future__ import annotations
 import json
 import re
 import shutil
-import socket
 import time
 from pathlib import Path
 from typing import Iterable, Optional, Union
@@ -26,7 +25,7 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from discern.monitor.client import Monitor
-from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings
+from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings, free_port
 from discern.monitor.log import McapLogWriter, vehicle_topic
 from discern.monitor.server import MonitorServer
 from discern.rules.scene import Proposal, Scene
@@ -43,11 +42,6 @@ FRAMES = FLEET_A_FRAMES + PEDESTRIAN_FRAMES + 1 + CLEAR_FRAMES + SHADOW_FRAMES +
 
 _made: dict[str, Path] = {}
 
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def highway(frame: int, speed: float = 31.0):

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -18,14 +17,11 @@ from typing import Optional
 
 import pytest
 
+from discern.monitor.config import free_port
+
 REPO = Path(__file__).resolve().parents[1]
 START_TIMEOUT_S = 30
 
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def endpoint(port: int) -> str:

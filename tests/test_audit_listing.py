@@ -16,7 +16,7 @@ from discern.monitor.audit.aggregate import Odometer, latency_summary
 from discern.monitor.audit.timefmt import iso, parse_time
 from discern.monitor.status import StatusCounters, percentile
 from discern.monitor.client import Monitor
-from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings
+from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings, free_port
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import McapLogWriter, RejectedInput, vehicle_topic
 from discern.monitor.server import MonitorServer
@@ -30,7 +30,6 @@ from tests.audit_logs import (
     SHADOW_FRAMES,
     SLOW_FRAMES,
     audit,
-    free_port,
     highway,
     monitor_logs,
     serve_log,

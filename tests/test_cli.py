@@ -6,7 +6,8 @@ from pathlib import Path
 import pytest
 
 from discern.monitor.cli import main
-from tests.monitor_process import endpoint, free_port
+from discern.monitor.config import free_port
+from tests.monitor_process import endpoint
 from tests.scenes import obj, scene
 
 ROOT = Path(__file__).resolve().parents[1]

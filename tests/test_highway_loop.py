@@ -220,7 +220,8 @@ def test_one_episode_of_a_run_is_run_again_alone_with_the_runs_fault_seed(tmp_pa
 def test_a_monitor_that_gives_no_verdict_gets_the_clients_fail_safe_executed_and_counted():
     """The first step without a verdict once aborted the whole run, and nothing was written: a vehicle brakes and
     drives on, and the row says how often (here every step: no monitor ever answered)."""
-    from tests.monitor_process import endpoint, free_port
+    from discern.monitor.config import free_port
+    from tests.monitor_process import endpoint
 
     gone = endpoint(free_port())
     [result] = evaluate(1, [Faults()], ["discern"], Setup(duration=2, monitor=(gone,)), progress=False)
@@ -295,7 +296,8 @@ def test_training_refuses_what_it_could_not_train_or_save_before_it_starts(tmp_p
 
 
 def test_cli_refuses_a_monitor_that_does_not_answer(capsys):
-    from tests.monitor_process import endpoint, free_port
+    from discern.monitor.config import free_port
+    from tests.monitor_process import endpoint
 
     nowhere = endpoint(free_port())
     code = cli_main(["eval", "highway", "--episodes", "1", "--variants", "discern", "--monitor", nowhere])

@@ -7,10 +7,14 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import RecoveryReport, read_log
 from tests.monitor_process import serve
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 LOSS_BOUND_S = 1.0
 # A held fail-safe is logged HOLD_S (0.5 s) after it was sent, checked every 0.1 s, and flushed within 0.1 s then:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from discern.monitor.config import LogSettings
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import McapLogWriter, RecoveryReport, read_log
@@ -11,6 +13,8 @@ from discern.monitor.protocol import encode
 from discern.monitor.server import Answer, Request, _AnswerLog
 from discern.rules.engine import Reasoner
 from discern.rules.scene import Proposal
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 
 def _answered(reasoner: Reasoner, frame: int) -> tuple[Request, Answer]:

@@ -13,11 +13,14 @@ from discern.monitor.client import Monitor
 from discern.monitor.config import ZenohSettings
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import read_log
-from discern.monitor.protocol import CAUTION_ORDER, RULE_BAD_INPUT, failsafe_verdict, most_cautious, peek_frame
+from discern.monitor.protocol import (CAUTION_ORDER, RULE_BAD_INPUT, InputError, decode_proposal, failsafe_verdict,
+                                      most_cautious, peek_frame)
 from discern.monitor.server import EXCERPT_BYTES
 from discern.rules.scene import Action, Proposal
 from discern.rules.verdict import Decision, Verdict
 from tests.monitor_process import serve, status, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 MAX_PAYLOAD = 8192
 
@@ -357,6 +360,17 @@ def test_labelling_a_payload_of_unclosed_or_escaped_quotes_reads_each_byte_once_
     assert peek_frame(hostile) == (None, None)
     assert peek_frame(hostile + json.dumps(proposal("late", frame=5)).encode()) == (None, None)  # in the open string
     assert peek_frame(json.dumps(proposal("ok", frame=5)).encode() + hostile)[0] == 5
+
+
+@pytest.mark.timeout(60)  # a hang guard, not a speed target: the field's path was found by a scan that took minutes
+def test_a_lone_surrogate_after_many_escaped_quotes_is_refused_naming_its_field():
+    """The path to a bad value is read with the label's tokens: a scan of its own retried each escaped quote (32 KB
+    took 9 s on a decision worker, or on the server's own thread for a payload it reads itself)."""
+    quotes = b'\\"' * 128_000
+    payload = b'{"scene":{"notes":["fine","' + quotes + b'\\ud800x"]},"action":"cruise"}'
+    with pytest.raises(InputError) as refused:
+        decode_proposal(payload, "v")
+    assert str(refused.value).startswith("malformed JSON: scene.notes.1: lone surrogate \\ud800 in a string")
 
 
 def test_a_huge_integer_or_a_lone_surrogate_is_refused_naming_its_field_and_the_problem(session, monitor):

@@ -21,6 +21,8 @@ from discern.rules.verdict import Verdict
 from tests.monitor_process import serve, wait_until
 from tests.audit_logs import flashing
 
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
+
 BUDGET_MS = 3000
 DELAY_MS = 150  # test-only hook: each batch sleeps this long first
 VEHICLES, FRAMES = 6, 4  # 24 proposals: one by one they would need 3.6 s, over the budget

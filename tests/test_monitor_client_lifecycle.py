@@ -14,9 +14,11 @@ import pytest
 import zenoh
 
 from discern.monitor.client import CLOSED, Monitor
-from discern.monitor.config import ZenohSettings
+from discern.monitor.config import ZenohSettings, free_port
 from discern.monitor.example_planner import highway_scene
-from tests.monitor_process import endpoint, free_port, serve, wait_until
+from tests.monitor_process import endpoint, serve, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 
 def open_fds() -> int:

@@ -12,6 +12,8 @@ from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
 from tests.monitor_process import serve
 
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
+
 TIMEOUT_S = 0.05
 JUNK = "x" * 1_000_000  # a megabyte a proposal: the buffers between planner and monitor fill in a few dozen
 

@@ -16,7 +16,7 @@ import zenoh
 from discern.monitor.client import Monitor
 from discern.monitor.decision_pool import _Slot
 from discern.monitor.decision_worker import STOP, WorkerSettings
-from discern.monitor.config import ZenohSettings
+from discern.monitor.config import ZenohSettings, free_port
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import read_log
 from discern.monitor.protocol import RULE_DEADLINE, failsafe_verdict
@@ -24,7 +24,9 @@ from discern.monitor.vehicle_state import PERMITTED_MEMORY_S, PermittedMemory
 from discern.rules.scene import Action, Proposal
 from discern.rules.verdict import Decision, Verdict
 from tests.audit_logs import audit, flashing
-from tests.monitor_process import DiscernProcess, endpoint, free_port, serve, status, wait_until
+from tests.monitor_process import DiscernProcess, endpoint, serve, status, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 BUDGET_MS = 50
 DELAY_MS = 400  # test-only hook: every decision sleeps this long first

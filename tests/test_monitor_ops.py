@@ -8,13 +8,16 @@ import signal
 import subprocess
 import sys
 
+import pytest
 import zenoh
 
 from discern.monitor.client import Monitor
-from discern.monitor.config import ZenohSettings
+from discern.monitor.config import ZenohSettings, free_port
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import RecoveryReport, read_log
-from tests.monitor_process import REPO, DiscernProcess, endpoint, free_port, serve, status, wait_until
+from tests.monitor_process import REPO, DiscernProcess, endpoint, serve, status, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 REFUSAL = re.compile(r"WARNING discern\.monitor\.server: refused a proposal on ")
 MORE = re.compile(r"; and (\d+) more like it \(json\) in the last \d\.\d s$")

@@ -16,6 +16,8 @@ from discern.rules.scene import Action, Proposal
 from discern.rules.verdict import Decision, Verdict
 from tests.monitor_process import serve, status, wait_until
 
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
+
 DELAY_MS = 800  # test-only hook: each batch of decisions sleeps this long first
 
 

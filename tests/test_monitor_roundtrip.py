@@ -17,7 +17,10 @@ from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
 from discern.rules.engine import Reasoner
 from discern.rules.verdict import Decision
-from tests.monitor_process import REPO, endpoint, free_port, serve, status, wait_until
+from discern.monitor.config import free_port
+from tests.monitor_process import REPO, endpoint, serve, status, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 
 @pytest.fixture(scope="module")

@@ -8,9 +8,11 @@ import math
 import pytest
 
 from discern.monitor import keys
-from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings
+from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings, free_port
 from discern.monitor.config_syntax import json5_fault
-from tests.monitor_process import START_TIMEOUT_S, DiscernProcess, endpoint, free_port
+from tests.monitor_process import START_TIMEOUT_S, DiscernProcess, endpoint
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 
 def config(tmp_path, **settings) -> MonitorConfig:

@@ -12,7 +12,10 @@ import zenoh
 from discern.monitor import keys
 from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
-from tests.monitor_process import REPO, DiscernProcess, endpoint, free_port, serve, status, wait_until
+from discern.monitor.config import free_port
+from tests.monitor_process import REPO, DiscernProcess, endpoint, serve, status, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 
 @pytest.fixture(scope="module")

@@ -6,16 +6,19 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 import zenoh
 
 from discern.monitor.client import Monitor
-from discern.monitor.config import ZenohSettings
+from discern.monitor.config import ZenohSettings, free_port
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import RecoveryReport, read_log
 from discern.monitor.protocol import encode
 from discern.monitor.status import LOG_FILES_LISTED
 from discern.rules.scene import Proposal
-from tests.monitor_process import REPO, DiscernProcess, endpoint, free_port, serve, status, wait_until
+from tests.monitor_process import REPO, DiscernProcess, endpoint, serve, status, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 
 def test_the_status_counts_the_proposals_open_and_how_long_the_oldest_has_waited():

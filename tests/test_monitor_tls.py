@@ -12,9 +12,11 @@ import pytest
 
 from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
-from tests.monitor_process import REPO, DiscernProcess, free_port
+from discern.monitor.config import free_port
+from tests.monitor_process import REPO, DiscernProcess
 
-pytestmark = pytest.mark.skipif(shutil.which("openssl") is None, reason="openssl is needed to make test certificates")
+pytestmark = [pytest.mark.wall_clock,  # run alone: see the marker in pyproject.toml
+              pytest.mark.skipif(shutil.which("openssl") is None, reason="openssl is needed to make test certificates")]
 
 PARTIES = ["monitor", "router", "car_1", "operator", "intruder"]
 

@@ -8,12 +8,14 @@ import threading
 import pytest
 import zenoh
 
-from discern.monitor.config import MonitorConfig, ZenohSettings
+from discern.monitor.config import MonitorConfig, ZenohSettings, free_port
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.server import MonitorServer
 from discern.rules.scene import Proposal
 from discern.rules.verdict import Verdict
-from tests.monitor_process import endpoint, free_port, wait_until
+from tests.monitor_process import endpoint, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 VEHICLES = ("exp_a", "exp_b", "exp_c")
 

@@ -7,6 +7,7 @@ import signal
 import subprocess
 import time
 
+import pytest
 import zenoh
 
 from discern.monitor.client import Monitor
@@ -17,6 +18,8 @@ from discern.monitor.protocol import RULE_INTERNAL_ERROR
 from discern.rules.scene import Proposal
 from discern.rules.verdict import Verdict
 from tests.monitor_process import serve, status, wait_until
+
+pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
 LONG_BUDGET_MS = 10_000  # a fail-safe at the deadline would come this late: far later than any other answer
 
