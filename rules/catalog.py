@@ -1174,10 +1174,12 @@ def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] 
     """
     once: dict[Path, Path] = {}
     for directory in map(Path, directories):
+        if not directory.exists():
+            raise CatalogError(f"rules directory {directory} does not exist")
         if not directory.is_dir():
             raise CatalogError(f"rules directory {directory} is not a directory")
         if not any(directory.glob("*.lp")):
-            raise CatalogError(f"rules directory {directory} has no *.lp files: there are no rules to judge by")
+            raise CatalogError(f"rules directory {directory} has no *.lp files: no driving rules to load")
         once.setdefault(directory.resolve(), directory)
     given = list(once.values())
     shipped = [d for d in catalog_dirs()[1:] if d.resolve() not in once]

@@ -438,7 +438,7 @@ def test_a_report_that_cannot_be_written_is_refused_before_the_logs_are_read(cap
         (["{log}", "--until", "1969-07-20T20:17:40Z"], "--until 1969-07-20T20:17:40Z: out of range"),
         (["{log}", "--since", "2026-01-02", "--until", "2026-01-01"], "--since 2026-01-02 is after --until 2026-01-01"),
         (["{log}", "--rules", "/tmp"], "--rules only applies with --replay"),
-        (["{log}", "--replay", "--rules", "/nonexistent"], "rules catalog: rules directory /nonexistent is not a directory"),
+        (["{log}", "--replay", "--rules", "/nonexistent"], "rules catalog: rules directory /nonexistent does not exist"),
         (["{log}", "--replay", "--verdict", "veto"], "--rule and --verdict filter the audit listing"),
         (["{log}", "--workers", "0"], "--workers must be 1 to 64, got 0"),
         (["{log}", "--workers", "100000"], "--workers must be 1 to 64, got 100000"),

@@ -100,6 +100,25 @@ def test_replay_with_an_edited_rule_reports_each_changed_decision_side_by_side(c
     assert "    replayed: approve accelerate [dec.permitted]  approve accelerate: permitted" in text
 
 
+def test_replay_with_rules_of_ones_own_beside_the_catalog_reports_what_they_change(capsys, tmp_path, logs):
+    """As `discern check --add-rules`: the shipped rules still judge, and the added one changes what it forbids."""
+    mine = tmp_path / "my_rules"
+    mine.mkdir()
+    (mine / "mine.lp").write_text("%! rule test.no_cruise\n%! says Never cruise.\n%! source test\n"
+                                  "forbidden(cruise) :- ego_speed(_).\n")
+    code, doc, _ = replay(capsys, tmp_path, str(logs["fleet"]), "--add-rules", str(mine), "--workers", "1")
+    assert code == 1
+    changes = doc["changes"]
+    cruising = [c for c in changes if c["proposed"] == "cruise"]
+    assert all(c["recorded_decision"] == "approve" and c["replayed_rules"] == "test.no_cruise" for c in cruising)
+    assert [c["vehicle"] for c in cruising].count("car_c") == CLEAR_FRAMES
+    # car_a's speeding up stays forbidden by the shipped acc.at_limit, but is no longer replaced with cruise
+    speeding = [c for c in changes if c["proposed"] == "accelerate"]
+    assert len(speeding) == FLEET_A_FRAMES // 2
+    assert all(c["recorded_rules"] == c["replayed_rules"] == "acc.at_limit" for c in speeding)
+    assert all(c["recorded_verdict"]["action"] == "cruise" != c["replayed_verdict"]["action"] for c in speeding)
+
+
 def test_the_replays_csv_gives_each_changes_log_time_in_nanoseconds_as_the_audits_does(
     capsys, tmp_path, logs, tolerant
 ):

@@ -556,20 +556,27 @@ def test_a_rule_whose_arithmetic_clingo_leaves_undefined_is_explained_not_raised
 
 
 @pytest.mark.parametrize("files, message", [
-    ({}, "has no *.lp files: there are no rules to judge by"),
-    ({"notes.txt": "not rules"}, "has no *.lp files: there are no rules to judge by"),
+    ({}, "has no *.lp files: no driving rules to load"),
+    ({"notes.txt": "not rules"}, "has no *.lp files: no driving rules to load"),
     ({"empty.lp": "% nothing here\n"}, "defines no driving rules (no `%! rule` other than def.* and ent.*)"),
     ({"defs.lp": "%! rule def.only\n%! says A definition.\n%! source test\nthing(a).\n"},
      "defines no driving rules (no `%! rule` other than def.* and ent.*)"),
 ])
-def test_a_rules_directory_without_driving_rules_is_refused(tmp_path, capsys, files, message):
+@pytest.mark.parametrize("flag", ["--rules", "--add-rules"])
+def test_a_rules_directory_without_driving_rules_is_refused(tmp_path, capsys, files, message, flag):
     rules = tmp_path / "emptyrules"
     rules.mkdir()
     for name, text in files.items():
         (rules / name).write_text(text)
-    assert main(["check", write(tmp_path, good_dict()), "--proposed", "cruise", "--rules", str(rules)]) == 2
+    assert main(["check", write(tmp_path, good_dict()), "--proposed", "cruise", flag, str(rules)]) == 2
     out, err = capsys.readouterr()
     assert out == "" and err == f"discern check: error: rules directory {rules} {message}\n"
+
+
+def test_a_rules_directory_not_made_yet_is_named_missing(tmp_path, capsys):
+    missing = tmp_path / "my_rules"
+    assert main(["check", write(tmp_path, good_dict()), "--proposed", "cruise", "--add-rules", str(missing)]) == 2
+    assert capsys.readouterr().err == f"discern check: error: rules directory {missing} does not exist\n"
 
 
 @pytest.mark.parametrize("command, target, message", [

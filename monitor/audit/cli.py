@@ -56,6 +56,14 @@ def register(subparsers) -> None:
         "(the sanity rules stay); repeatable",
     )
     p.add_argument(
+        "--add-rules",
+        action="append",
+        type=path_text,
+        metavar="DIR",
+        help="with --replay: a directory of driving rules of one's own (*.lp) to use beside the shipped ones (or "
+        "--rules); repeatable",
+    )
+    p.add_argument(
         "--compare-rules",
         action="store_true",
         help="with --replay: decide every frame in full, to also list frames that keep their decision but cite other rules",
@@ -123,7 +131,7 @@ def _run(args: argparse.Namespace) -> int:
     paths = _read_once(paths)
     if args.replay:
         return _replay(args, paths, filters)
-    for flag in ("rules", "window", "jurisdiction", "compare_rules", "param"):
+    for flag in ("rules", "add_rules", "window", "jurisdiction", "compare_rules", "param"):
         if getattr(args, flag) not in (None, False):
             raise UsageError(f"--{flag.replace('_', '-')} only applies with --replay")
     from . import report
@@ -158,7 +166,7 @@ def _replay(args: argparse.Namespace, paths: list[str], filters: Filters) -> int
         raise UsageError(str(exc)) from None
     params = {**recorded.params, **values}
     window = args.window if args.window is not None else recorded.window_s
-    catalog = ReplayCatalog.of(args.rules, args.jurisdiction or recorded.jurisdiction or "us", params)
+    catalog = ReplayCatalog.of(args.rules, args.jurisdiction or recorded.jurisdiction or "us", params, args.add_rules)
     try:
         loaded = catalog.load()
     except CatalogError as exc:  # names the file and line it could not read

@@ -360,7 +360,8 @@ def _change(worker: _Worker, key: bytes, frame) -> Change:
 
 @dataclass(frozen=True)
 class ReplayCatalog:
-    """The rules to replay with: the shipped ones as the monitor loads them, or edited driving rules.
+    """The rules to replay with: the shipped ones as the monitor loads them, edited driving rules, or rules of
+    one's own beside either (as `discern check --rules / --add-rules`).
 
     Given driving-rules directories replace rules/catalog; the shipped sanity
     rules and the jurisdiction's pack stay, so an edited copy of rules/catalog
@@ -370,30 +371,36 @@ class ReplayCatalog:
     rules: tuple[str, ...] = ()  # driving-rules directories in place of rules/catalog; none: the shipped ones
     jurisdiction: str = "us"
     params: tuple[tuple[str, float], ...] = ()  # reasoning parameters (rules.facts.Params) other than the defaults
+    added: tuple[str, ...] = ()  # driving-rules directories loaded beside `rules` (or the shipped ones)
 
     @classmethod
     def of(cls, rules: Optional[Sequence[str]] = None, jurisdiction: str = "us",
-           params: Optional[dict[str, float]] = None) -> "ReplayCatalog":
+           params: Optional[dict[str, float]] = None, added: Optional[Sequence[str]] = None) -> "ReplayCatalog":
         """A directory named twice (`--rules D --rules D/`) is loaded once, where it first appears."""
         once: dict[Path, str] = {}
         for d in rules or ():
             once.setdefault(Path(d).resolve(), str(d))
+        beside: dict[Path, str] = {}
+        for d in added or ():
+            if Path(d).resolve() not in once:
+                beside.setdefault(Path(d).resolve(), str(d))
         jurisdiction_pack(jurisdiction)  # an unknown name fails here, naming the known ones
-        return cls(tuple(once.values()), jurisdiction, tuple(sorted((params or {}).items())))
+        return cls(tuple(once.values()), jurisdiction, tuple(sorted((params or {}).items())), tuple(beside.values()))
 
     @property
     def dirs(self) -> tuple[str, ...]:
-        """Every rules directory loaded: the driving rules given (or the shipped ones), then the sanity rules."""
-        if not self.rules:
-            return tuple(map(str, catalog_dirs()))
-        given = {Path(d).resolve() for d in self.rules}
-        return self.rules + tuple(str(d) for d in catalog_dirs()[1:] if d.resolve() not in given)
+        """Every rules directory loaded: the driving rules given (or the shipped ones), those added, then the
+        sanity rules."""
+        driving = self.rules or (str(catalog_dirs()[0]),)
+        given = {Path(d).resolve() for d in driving + self.added}
+        return driving + self.added + tuple(str(d) for d in catalog_dirs()[1:] if d.resolve() not in given)
 
     def load(self) -> Catalog:
         """Raises CatalogError naming a directory that is missing, unreadable or defines no driving rules."""
         pack = [jurisdiction_pack(self.jurisdiction)]
-        if self.rules:
-            return load_driving_rules([Path(d) for d in self.rules], extra_files=pack)
+        if self.rules or self.added:
+            driving = [Path(d) for d in self.rules] or [catalog_dirs()[0]]
+            return load_driving_rules(driving + [Path(d) for d in self.added], extra_files=pack)
         return load_catalog(extra_files=pack)
 
     def describe(self) -> str:
