@@ -20,11 +20,14 @@ class Expectation(BaseModel):
     recommended: Optional[Action] = None
     rules: list[str] = Field(default_factory=list, description="rule ids that must appear in verdict.rules")
     text_contains: list[str] = Field(default_factory=list, description="phrases the justification must contain")
+    absent_rules: list[str] = Field(default_factory=list, description=(
+        "rule ids that must not be in verdict.rules: a note, which changes no decision, may misstate what happened"))
 
     @property
     def empty(self) -> bool:
         """Expects nothing: its frame is history for the frames after it, not checked."""
-        return not (self.decision or self.action or self.recommended or self.rules or self.text_contains)
+        return not (self.decision or self.action or self.recommended or self.rules or self.text_contains
+                    or self.absent_rules)
 
 
 class ScenarioFrame(BaseModel):

@@ -46,6 +46,8 @@ def check(verdict: Verdict, expect: Expectation) -> list[str]:
     for rule in expect.rules:
         if rule not in verdict.rules:
             problems.append(f"rule {rule} not among {verdict.rules}")
+    problems.extend(f"rule {rule} among {verdict.rules}, expected absent" for rule in expect.absent_rules
+                    if rule in verdict.rules)
     full = None  # what the proof says, every line: the text folds and cuts what does not decide
     for phrase in expect.text_contains:
         if phrase in verdict.justification.text:

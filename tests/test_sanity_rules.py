@@ -358,15 +358,21 @@ def test_a_camera_only_car_pulling_out_from_the_side_is_no_roadside_advert():
     assert "car 7 is not on the road:" not in verdict.justification.text
 
 
-def test_a_range_confirmed_trailer_above_the_road_is_an_obstacle_and_a_bridge_is_not():
-    def cruise_past(elevation: float, sources: tuple):
-        truck = obj(2, "truck", 0.0, 20.0, 1, vy=0.0, sources=sources, elevation=elevation)
+def test_a_range_confirmed_object_high_above_the_road_is_set_aside_only_beyond_the_stopping_distance():
+    """At 20 m/s the ego stops in 53 m: 5 m up, 20 m ahead, is a car on a rising road or a misjudged height as well as
+    a bridge, and a range sensor says something is there; 60 m ahead the ego can still stop once it is nearer."""
+    def cruise_past(elevation: float, y: float = 20.0, sources: tuple = ("camera", "radar", "lidar")):
+        truck = obj(2, "truck", 0.0, y, 1, vy=0.0, sources=sources, elevation=elevation)
         return _decide((scene(speed=20.0, zone="highway", limit=29.0, objects=[truck]),), Action.cruise)
 
-    trailer = cruise_past(1.2, ("camera", "radar", "lidar"))
+    trailer = cruise_past(1.2)
     assert trailer.action is Action.brake and "brake.obstacle_ahead" in trailer.rules
-    bridge = cruise_past(5.0, ("camera", "radar", "lidar"))
-    assert bridge.decision is Decision.approve and "san.world.elevated" in bridge.rules
+    near = cruise_past(5.0)
+    assert near.action is Action.brake and "brake.obstacle_ahead" in near.rules and "san.world.elevated" not in near.rules
+    far = cruise_past(5.0, y=60.0)
+    assert far.decision is Decision.approve and "san.world.elevated" in far.rules
+    billboard = cruise_past(5.0, sources=("camera",))  # the camera alone, the least trusted for presence
+    assert billboard.decision is Decision.approve and "san.world.elevated" in billboard.rules
 
 
 def _past_a_floating_object(y: float, speed: float, radar: bool, cls: str = "truck"):

@@ -28,6 +28,7 @@ def problems(scenario: Scenario) -> list[str]:
         if expect.recommended is not None and verdict.recommended is not expect.recommended:
             found.append(f"{where}: recommended {verdict.recommended}, expected {expect.recommended.value}")
         found += [f"{where}: rule {r} not in {verdict.rules}" for r in expect.rules if r not in verdict.rules]
+        found += [f"{where}: rule {r} in {verdict.rules}" for r in expect.absent_rules if r in verdict.rules]
         found += [f"{where}: text lacks {t!r}" for t in expect.text_contains if t not in verdict.justification.full_text()]
         history.append(frame.scene)
     return found

@@ -41,6 +41,14 @@ def test_a_wrong_expectation_is_reported_as_a_failure(reasoner):
     assert not outcome.passed and "expected accelerate" in outcome.problems[0]
 
 
+def test_a_rule_expected_absent_is_reported_when_the_verdict_cites_it(reasoner):
+    scenario = runner.load(ROOT / "paper" / "boxed_in.json")
+    cited = runner.run(scenario, reasoner)[0].verdict.rules[0]
+    scenario.frames[0].expect.absent_rules = [cited]
+    outcome = runner.run(scenario, reasoner)[0]
+    assert not outcome.passed and "expected absent" in outcome.problems[0]
+
+
 def test_every_fact_a_frame_gives_is_of_a_predicate_the_catalog_loader_knows_frames_give():
     """The loader warns of a rule that reads a predicate nothing gives (`catalog.frame_predicates`) or a
     window_param no window names: a frame fact it did not know of would make it warn of a sound rule."""
