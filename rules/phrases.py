@@ -58,6 +58,7 @@ _SETTINGS = {
     "fast_traffic_speed": ("speed from which traffic is faster-moving", "m/s", 100),
     "turn_gap_ms": ("time a turn takes to clear", "s", 1000), "decel": ("firm braking deceleration", "m/s²", 100),
     "heavy_decel": ("full braking deceleration of a truck or bus", "m/s²", 100),
+    "bend_accel": ("sideways acceleration the tightest bends are built for at speed", "m/s²", 100),
     "accel_step": ("speed one step of accelerating adds", "m/s", 100),
     "overtake_dist": ("distance within which a slower vehicle ahead is overtaken", "m", 100),
     "move_over_dist": ("distance within which an emergency vehicle or a stopped school bus is given room", "m", 100),

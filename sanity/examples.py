@@ -387,6 +387,11 @@ def _examples() -> list[Example]:
                 "clear road to 60 m.",
                 (scene(**hw, objects=[radar_car, phantom], sensors=[sensor("front", 60.0)]),), Action.cruise,
                 (scene(**hw, objects=[radar_car, phantom], sensors=[sensor("front", 10.0)]),)),
+        Example("san.radar.read_past_close", "Only the camera reports a car standing 12 m ahead in the ego's lane, too close to "
+                "wait for the radar; the front radar reads clear road to 60 m.",
+                (scene(**hw, objects=[radar_car, {**phantom, "position": {"x": 0.0, "y": 12.0}, "velocity": {"x": 0.0, "y": 0.0}}],
+                       sensors=[sensor("front", 60.0)]),), Action.cruise,
+                (scene(**hw, objects=[radar_car, {**phantom, "position": {"x": 0.0, "y": 12.0}, "velocity": {"x": 0.0, "y": 0.0}}]),)),
         Example("san.caution.slow_down", "Caution for a possible phantom calls for slowing down.",
                 (scene(**hw, objects=[radar_car, phantom]),), Action.cruise, (scene(**hw, objects=[radar_car]),)),
         Example("san.caution.no_speeding_up", "Caution for a possible phantom forbids accelerating.",

@@ -269,6 +269,24 @@ def test_a_standing_camera_only_car_closer_than_braking_takes_is_treated_as_real
     assert "brake.obstacle_ahead" in verdict.rules and "san.radar.phantom" not in verdict.rules
 
 
+def test_a_close_camera_only_car_the_front_radar_reads_past_is_slowed_for_and_only_that_reading_doubts_it():
+    """Inside the distance the ego cannot wait in, a front radar reading past the car, straight ahead in its beam,
+    contradicts it: the ego slows down, no hard brake, no swerve. A reading short of it, one past a car off the beam, a
+    radar-confirmed car and a pedestrian (a weak echo) stay obstacles."""
+    def ahead(x: float = 0.0, sources: tuple = ("camera",), cls: str = "car", reading: float = 60.0):
+        stopped = obj(9, cls, x, 12.0, 2, vy=0.0, sources=sources)
+        return (scene(**HW, objects=[RADAR_CAR, stopped], sensors=[sensor("front", reading)]),)
+
+    verdict = _decide(ahead(), Action.cruise)
+    assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
+    assert {"san.radar.read_past_close", "san.radar.phantom_caution"} <= set(verdict.rules)
+    assert "brake.obstacle_ahead" not in verdict.rules and "san.radar.ranged_past" not in verdict.rules
+    for case, frames in {"reading short of it": ahead(reading=8.0), "off the beam": ahead(x=1.9),
+                         "radar-confirmed": ahead(sources=("camera", "radar")), "pedestrian": ahead(cls="pedestrian")}.items():
+        assert "san.radar.read_past_close" not in fired(reasoner_for("us"), frames), case
+        assert "brake.obstacle_ahead" in _decide(frames, Action.cruise).rules or case == "reading short of it", case
+
+
 def test_a_possible_phantom_nearer_than_a_comfortable_stop_is_slowed_for_as_a_confirmed_car_is():
     """Beyond the gap needed, a standing car makes the ego begin slowing comfortably; doubting it must not let the ego
     speed up instead (at 20 m/s braking at 3 m/s² takes 86.7 m)."""
@@ -653,6 +671,14 @@ def test_a_pedestrian_labelled_on_the_sidewalk_but_straight_ahead_is_in_the_ego_
 ])
 def test_labels_that_fit_or_are_far_keep_their_lane(case, frame):
     assert "san.lane.position_over_label" not in _decide((frame,), Action.accelerate).rules, case
+
+
+@pytest.mark.parametrize("y, overruled", [(16.0, True), (25.0, True), (40.0, True), (54.0, True), (58.0, False), (70.0, False)])
+def test_at_highway_speed_the_label_check_reaches_as_far_as_a_highway_bend_cannot_bring_the_next_lane_into_line(y, overruled):
+    """At 30 m/s the tightest bend a road is built for (v²/a, a = 2 m/s²) moves the next lane a lane's width at 56 m."""
+    frame = scene(speed=30.0, zone="highway", limit=31.3, lanes=2,
+                  objects=[obj(1, "car", 0.0, y, 2, vy=0.0, sources=("camera", "radar"))])
+    assert ("san.lane.position_over_label" in fired(reasoner_for("us"), (frame,))) is overruled, y
 
 
 # --- emergency vehicles standing or coming: passed with room, or given way to without cutting in front of them
