@@ -296,9 +296,20 @@ def cmd_schema(args: argparse.Namespace) -> int:
     return 0
 
 
+class CommandParser(argparse.ArgumentParser):
+    """A subcommand's parser: an argument it does not know is refused with its usage and name (`discern serve:
+    error: ...`), where argparse leaves it to the top parser, whose usage names no subcommand."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        namespace, extra = super().parse_known_args(args, namespace)
+        if extra:
+            self.error(f"unrecognized arguments: {' '.join(extra)}")
+        return namespace, extra
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="discern", description="Explainable safety cross-checker for ML driving planners.")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=CommandParser)
 
     check = sub.add_parser("check", help="judge a proposed action in a scene and explain the verdict")
     check.add_argument("scene", type=path_text, help="scene JSON (or a proposal JSON with action and scene)")
@@ -337,7 +348,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.set_defaults(func=cmd_scenarios)
 
     schema = sub.add_parser("schema", help="write the JSON Schemas of the message models")
-    schema.add_argument("--out", type=path_text, default=".", help="directory to write into")
+    schema.add_argument("--out", type=path_text, default=".", help="directory to write into (default: the current one)")
     schema.set_defaults(func=cmd_schema)
 
     for module in PARTS:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Iterable, Optional, Protocol, Sequence
+from typing import Iterable, Mapping, Optional, Protocol, Sequence, Union
 
 import clingo
 from clingo import Function
@@ -192,13 +192,16 @@ class Reasoner:
 
     def decide(
         self,
-        scene: Scene,
+        scene: Union[Scene, Mapping],
         proposed: Action,
         history: Sequence[Scene] = (),
         explain: bool = False,
         shadow: bool = False,
         vehicle: str = "ego",
     ) -> Verdict:
+        """Takes a scene as JSON (a dict) too, as `Monitor.check` does: validated first, refused by field."""
+        if not isinstance(scene, Scene):
+            scene = Scene.model_validate(scene)
         return self.decide_many([Request(scene, Action(proposed), history, explain, shadow, vehicle)])[0]
 
     def prepare(self, limit: Optional[int] = None) -> int:

@@ -35,7 +35,14 @@ Version = Annotated[Literal[1], BeforeValidator(_a_json_integer)]
 WholeNumber = Annotated[int, BeforeValidator(_whole)]
 
 
-class Action(str, Enum):
+class Named(str, Enum):
+    """A value by its name: `f"{verdict.action}"` is `brake`, as the JSON says, not `Action.brake`."""
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class Action(Named):
     brake = "brake"
     accelerate = "accelerate"
     cruise = "cruise"
@@ -46,7 +53,7 @@ class Action(str, Enum):
     pull_over = "pull_over"
 
 
-class Zone(str, Enum):
+class Zone(Named):
     city = "city"
     residential = "residential"
     school = "school"
@@ -56,7 +63,7 @@ class Zone(str, Enum):
     highway = "highway"
 
 
-class Intent(str, Enum):
+class Intent(Named):
     continue_in_lane = "continue_in_lane"
     merge_into_left_lane = "merge_into_left_lane"
     merge_into_right_lane = "merge_into_right_lane"
@@ -67,7 +74,7 @@ class Intent(str, Enum):
     pull_over = "pull_over"
 
 
-class LaneKind(str, Enum):
+class LaneKind(Named):
     current = "current"
     oncoming = "oncoming"
     cross_left = "cross_left"
@@ -101,7 +108,7 @@ OBJECT_CLASSES = {
 }
 
 
-class ObjectClass(str, Enum):
+class ObjectClass(Named):
     __doc__ = "What kind of road user or thing an object is. " + "; ".join(
         f"`{name}`: {words}" for name, words in OBJECT_CLASSES.items()) + "."
 
@@ -123,7 +130,7 @@ class ObjectClass(str, Enum):
     unknown = "unknown"
 
 
-class Indicator(str, Enum):
+class Indicator(Named):
     none = "none"
     left = "left"
     right = "right"
@@ -131,7 +138,7 @@ class Indicator(str, Enum):
     brake_light = "brake_light"
 
 
-class Source(str, Enum):
+class Source(Named):
     """Who reported a fact; the sanity layer ranks them (docs/sanity.md)."""
 
     camera = "camera"
@@ -143,14 +150,14 @@ class Source(str, Enum):
     annotation = "annotation"
 
 
-class LightColour(str, Enum):
+class LightColour(Named):
     red = "red"
     yellow = "yellow"
     green = "green"
     none = "none"
 
 
-class ArrowDirection(str, Enum):
+class ArrowDirection(Named):
     """The movement an arrow light governs; a light without one is a ball, governing the whole approach."""
 
     straight = "straight"
@@ -158,7 +165,7 @@ class ArrowDirection(str, Enum):
     right = "right"
 
 
-class SignKind(str, Enum):
+class SignKind(Named):
     stop = "stop"
     yield_ = "yield"
     speed_limit = "speed_limit"
@@ -167,7 +174,7 @@ class SignKind(str, Enum):
     no_turn_on_red = "no_turn_on_red"
 
 
-class IntersectionType(str, Enum):
+class IntersectionType(Named):
     t_intersect = "t_intersect"
     signaled = "signaled"
     unsignaled = "unsignaled"
@@ -175,13 +182,13 @@ class IntersectionType(str, Enum):
     roundabout = "roundabout"
 
 
-class IntersectionStage(str, Enum):
+class IntersectionStage(Named):
     arriving = "arriving"
     at = "at"
     enter = "enter"
 
 
-class SensorSide(str, Enum):
+class SensorSide(Named):
     front = "front"
     front_left = "front_left"
     front_right = "front_right"
@@ -317,7 +324,7 @@ class Intersection(Strict):
     stop_controlled: bool = Field(False, description="map data: the ego's approach is stop-controlled")
 
 
-class RangeSensor(str, Enum):
+class RangeSensor(Named):
     """What measures a range: a map or a camera reports no distance reading."""
 
     radar = "radar"
@@ -437,9 +444,19 @@ MAX_PROBLEM = 300
 MAX_VALUE_SHOWN = 60
 
 
+class _JsonRepr(reprlib.Repr):
+    """Values as the sender wrote them in JSON: null, true and false, not Python's None, True and False."""
+
+    def repr_NoneType(self, value: None, level: int) -> str:
+        return "null"
+
+    def repr_bool(self, value: bool, level: int) -> str:
+        return "true" if value else "false"
+
+
 # An offending value in a few dozen characters, without writing out the whole of it first (a list of thousands
 # of objects). Set attribute by attribute: Repr takes no arguments before Python 3.12.
-_BRIEF = reprlib.Repr()
+_BRIEF = _JsonRepr()
 _BRIEF.maxlevel, _BRIEF.maxlist, _BRIEF.maxdict = 2, 3, 3
 _BRIEF.maxstring = _BRIEF.maxother = _BRIEF.maxlong = MAX_VALUE_SHOWN
 

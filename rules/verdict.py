@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from enum import Enum
 from typing import Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .scene import SCHEMA_VERSION, Action, Version
+from .scene import SCHEMA_VERSION, Action, Named, Version
 
 
-class Decision(str, Enum):
+class Decision(Named):
     approve = "approve"  # the proposal is permitted and executes
     override = "override"  # the proposal is forbidden; `action` replaces it
     veto = "veto"  # the proposal is forbidden; shadow mode, nothing replaced

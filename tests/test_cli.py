@@ -784,3 +784,22 @@ def test_the_shipped_rules_load_without_a_warning(capsys, jurisdiction):
     assert capsys.readouterr().err == ""
     assert main(["catalog", "--jurisdiction", jurisdiction, "--rules", str(ROOT / "rules" / "catalog")]) == 0
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("argv, command, unknown", [
+    (["planner-example", "--budget-ms", "5"], "planner-example", "--budget-ms 5"),  # serve's flag, to the planner
+    (["scenarios", "run", "scenarios", "--bogus"], "scenarios run", "--bogus"),
+    (["check", "x.json", "--proposed", "cruise", "--bogus"], "check", "--bogus"),
+])
+def test_a_flag_a_subcommand_does_not_know_is_refused_with_its_usage_and_name(capsys, argv, command, unknown):
+    with pytest.raises(SystemExit) as done:
+        main(argv)
+    err = capsys.readouterr().err
+    assert done.value.code == 2 and err.startswith(f"usage: discern {command} ")
+    assert err.endswith(f"discern {command}: error: unrecognized arguments: {unknown}\n")
+
+
+def test_a_refused_value_is_quoted_as_the_json_the_sender_wrote(tmp_path, capsys):
+    assert main(["check", write(tmp_path, {"version": True, "action": None, "scene": good_dict()})]) == 2
+    err = capsys.readouterr().err
+    assert "version: Input should be 1 (got true)" in err and "action: unknown value null (expected one of" in err

@@ -1,8 +1,10 @@
+import json
 import random
 import shutil
 
 import clingo
 import pytest
+from pydantic import ValidationError
 
 from discern.rules.catalog import catalog_dirs, load_driving_rules
 from discern.rules.engine import Reasoner, Request, jurisdiction_pack
@@ -170,3 +172,11 @@ def test_a_catalog_written_before_replacements_overrides_with_the_recommended_ac
     verdict = reasoner.decide(scene(speed=10, limit=15), "change_lane_left", explain=True)
     assert (verdict.decision.value, verdict.action.value) == ("override", "accelerate")
     assert "accelerate is the recommended action, because  [dec.preference]" in verdict.justification.text
+
+
+def test_a_scene_given_as_json_is_decided_as_the_model_it_validates_to(reasoner):
+    data = json.loads((REPO / "docs" / "examples" / "scene.json").read_text())
+    as_json = reasoner.decide(data, "accelerate")
+    assert as_json.justification.summary == reasoner.decide(Scene.model_validate(data), "accelerate").justification.summary
+    with pytest.raises(ValidationError, match="ego"):
+        reasoner.decide({"frame_id": 1}, "cruise")

@@ -28,3 +28,10 @@ def test_every_object_class_says_what_it_is():
     for name, words in OBJECT_CLASSES.items():
         assert f"`{name}`: {words}" in description
     assert "`bike`: a motorbike" in description
+
+
+def test_a_value_reads_as_its_json_name():
+    from discern.rules.scene import Action
+    from discern.rules.verdict import Decision
+
+    assert f"execute {Action.change_lane_left}" == "execute change_lane_left" and str(Decision.veto) == "veto"
