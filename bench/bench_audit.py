@@ -35,7 +35,6 @@ from discern.monitor.config import LogSettings, MonitorConfig  # noqa: E402
 from discern.monitor.example_planner import planner_action  # noqa: E402
 from discern.monitor.log import McapLogWriter, read_log, vehicle_topic  # noqa: E402
 from discern.monitor.vehicle_state import VehicleState  # noqa: E402
-from discern.rules.engine import Reasoner  # noqa: E402
 from discern.rules.scene import (  # noqa: E402
     Action,
     DetectedObject,
@@ -51,6 +50,7 @@ from discern.rules.scene import (  # noqa: E402
     Vec2,
     Velocity,
 )
+from discern.sanity import window_reasoner  # noqa: E402
 
 PERIOD_S = 0.1  # 10 Hz planner
 
@@ -115,7 +115,7 @@ def red_light_scene(frame_id: int, vehicle: int) -> Scene:
 
 def write_fleet(directory: Path, frames: int, vehicles: int, waiting_share: float, rotate_mb: float) -> list[Path]:
     """A fleet's log as the monitor writes it: each frame judged with its vehicle's history, proposal then verdict."""
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     writer = McapLogWriter(
         LogSettings(directory=directory, rotate_bytes=int(rotate_mb * 2**20), flush_seconds=0.2), "bench"
     )

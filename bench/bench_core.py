@@ -20,7 +20,8 @@ from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.adapters.avcsr import read_dir  # noqa: E402
 from discern.monitor.example_planner import highway_scene, planner_action  # noqa: E402
 from discern.monitor.decision_worker import defer_full_collections  # noqa: E402
-from discern.rules.engine import Reasoner, Request  # noqa: E402
+from discern.rules.engine import Request  # noqa: E402
+from discern.sanity import window_reasoner  # noqa: E402
 
 KITTI = Path(__file__).resolve().parents[2] / "shared" / "avcsr" / "kitti"
 SCALING_TARGETS = {10: "-", 50: "p99 ≤ 5 ms", 200: "p99 ≤ 15 ms"}  # objects per random scene: p99 target
@@ -38,8 +39,8 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=10_000, help="frames for the memory run")
     parser.add_argument("--repeats", type=int, default=50, help="timed decisions per KITTI frame")
     args = parser.parse_args()
-    reasoner = Reasoner()
-    ready = Reasoner()  # its Controls readied before each decision, as a sidecar worker does while it waits
+    reasoner = window_reasoner()
+    ready = window_reasoner()  # its Controls readied before each decision, as a sidecar worker does while it waits
     frames = read_dir(KITTI)
     for f in frames:  # warm-up: slices and caches
         reasoner.decide(f.scene, f.expected)

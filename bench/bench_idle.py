@@ -24,6 +24,7 @@ from discern.monitor.allocator import relaunch  # noqa: E402
 from discern.monitor.decision_worker import defer_full_collections  # noqa: E402
 from discern.monitor.example_planner import highway_scene, planner_action  # noqa: E402
 from discern.rules.engine import Reasoner  # noqa: E402
+from discern.sanity import window_reasoner  # noqa: E402
 
 KITTI = Path(__file__).resolve().parents[2] / "shared" / "avcsr" / "kitti"
 IDLE_MS = (0, 5, 20, 50)  # 0: at once, as bench_core.py; 50: a proposal every 50 ms (20 Hz)
@@ -50,7 +51,7 @@ def main() -> None:
     args = parser.parse_args()
     kitti = [(f.scene, f.expected) for f in read_dir(KITTI)]
     highway = [(highway_scene(f, 50), planner_action(f)) for f in range(24)]
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     for scene, action in kitti + highway:  # warm-up: slices and caches, as bench_core.py
         reasoner.decide(scene, action)
     defer_full_collections()

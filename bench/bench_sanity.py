@@ -22,7 +22,7 @@ from discern.monitor.decision_worker import defer_full_collections  # noqa: E402
 from discern.rules.catalog import catalog_dirs, load_catalog  # noqa: E402
 from discern.rules.engine import Reasoner, jurisdiction_pack  # noqa: E402
 from discern.rules.scene import Scene  # noqa: E402
-from discern.sanity import WindowConfig  # noqa: E402
+from discern.sanity import WindowConfig, window_reasoner  # noqa: E402
 from discern.scenarios.model import Scenario  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -76,10 +76,10 @@ def main() -> None:
 
     load_before = load_average()
     core = Reasoner(catalog=load_catalog([catalog_dirs()[0]], extra_files=[jurisdiction_pack("us")]), providers=[])
-    sanity = Reasoner()
+    sanity = window_reasoner()
     # The same two, their Controls readied before each decision as a sidecar worker does while it waits.
     core_ready = Reasoner(catalog=core.catalog, providers=[])
-    sanity_ready = Reasoner()
+    sanity_ready = window_reasoner()
     assert sanity.providers and sanity.providers[0].config == WindowConfig(seconds=args.window)
     frames = read_dir(KITTI)
     windows = [window_before(f.scene, args.window) for f in frames]
@@ -112,7 +112,7 @@ def main() -> None:
     scenario_frames = 0
     for path in sorted(SCENARIOS.glob("*.json")):
         scenario = Scenario.load(path)
-        reasoner = sanity if scenario.jurisdiction == "us" else Reasoner(jurisdiction=scenario.jurisdiction)
+        reasoner = sanity if scenario.jurisdiction == "us" else window_reasoner(jurisdiction=scenario.jurisdiction)
         history: list[Scene] = []
         for frame in scenario.frames:
             scenario_times += timed(lambda: reasoner.decide(frame.scene, frame.proposed, history=tuple(history),

@@ -87,12 +87,16 @@ def worker(case: str, readied: bool, core: int, start: float, seconds: float, ou
         from discern.monitor.decision_worker import defer_full_collections
     except ImportError:  # a tree from before 2026-11-25, when it lived in the decision pool
         from discern.monitor.decision_pool import defer_full_collections
+    try:
+        from discern.sanity import window_reasoner
+    except ImportError:  # a tree from before the sanity layer composed its Reasoner, which had the window by default
+        window_reasoner = Reasoner
 
     tree = os.environ.get(TREE)
     if tree and Path(sys.modules[Reasoner.__module__].__file__).resolve().parent != (Path(tree) / "discern" / "rules").resolve():
         raise SystemExit(f"side_by_side: Discern was imported from {sys.modules[Reasoner.__module__].__file__}, not {tree}")
     os.sched_setaffinity(0, {core})
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     if case == "kitti":
         frames = [(f.scene, f.expected) for f in read_dir(KITTI)]
         warm = []

@@ -14,11 +14,12 @@ from typing import Optional, Sequence
 from pydantic import ValidationError
 
 from discern.rules.catalog import CatalogError, catalog_dirs, load_driving_rules
-from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack, reasoner_for
+from discern.rules.engine import JURISDICTIONS, Reasoner, jurisdiction_pack
 from discern.rules.fact_text import one_fact_a_line
 from discern.rules.facts import Params
 from discern.rules.render import render_html, render_json
 from discern.rules.scene import JSON_AS_SCHEMA, Action, Proposal, Scene, describe_errors
+from discern.sanity import default_providers, reasoner_for, window_reasoner
 
 from .config import MAX_PAYLOAD_BYTES, check_max_payload_bytes, path_text
 from .protocol import MAX_ERRORS_NAMED
@@ -90,11 +91,13 @@ def _reasoner(args: argparse.Namespace, jurisdiction: Optional[str] = None) -> R
         replaced, added = getattr(args, "rules", None) or [], getattr(args, "add_rules", None) or []
         if replaced or added:
             directories = [Path(d) for d in replaced] or [catalog_dirs()[0]]
+            providers = default_providers()  # the window the sanity rules read: the loader checks their settings by it
             catalog = load_driving_rules(directories + [Path(d) for d in added],
-                                         extra_files=[jurisdiction_pack(jurisdiction)])
-            reasoner = Reasoner(catalog=catalog, params=params, jurisdiction=jurisdiction)
+                                         extra_files=[jurisdiction_pack(jurisdiction)], providers=providers)
+            reasoner = Reasoner(catalog=catalog, params=params, providers=providers, jurisdiction=jurisdiction)
         else:
-            reasoner = Reasoner(params=params, jurisdiction=jurisdiction) if values else reasoner_for(jurisdiction)
+            reasoner = (window_reasoner(params=params, jurisdiction=jurisdiction) if values
+                        else reasoner_for(jurisdiction))
     except (CatalogError, ValueError) as exc:
         raise UserError(str(exc)) from None
     for warning in reasoner.catalog.warnings:  # what loads but likely never fires as meant: a misspelt predicate

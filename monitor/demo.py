@@ -14,6 +14,7 @@ from pathlib import Path
 
 from discern.adapters.avcsr import read_dir
 from discern.rules.engine import Reasoner
+from discern.sanity import window_reasoner
 from discern.scenarios import paper_table, runner
 
 from .config import path_text
@@ -165,7 +166,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"--out {out}: cannot create: {exc.strerror or exc}") from None
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     ok = paper(reasoner, Path(args.kitti) if args.kitti is not None else KITTI)
     verdict(reasoner)
     audit(sidecar(out), out)

@@ -23,14 +23,14 @@ import difflib
 import hashlib
 import re
 from dataclasses import dataclass, field
-from functools import cache, cached_property
+from functools import cached_property
 from importlib import resources
 from pathlib import Path
 from typing import Hashable, Iterable, Optional, Sequence
 
 from clingo import Control, Function, Number, Symbol, SymbolType, ast
 
-from .facts import PARAM_NAMES, SCENE_PREDICATES
+from .facts import PARAM_NAMES, SCENE_PREDICATES, FactProvider
 from .terms import Literal, Term, compile_literal, compile_term, is_fixed, pattern_of, term_vars
 
 # Every line that starts with `%!` is an annotation: a keyword, then (after white space) its value.
@@ -819,22 +819,19 @@ VERDICT_CONSTANTS = ("permitted", "recommended", "replacement")  # the actions e
 VERDICT_READS = frozenset({(name, 1) for name in VERDICT_CONSTANTS} | {("applicable", 1), ("forbidden", 1), ("noted", 1)})
 
 
-@cache
-def frame_predicates() -> frozenset[tuple[str, int]]:
-    """The predicates a frame's facts may give: the scene's, the sanity window's and the parameters'
-    (a fixed set, kept: a veto's proof asks it of every exception it meets)."""
-    from discern.sanity.window import WINDOW_PREDICATES  # here, not at the top: the sanity layer imports from rules
-
-    return SCENE_PREDICATES | WINDOW_PREDICATES | {("param", 2)}
+def frame_predicates(providers: Iterable[FactProvider] = ()) -> frozenset[tuple[str, int]]:
+    """The predicates a frame's facts may give: the scene's, the parameters' and its fact providers'."""
+    return SCENE_PREDICATES.union({("param", 2)}, *(provider.predicates for provider in providers))
 
 
-def _setting_names(catalog: Catalog) -> dict[str, frozenset[str]]:
-    """Per setting predicate, the names that the reasoner's, the window's or the catalog's own facts give."""
-    from discern.sanity.window import WINDOW_PARAMS
-
+def _setting_names(catalog: Catalog, providers: Sequence[FactProvider]) -> dict[str, frozenset[str]]:
+    """Per setting predicate, the names that the reasoner's, the fact providers' or the catalog's own facts give."""
+    given = {"param": PARAM_NAMES}
+    if providers:
+        given["window_param"] = frozenset().union(*(provider.params for provider in providers))
     return {name: names | {atom.arguments[0].name for atom in catalog.fact_atoms.get(name, [])
                            if len(atom.arguments) == 2 and atom.arguments[0].type == SymbolType.Function}
-            for name, names in (("param", PARAM_NAMES), ("window_param", WINDOW_PARAMS))}
+            for name, names in given.items()}
 
 
 def _show(signature: tuple[str, int]) -> str:
@@ -846,20 +843,21 @@ def _guess(name: str, known: Iterable[str]) -> str:
     return f" (did you mean {close[0]}?)" if close else ""
 
 
-def _warnings(catalog: Catalog, places: _Places) -> Iterable[str]:
-    """What loads but is likely a mistake, in catalog order (`Catalog.warnings`)."""
+def _warnings(catalog: Catalog, places: _Places, providers: Sequence[FactProvider]) -> Iterable[str]:
+    """What loads but is likely a mistake, in catalog order (`Catalog.warnings`), given what the frames' fact
+    providers give besides the scene."""
     given = ({rule.signature for rule in catalog.compiled} | {signature for signature, _, _ in places.facts}
-             | frame_predicates())
-    yield from _unknown_reads(catalog, given)
+             | frame_predicates(providers))
+    yield from _unknown_reads(catalog, given, _setting_names(catalog, providers))
     yield from _unread(catalog)
     yield from _unworded(catalog, places, given)
 
 
-def _unknown_reads(catalog: Catalog, given: set[tuple[str, int]]) -> Iterable[str]:
+def _unknown_reads(catalog: Catalog, given: set[tuple[str, int]],
+                   settings: dict[str, frozenset[str]]) -> Iterable[str]:
     """A body atom of a predicate that nothing gives (`given`) and no `%! pred` declares, or a setting no fact names:
     a misspelling (`large_vehicles(C)`, `not truck_exmept(O)`, `param(truck_dist, T)`) by which its rule never
     fires, or is never blocked. A declared predicate may be given by nothing: a pack's setting (school_bus_law)."""
-    settings = _setting_names(catalog)
     known = {_show(s) for s in given | set(catalog.templates)}
     for rule in catalog.compiled:
         for lit in rule.body:
@@ -1131,9 +1129,11 @@ def catalog_digest(dirs: Sequence[Path] | None = None, extra_files: Iterable[Pat
     return _digest(_catalog_texts(dirs, extra_files))
 
 
-def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = ()) -> Catalog:
+def load_catalog(dirs: Sequence[Path] | None = None, extra_files: Iterable[Path] = (),
+                 providers: Iterable[FactProvider] = ()) -> Catalog:
+    """`providers`: those of the Reasoner it is for, whose facts the warnings take as given (the sanity window's)."""
     catalog, places = _compiled(dirs, extra_files)
-    _check(catalog, places)
+    _check(catalog, places, list(providers))
     return catalog
 
 
@@ -1147,7 +1147,7 @@ def _compiled(dirs: Sequence[Path] | None, extra_files: Iterable[Path]) -> tuple
     return catalog, places
 
 
-def _check(catalog: Catalog, places: _Places) -> None:
+def _check(catalog: Catalog, places: _Places, providers: Sequence[FactProvider]) -> None:
     """What only the whole catalog shows: refused in one line naming the file, line and rule; or a warning."""
     seen: dict[str, RuleInfo] = {}
     for info in catalog.rules:
@@ -1159,18 +1159,19 @@ def _check(catalog: Catalog, places: _Places) -> None:
     _check_stratified(catalog)
     _check_safe(catalog)
     _check_words(catalog, places)
-    catalog.warnings = list(dict.fromkeys(_warnings(catalog, places)))
+    catalog.warnings = list(dict.fromkeys(_warnings(catalog, places, providers)))
     catalog.alternatives  # found now (a few ms), not while the first frame's decision waits on it
 
 
 DECIDING = ("action", "permitted", "recommended")  # what a verdict is read from: a driving catalog must define them
 
 
-def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] = ()) -> Catalog:
+def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] = (),
+                       providers: Iterable[FactProvider] = ()) -> Catalog:
     """A catalog with these driving-rules directories in place of rules/catalog; the sanity rules stay.
 
     Each directory must hold *.lp files that define driving rules: without any, no action is ever forbidden,
-    a verdict that means nothing. A directory named twice is loaded once.
+    a verdict that means nothing. A directory named twice is loaded once. `providers` as for `load_catalog`.
     """
     once: dict[Path, Path] = {}
     for directory in map(Path, directories):
@@ -1196,7 +1197,7 @@ def load_driving_rules(directories: Sequence[Path], extra_files: Iterable[Path] 
             f"rules directories {', '.join(map(str, given))} define no {', '.join(n + '/1' for n in missing)}: "
             "the decision rules (as in rules/catalog/90_decision.lp) are missing"
         )
-    _check(catalog, places)
+    _check(catalog, places, list(providers))
     return catalog
 
 

@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Iterable, Mapping, Optional, Protocol, Sequence, Union
+from typing import Iterable, Mapping, Optional, Sequence, Union
 
 import clingo
 from clingo import Function
@@ -22,9 +21,9 @@ from clingo import ast
 
 from .answer_set import AnswerSet, show_statements
 from .batch import BatchAnswers, FrameAnswers, FrameTagger
-from .catalog import VERDICT_CONSTANTS, Catalog, load_catalog, static_fact_refused
+from .catalog import VERDICT_CONSTANTS, Catalog, frame_predicates, load_catalog, static_fact_refused
 from .fact_text import fact_names
-from .facts import Params, scene_facts
+from .facts import FactProvider, Params, scene_facts
 from .justify import Prover, rule_ids
 from .presence import PresenceSlicer
 from .render import render_text
@@ -60,13 +59,6 @@ def jurisdiction_pack(name: str) -> Path:
     return Path(str(resources.files("discern.rules") / "jurisdictions" / f"{key}.lp"))
 
 
-class FactProvider(Protocol):
-    """Adds facts derived from more than the current frame (the sanity layer's window). One that defines
-    `bind(static_atoms, params)` is handed the catalog's static model and the parameters once, by its Reasoner."""
-
-    def facts(self, scene: Scene, history: Sequence[Scene]) -> str: ...
-
-
 class SolvedFrame:
     """The solved frame: model plus what the verdict needs from it."""
 
@@ -99,16 +91,22 @@ class Reasoner:
         self,
         catalog: Optional[Catalog] = None,
         params: Params = Params(),
-        providers: Iterable[FactProvider] | None = None,
+        providers: Iterable[FactProvider] = (),
         jurisdiction: str = "us",
     ):
-        """`jurisdiction` picks the rule pack loaded with the shipped catalog; a given catalog is used as is."""
+        """`jurisdiction` picks the rule pack loaded with the shipped catalog; a given catalog is used as is.
+
+        `providers` add facts beyond the scene's (the sanity layer's window: `discern.sanity.default_providers`);
+        without them the sanity rules that read the window never fire."""
         self.jurisdiction = jurisdiction
-        self.catalog = catalog if catalog is not None else load_catalog(extra_files=[jurisdiction_pack(jurisdiction)])
+        self.providers = list(providers)
+        self.catalog = catalog if catalog is not None else load_catalog(
+            extra_files=[jurisdiction_pack(jurisdiction)], providers=self.providers)
+        # what a frame may give, once: a veto's proof asks it of every exception it meets
+        self.frame_predicates = frame_predicates(self.providers)
         self.params = params
         self._param_facts = params.facts()
         self._param_names = fact_names(self._param_facts)
-        self.providers = list(providers) if providers is not None else _default_providers()
         self.slicer = PresenceSlicer(self.catalog, self._param_facts, self._param_names)
         for provider in self.providers:
             bind = getattr(provider, "bind", None)
@@ -211,8 +209,9 @@ class Reasoner:
     def _verdict(self, request: Request, solved: SolvedFrame, start: float) -> Verdict:
         scene, proposed, explain, shadow = request.scene, solved.proposed, request.explain, request.shadow
         # A veto always carries its proof; the full depth (every definition down to the facts) on request.
-        prover = Prover(self.catalog, solved.answer, static_atoms=self._static_atoms) if explain else Prover(
-            self.catalog, solved.answer, max_depth=VETO_DEPTH, negative_depth=1, static_atoms=self._static_atoms
+        static_atoms, given = self._static_atoms, self.frame_predicates
+        prover = Prover(self.catalog, solved.answer, static_atoms=static_atoms, given=given) if explain else Prover(
+            self.catalog, solved.answer, max_depth=VETO_DEPTH, negative_depth=1, static_atoms=static_atoms, given=given
         )
         allowed = proposed in solved.permitted
         recommended = solved.recommended
@@ -259,7 +258,7 @@ class Reasoner:
 
         noted_from = len(rules)  # the notes' own rules follow: the summary names them apart
         notes = solved.answer.of("noted", 1)
-        brief = (Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=self._static_atoms)
+        brief = (Prover(self.catalog, solved.answer, negative_depth=0, static_atoms=static_atoms, given=given)
                  if notes and explain else prover)
         for note in notes:
             # What the sanity layer set aside or doubted (noted/1): its rules with every verdict, its proof on request;
@@ -335,21 +334,3 @@ def _summary(decision: Decision, proposed: Action, action: Action, recommended: 
         line += f"; noted: {', '.join(noted)}"
     return line
 
-
-def _default_providers() -> list[FactProvider]:
-    from discern.sanity import default_providers  # here, not at the top: the sanity layer imports from rules
-
-    return list(default_providers())
-
-
-def reasoner_for(jurisdiction: str = "us") -> Reasoner:
-    """A Reasoner with the rule pack of `jurisdiction` (us or uk), built once per jurisdiction, however it is written.
-
-    Raises ValueError naming the known jurisdictions for any other name.
-    """
-    return _reasoner_for(str(jurisdiction).strip().lower())
-
-
-@lru_cache(maxsize=None)
-def _reasoner_for(jurisdiction: str) -> Reasoner:
-    return Reasoner(jurisdiction=jurisdiction)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import asdict, dataclass, fields
+from typing import Protocol, Sequence
 
 from clingo import String
 
@@ -128,6 +129,20 @@ SCENE_PREDICATES = frozenset({
     ("intersection_road", 1), ("arrival_rank", 1), ("intersection_distance", 1), ("stop_line", 0),
     ("stop_controlled", 0), ("sensor", 3), ("paths_cross", 2), ("proposed", 1),
 })
+
+
+
+class FactProvider(Protocol):
+    """Adds facts derived from more than the current frame (the sanity layer's window). One that defines
+    `bind(static_atoms, params)` is handed the catalog's static model and the parameters once, by its Reasoner.
+
+    It names what it gives, so that the catalog loader and the proofs know it without importing its layer:
+    `predicates` beside SCENE_PREDICATES, and `params` the names of its window_param/2 settings."""
+
+    predicates: frozenset[tuple[str, int]]
+    params: frozenset[str]
+
+    def facts(self, scene: Scene, history: Sequence[Scene]) -> str: ...
 
 
 def scene_facts(scene: Scene, proposed: Action | None = None) -> str:

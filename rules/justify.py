@@ -44,10 +44,13 @@ class Prover:
     """Builds justification trees for one solved frame."""
 
     def __init__(self, catalog: Catalog, answer: AnswerSet, max_depth: int = 12, negative_depth: int = 2,
-                 alternatives: int = 3, static_atoms: Optional[dict[tuple[str, int, Symbol], list[Symbol]]] = None):
+                 alternatives: int = 3, static_atoms: Optional[dict[tuple[str, int, Symbol], list[Symbol]]] = None,
+                 given: frozenset[tuple[str, int]] = frame_predicates()):
         """`static_atoms`: what the proofs of earlier frames of the same catalog and parameters found of the
-        static predicates (`Catalog.static`), to share between them: the same in every such frame."""
+        static predicates (`Catalog.static`), to share between them: the same in every such frame. `given`: the
+        predicates a frame's facts may give (`Reasoner.frame_predicates`, its fact providers' too)."""
         self.catalog = catalog
+        self.given = given
         self.answer = answer
         self.max_depth = max_depth
         self.negative_depth = negative_depth
@@ -199,7 +202,7 @@ class Prover:
         key = (name, tuple(args))
         found = self._nothing_gives.get(key)
         if found is None:
-            found = (name, len(args)) not in frame_predicates() and name not in self.catalog.fact_predicates and not any(
+            found = (name, len(args)) not in self.given and name not in self.catalog.fact_predicates and not any(
                 self._capable(rule, args) for rule in self.catalog.by_head.get((name, len(args)), ()))
             self._nothing_gives[key] = found
         return found

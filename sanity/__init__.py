@@ -1,17 +1,14 @@
 """The sanity layer: perception plausibility, range sensors over vision, reasoning over a frame window.
 
 Rules live in sanity/catalog/*.lp (loaded with the driving catalog); the
-window facts come from `WindowProvider`, which the Reasoner picks up through
-`default_providers()`.
+window facts come from `WindowProvider`, which a Reasoner is given through
+`default_providers()` (as `window_reasoner` and `reasoner_for` do): rules
+never import this layer.
 """
 
 from __future__ import annotations
 
+from .reasoner import default_providers, reasoner_for, window_reasoner
 from .window import WindowConfig, WindowProvider
 
-
-def default_providers(config: WindowConfig = WindowConfig()) -> list[WindowProvider]:
-    return [WindowProvider(config)]
-
-
-__all__ = ["WindowConfig", "WindowProvider", "default_providers"]
+__all__ = ["WindowConfig", "WindowProvider", "default_providers", "reasoner_for", "window_reasoner"]

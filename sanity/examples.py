@@ -14,10 +14,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
-from discern.rules.engine import Reasoner, reasoner_for
+from discern.rules.engine import Reasoner
 from discern.rules.justify import Prover
 from discern.rules.scene import Action, Scene
 from discern.rules.verdict import JustificationNode, Verdict
+
+from .reasoner import reasoner_for
 
 MPH = 0.44704
 
@@ -86,13 +88,13 @@ class Example:
 def fired(reasoner: Reasoner, frames: tuple[Scene, ...], proposed: Action = Action.cruise) -> set[str]:
     """Ids of the rules with an instance whose body holds in the last frame's answer set."""
     solved = reasoner.solve(frames[-1], proposed, history=frames[:-1])
-    return Prover(reasoner.catalog, solved.answer).fired_rules()
+    return Prover(reasoner.catalog, solved.answer, given=reasoner.frame_predicates).fired_rules()
 
 
 def conclusion(reasoner: Reasoner, frames: tuple[Scene, ...], proposed: Action, rule: str) -> Optional[JustificationNode]:
     """The proof of the first atom `rule` derives in the last frame (None for facts and rules that did not fire)."""
     solved = reasoner.solve(frames[-1], proposed, history=frames[:-1])
-    prover = Prover(reasoner.catalog, solved.answer)
+    prover = Prover(reasoner.catalog, solved.answer, given=reasoner.frame_predicates)
     for compiled in reasoner.catalog.compiled:
         if compiled.info.id != rule:
             continue

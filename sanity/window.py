@@ -166,7 +166,7 @@ class Bodies:
         """The shipped catalog's, with the default parameters: for a provider no Reasoner has bound."""
         from discern.rules.engine import Reasoner
 
-        reasoner = Reasoner(providers=[])
+        reasoner = Reasoner()
         return Bodies.of(reasoner.slicer.static_atoms, reasoner.params.lane_width)
 
     def footprint(self, obj: DetectedObject) -> tuple[float, float]:
@@ -185,7 +185,8 @@ def _measured_size(obj: DetectedObject) -> Optional[Size]:
 
 
 # The predicates `WindowProvider.facts` gives, and the names of its window_param/2 (a test checks both on every
-# scenario file): what the catalog loader takes frames to give besides the scene's (rules.facts.SCENE_PREDICATES).
+# scenario file): what the catalog loader and the proofs take frames to give besides the scene's
+# (rules.facts.SCENE_PREDICATES), told by the provider (rules.facts.FactProvider).
 WINDOW_PREDICATES = frozenset({
     ("signal_dark", 0), ("window_frames", 1), ("window_param", 2), ("light_seen_on_approach", 0),
     ("slowest_recent_speed", 1), ("slowest_at_line", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2),
@@ -203,7 +204,10 @@ WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "trac
 
 
 class WindowProvider:
-    """FactProvider for the sanity rules (see discern.rules.engine.FactProvider)."""
+    """FactProvider for the sanity rules (see discern.rules.facts.FactProvider)."""
+
+    predicates = WINDOW_PREDICATES
+    params = WINDOW_PARAMS
 
     def __init__(self, config: WindowConfig = WindowConfig()):
         self.config = config

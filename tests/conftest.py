@@ -19,6 +19,6 @@ def avcsr_dir() -> Path:
 
 @pytest.fixture(scope="session")
 def reasoner():
-    from discern.rules.engine import Reasoner
+    from discern.sanity import window_reasoner
 
-    return Reasoner()
+    return window_reasoner()

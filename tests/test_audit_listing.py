@@ -14,14 +14,14 @@ import pytest
 from bench.report import pct
 from discern.monitor.audit.aggregate import Odometer, latency_summary
 from discern.monitor.audit.timefmt import iso, parse_time
-from discern.monitor.status import StatusCounters, percentile
 from discern.monitor.client import Monitor
 from discern.monitor.config import LogSettings, MonitorConfig, ZenohSettings, free_port
 from discern.monitor.example_planner import highway_scene
 from discern.monitor.log import McapLogWriter, RejectedInput, vehicle_topic
 from discern.monitor.server import MonitorServer
-from discern.rules.engine import Reasoner
+from discern.monitor.status import StatusCounters, percentile
 from discern.rules.scene import Proposal
+from discern.sanity import window_reasoner
 from tests.audit_logs import (
     CLEAR_FRAMES,
     FLEET_A_FRAMES,
@@ -248,7 +248,7 @@ def test_the_odometer_sums_the_same_however_its_frames_are_split():
 
 def test_refusals_and_unanswered_proposals_are_counted_under_the_vehicle_and_time_filters(capsys, tmp_path):
     writer = McapLogWriter(LogSettings(directory=tmp_path / "log"), "filters")
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     second = 1_800_000_000 * 10**9
     for f in range(3):
         p = Proposal(vehicle="car_a", action="cruise", scene=highway_scene(f, 2))
@@ -498,7 +498,7 @@ def test_with_no_log_named_it_reads_where_discern_serve_logs_by_default(capsys, 
 @pytest.mark.parametrize("until", ["1800000000", "1.8e9", "1.800000000e9", "+1800000000", "1_800_000_000"])
 def test_until_in_epoch_seconds_however_written_runs_to_the_end_of_its_last_digits_unit(capsys, tmp_path, until):
     writer = McapLogWriter(LogSettings(directory=tmp_path / "log"), "until")
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     second = 1_800_000_000 * 10**9
     for f, at in enumerate((second + 10**8, second + 2 * 10**9, second + 3600 * 10**9)):  # 0.1 s, 2 s, 1 h after
         p = Proposal(vehicle="car_a", action="cruise", scene=highway_scene(f, 2))

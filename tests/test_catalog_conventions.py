@@ -305,13 +305,13 @@ def test_an_exception_hook_about_an_object_loads_and_decides_as_plain_clingo_doe
     # ab(truck_ahead(..)) and ab(beyond_reach(..)) are not one another
     import clingo
 
-    from discern.rules.engine import Reasoner
     from discern.rules.scene import Action
+    from discern.sanity import window_reasoner
 
     from .scenes import obj, scene
 
     edited = edited_catalog(tmp_path, zz_trucks=TRUCKS + BUS_EXCEPTION)
-    reasoner = Reasoner(catalog=load_driving_rules([edited], [jurisdiction_pack("us")]))
+    reasoner = window_reasoner(catalog=load_driving_rules([edited], [jurisdiction_pack("us")]))
     files = [*sorted(edited.glob("*.lp")), *sorted(catalog_dirs()[1].glob("*.lp")), jurisdiction_pack("us")]
     for cls, forbidden in (("truck", True), ("bus", False)):
         frame = scene(speed=10.0, lane=2, lanes=2, limit=20.0, objects=(obj(cls, 0.0, 25.0, lane=2, vy=10.0),))

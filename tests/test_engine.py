@@ -7,10 +7,11 @@ import pytest
 from pydantic import ValidationError
 
 from discern.rules.catalog import catalog_dirs, load_driving_rules
-from discern.rules.engine import Reasoner, Request, jurisdiction_pack
+from discern.rules.engine import Request, jurisdiction_pack
 from discern.rules.fact_text import fact_names
-from discern.rules.scene import Action, Scene
 from discern.rules.facts import Params, scene_facts
+from discern.rules.scene import Action, Scene
+from discern.sanity import window_reasoner
 from tests.conftest import REPO
 from tests.scenes import obj, scene
 
@@ -50,7 +51,7 @@ def full_model(reasoner, sc, history=()):
 def test_grounded_slice_equals_the_solved_answer_set_of_the_full_program(jurisdiction):
     # fresh: it learns from these frames alone which rules can fire (presence.py); its rules specialised to the
     # jurisdiction's settings and parameters (specialize.py)
-    reasoner = Reasoner(jurisdiction=jurisdiction)
+    reasoner = window_reasoner(jurisdiction=jurisdiction)
     rng = random.Random(7)
     previous = random_scene(rng)
     for _ in range(150):
@@ -129,10 +130,10 @@ def test_a_forbidden_proposal_is_replaced_by_the_recommended_action_when_that_is
 
 
 def test_accelerating_is_forbidden_within_one_step_of_the_limit():
-    stepping = Reasoner(params=Params(accel_step=5.0))
+    stepping = window_reasoner(params=Params(accel_step=5.0))
     assert "acc.at_limit" in stepping.decide(scene(speed=11, limit=15), "accelerate").rules
     assert stepping.decide(scene(speed=10, limit=15), "accelerate").decision.value == "approve"
-    assert Reasoner().decide(scene(speed=11, limit=15), "accelerate").decision.value == "approve"
+    assert window_reasoner().decide(scene(speed=11, limit=15), "accelerate").decision.value == "approve"
 
 
 def test_a_shadow_veto_proves_the_recommendation_for_nothing_replaces_the_proposal(reasoner):
@@ -151,7 +152,7 @@ def test_an_override_with_nothing_recommended_says_that_the_brake_is_the_monitor
     rule = "recommended(A) :- suggested(A), not outranked(A).\n"
     assert rule in text
     decision.write_text(text.replace(rule, "recommended(A) :- suggested(A), not outranked(A), not suggested(A).\n"))
-    reasoner = Reasoner(catalog=load_driving_rules([edited], extra_files=[jurisdiction_pack("us")]))
+    reasoner = window_reasoner(catalog=load_driving_rules([edited], extra_files=[jurisdiction_pack("us")]))
     verdict = reasoner.decide(scene(speed=4, objects=[obj("pedestrian", 0, 6, lane=1)]), "accelerate")
     assert (verdict.decision.value, verdict.action.value, verdict.recommended) == ("override", "brake", None)
     last = verdict.justification.tree[-1]
@@ -168,7 +169,7 @@ def test_a_catalog_written_before_replacements_overrides_with_the_recommended_ac
     start = text.index("%! rule dec.replacement\n")
     end = text.index("held_instead(accelerate) :- permitted(cruise).\n") + len("held_instead(accelerate) :- permitted(cruise).\n")
     decision.write_text(text[:start] + text[end:])
-    reasoner = Reasoner(catalog=load_driving_rules([older], extra_files=[jurisdiction_pack("us")]))
+    reasoner = window_reasoner(catalog=load_driving_rules([older], extra_files=[jurisdiction_pack("us")]))
     verdict = reasoner.decide(scene(speed=10, limit=15), "change_lane_left", explain=True)
     assert (verdict.decision.value, verdict.action.value) == ("override", "accelerate")
     assert "accelerate is the recommended action, because  [dec.preference]" in verdict.justification.text

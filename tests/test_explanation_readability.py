@@ -7,10 +7,10 @@ import re
 import jsonschema
 import pytest
 
-from discern.rules.engine import reasoner_for
 from discern.rules.render import render_html, render_json, render_text
 from discern.rules.scene import Scene
 from discern.rules.verdict import JustificationNode
+from discern.sanity import reasoner_for
 
 SCHEMA = json.loads((__import__("pathlib").Path(__file__).parents[1] / "rules/schema/verdict.schema.json").read_text())
 

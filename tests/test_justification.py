@@ -10,16 +10,17 @@ from clingo import Function, Number, String, parse_term
 from bench.scenes import random_scene
 from discern.adapters.avcsr import read_dir
 from discern.rules import engine
-from discern.rules.engine import Reasoner, Request
-from discern.rules.fact_text import facts_of, facts_with_first
 from discern.rules import justify
 from discern.rules.answer_set import AnswerSet, first_argument
+from discern.rules.engine import Request
+from discern.rules.fact_text import facts_of, facts_with_first
 from discern.rules.justify import Prover
-from discern.scenarios.runner import load, scenario_files
-from discern.rules.scene import Action
 from discern.rules.render import render_html, render_json, render_text
+from discern.rules.scene import Action
 from discern.rules.verdict import Verdict
+from discern.sanity import window_reasoner
 from discern.sanity.examples import MPH, limit_sign, obj as sanity_obj, scene as sanity_scene, sensor
+from discern.scenarios.runner import load, scenario_files
 from tests.scenes import obj, scene
 from tests.test_engine import random_scene as varied_scene
 
@@ -57,7 +58,7 @@ def test_a_veto_with_many_reasons_proves_the_first_names_the_next_and_says_there
 
 def test_an_exception_that_rules_a_rule_out_is_tagged_with_its_own_rule():
     """As in s(CASP): the step that blocks tr.red_light names the exception's rule, not only the rule it blocks."""
-    us = Reasoner(jurisdiction="us")
+    us = window_reasoner(jurisdiction="us")
     sc = scene(speed=0, lanes=1, light="red", intent="enter_right_lane",
                intersection={"type": "signaled", "stage": "at", "distance": 0.0})
     verdict = us.decide(sc, "turn_right", explain=True)
@@ -281,7 +282,7 @@ def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_cli
     """The single-frame proof reads the frame's facts from its text and derives atoms top-down; both must agree
     with clingo's model atom for atom, or a justification would depend on how it was read."""
     monkeypatch.setattr(justify, "REPLAY_ABOVE_ATOMS", 0)  # replay in every frame, not only in dense ones
-    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    reasoners = {"us": reasoner, "uk": window_reasoner(jurisdiction="uk")}
     static_atoms: dict[str, dict] = {"us": {}, "uk": {}}  # shared by all frames of a reasoner, as Reasoner does
     frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
     proofs = 0
@@ -289,8 +290,9 @@ def test_proofs_from_the_fact_text_and_replayed_rules_equal_proofs_read_from_cli
         engine = reasoners[jurisdiction]
         solved = engine.solve(sc, proposed, history)
         from_clingo = AnswerSet(solved.owns)
-        replaying, reading = Prover(engine.catalog, solved.answer), Prover(engine.catalog, from_clingo)
-        sharing = Prover(engine.catalog, solved.answer, static_atoms=static_atoms[jurisdiction])
+        given = engine.frame_predicates
+        replaying, reading = Prover(engine.catalog, solved.answer, given=given), Prover(engine.catalog, from_clingo, given=given)
+        sharing = Prover(engine.catalog, solved.answer, static_atoms=static_atoms[jurisdiction], given=given)
         for name in ("forbidden", "permitted", "recommended", "noted"):
             for atom in from_clingo.of(name, 1):
                 assert replaying.why(atom) == reading.why(atom) == sharing.why(atom), (sc.frame_id, str(atom))
@@ -318,11 +320,11 @@ def test_derivations_a_replay_finds_on_the_way_are_those_solved_for_the_atom_alo
         if jurisdiction != "us":
             continue
         answer = reasoner.solve(sc, proposed, history).answer
-        replaying = CountingProver(reasoner.catalog, answer)
+        replaying = CountingProver(reasoner.catalog, answer, given=reasoner.frame_predicates)
         for atom in answer.of("forbidden", 1) + answer.of("recommended", 1):
             replaying.why(atom)
         for atom, found in replaying._derivations.items():
-            alone = list(Prover(reasoner.catalog, answer)._derive(atom))
+            alone = list(Prover(reasoner.catalog, answer, given=reasoner.frame_predicates)._derive(atom))
             assert [(rule.index, env) for rule, env in found] == [(rule.index, env) for rule, env in alone], str(atom)
             kept += atom not in replaying.solved
     assert kept > 100
@@ -332,13 +334,13 @@ def test_rules_named_without_replaying_a_body_are_the_rules_whose_body_holds(rea
     """Naming the one rule capable of an atom skips its body, and so does reading clingo's records of which rules
     derived an `applicable` atom (catalog.TRACED); an atom a frame fact gives, or several rules can derive, is still
     solved: either way the names are those of the rules whose bodies the prover finds to hold."""
-    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    reasoners = {"us": reasoner, "uk": window_reasoner(jurisdiction="uk")}
     frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
     named = 0
     for jurisdiction, sc, proposed, history in frames:
         engine = reasoners[jurisdiction]
         answer = engine.solve(sc, proposed, history).answer
-        prover = Prover(engine.catalog, answer)
+        prover = Prover(engine.catalog, answer, given=engine.frame_predicates)
         atoms = [n.arguments[0] for n in answer.of("noted", 1)] + answer.of("object", 2)
         atoms += [atom for name in ("applicable", "forbidden", "hazard", "left_lane", "right_lane")
                   for atom in answer.of(name, 1)]
@@ -355,7 +357,7 @@ def test_rules_named_without_replaying_a_body_are_the_rules_whose_body_holds(rea
 def test_an_atom_a_rule_computes_in_its_head_is_proved_by_that_rule_not_shown_as_a_fact(reasoner):
     """`closing_speed(O, V - VY)` and `left_lane(L-1)` compute their head: the proof still finds their rule."""
     solved = reasoner.solve(scene(speed=15, lane=2, lanes=2, objects=[obj("car", 0, 16, lane=2, vy=5)]), "cruise")
-    prover = Prover(reasoner.catalog, solved.answer)
+    prover = Prover(reasoner.catalog, solved.answer, given=reasoner.frame_predicates)
     closing = Function("closing_speed", [Number(1), Number(1000)])
     assert prover.deriving_rules(closing) == ["def.closing_known"]  # not the capable-by-its-head closing_unknown_thing
     proof = prover.why(closing)
@@ -368,7 +370,7 @@ def test_an_atom_a_rule_computes_in_its_head_is_proved_by_that_rule_not_shown_as
 
 def test_every_atom_no_fact_gives_is_proved_by_a_rule(reasoner, avcsr_dir):
     """No derived atom may read as a given fact: 833 of 26,905 did, those of heads that compute an argument."""
-    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    reasoners = {"us": reasoner, "uk": window_reasoner(jurisdiction="uk")}
     frames = list(_frames()) + [("us", f.scene, f.expected, ()) for f in read_dir(avcsr_dir)]
     proved = 0
     for jurisdiction, sc, proposed, history in frames:
@@ -378,7 +380,7 @@ def test_every_atom_no_fact_gives_is_proved_by_a_rule(reasoner, avcsr_dir):
         given.ground([("base", [])])
         given_atoms = {a.symbol for a in given.symbolic_atoms}
         answer = engine.solve(sc, proposed, history).answer
-        prover = Prover(engine.catalog, answer)
+        prover = Prover(engine.catalog, answer, given=engine.frame_predicates)
         for atom in answer.all():
             if atom in given_atoms or atom in engine.catalog.fact_rule or (atom.name, len(atom.arguments)) not in \
                     engine.catalog.by_head:  # the frame's facts, the catalog's, the reasoner's parameters
@@ -396,7 +398,8 @@ def test_a_leaf_at_the_depth_cut_names_the_rule_a_full_proof_finds(reasoner, avc
         if jurisdiction != "us":
             continue
         answer = reasoner.solve(sc, proposed, history).answer
-        full, cut = Prover(reasoner.catalog, answer), Prover(reasoner.catalog, answer, max_depth=0)
+        given = reasoner.frame_predicates
+        full, cut = Prover(reasoner.catalog, answer, given=given), Prover(reasoner.catalog, answer, max_depth=0, given=given)
         for name, arity in (("gap_needed", 2), ("safe_gap", 2), ("closing_speed", 2), ("braking_distance", 2),
                             ("in_ego_lane", 1), ("lane_free", 1), ("hazard", 1), ("permitted", 1)):
             for atom in answer.of(name, arity):
@@ -412,15 +415,15 @@ def test_static_atoms_found_in_other_frames_serve_a_proof_only_where_they_hold(r
     key = ("ranks_below", 2, brake)
     stale = {key: [Function("ranks_below", [brake, Function("teleport")])]}  # not an atom of this frame
     recommended = Function("recommended", [brake])
-    proof = Prover(reasoner.catalog, solved.answer, static_atoms=stale).why(recommended)
-    assert proof == Prover(reasoner.catalog, solved.answer).why(recommended)
+    proof = Prover(reasoner.catalog, solved.answer, static_atoms=stale, given=reasoner.frame_predicates).why(recommended)
+    assert proof == Prover(reasoner.catalog, solved.answer, given=reasoner.frame_predicates).why(recommended)
     assert "teleport" not in str(proof) and stale[key] and all(solved.answer.holds(a) for a in stale[key])
 
 
 @pytest.fixture(scope="module")
 def explained(reasoner):
     """Every scenario frame and varied scene, decided with its full proof, plus a path crossing."""
-    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    reasoners = {"us": reasoner, "uk": window_reasoner(jurisdiction="uk")}
     crossing = scene(path="p1", objects=[obj("pedestrian", 30, 20, predicted_path="q1")], crossings=[("p1", "q1")])
     return [reasoners[jurisdiction].decide(sc, proposed, history, explain=True)
             for jurisdiction, sc, proposed, history in [*_frames(), ("us", crossing, "cruise", ())]]
@@ -478,7 +481,7 @@ def test_no_rule_is_said_to_need_exactly_what_it_was_asked_to_explain(explained)
 def test_a_node_shown_as_a_fact_is_one_the_frame_or_the_catalog_gives(reasoner, explained):
     """The numbers behind a failed comparison included derived atoms ('the speed limit in force'), labelled
     facts: a reader took a fallback limit for one perceived."""
-    reasoners = {"us": reasoner, "uk": Reasoner(jurisdiction="uk")}
+    reasoners = {"us": reasoner, "uk": window_reasoner(jurisdiction="uk")}
     crossing = scene(path="p1", objects=[obj("pedestrian", 30, 20, predicted_path="q1")], crossings=[("p1", "q1")])
     frames = [*_frames(), ("us", crossing, "cruise", ())]
     facts_shown, wrong = 0, []
@@ -583,7 +586,7 @@ def test_a_position_compared_with_the_ego_is_said_as_a_side_not_a_negative_dista
 
 
 def test_times_are_rounded_to_a_tenth_of_a_second():
-    prover_text = Reasoner().decide(
+    prover_text = window_reasoner().decide(
         scene(speed=5, intent="enter_right_lane", other_lanes=("cross_right",), sign="stop",
               intersection={"type": "four_way", "stage": "at", "distance": 0.0},
               objects=[obj("car", -25, 5, lane=1, kind="cross_right", velocity={"x": 15.0, "y": 0.0})]),
@@ -707,7 +710,7 @@ def test_an_oncoming_car_of_unknown_speed_is_not_said_to_keep_pace_with_the_traf
     sc = scene(speed=5, intent="enter_left_lane", other_lanes=("oncoming",), objects=[obj("car", -3.5, 15, lane=1, kind="oncoming")],
                intersection={"type": "four_way", "stage": "enter", "distance": 0.0})
     assert reasoner.decide(sc, "turn_left").decision.value == "approve"
-    node = Prover(reasoner.catalog, reasoner.solve(sc, "turn_left").answer).why(Function("closing_speed", [Number(1), Number(0)]))
+    node = Prover(reasoner.catalog, reasoner.solve(sc, "turn_left").answer, given=reasoner.frame_predicates).why(Function("closing_speed", [Number(1), Number(0)]))
     assert node.rule == "def.closing_unknown_oncoming" and node.text == (
         "car 1, oncoming and of unknown speed, gets AV-CSR's fixed gap: a closing speed of 0.0 m/s is assumed, not measured")
 
@@ -721,8 +724,8 @@ def test_a_thing_behind_that_cannot_move_is_said_to_stand_not_to_keep_pace(reaso
 
 def test_a_time_made_of_a_distance_and_a_speed_reads_in_seconds():
     """'-X * 1000 / VX < G' with G a time setting once read '17.9 m/s < 50.0 m/s'."""
+    from discern.sanity import reasoner_for
     from discern.scenarios import runner
-    from discern.rules.engine import reasoner_for
 
     scenario = runner.load(Path(__file__).resolve().parents[1] / "scenarios" / "rules" / "tr.crossing_user.stepping_in.json")
     text = runner.run(scenario, reasoner_for("us"))[0].verdict.justification.full_text()
@@ -766,7 +769,7 @@ def test_the_one_line_summary_names_the_notes_rules_apart_from_those_the_decisio
     stopped = obj("car", 0.0, 20.0, vy=0.0, sources=["radar"])  # the camera misses it
     phantom = obj("car", 3.5, 60.0, lane=3, vy=25.0, sources=["camera"])
     frame = scene(speed=25.0, lane=2, lanes=3, limit=None, zone="highway", objects=[stopped, phantom])
-    verdict = Reasoner().decide(frame, "cruise")
+    verdict = window_reasoner().decide(frame, "cruise")
     assert verdict.justification.summary == (
         "override cruise with change_lane_left: cruise is forbidden by cruise.closing_in, cruise.hazard, "
         "using brake.obstacle_ahead; noted: san.radar.camera_missed, san.radar.phantom")
@@ -774,7 +777,7 @@ def test_the_one_line_summary_names_the_notes_rules_apart_from_those_the_decisio
 
 
 def test_an_approval_names_the_notes_rules_after_its_own():
-    verdict = Reasoner().decide(scene(speed=10.0, limit=85 * MPH), "cruise")
+    verdict = window_reasoner().decide(scene(speed=10.0, limit=85 * MPH), "cruise")
     assert verdict.justification.summary == ("approve cruise: permitted (dec.permitted, cruise.default); "
                                              "recommended: accelerate; noted: san.limit.implausible")
 
@@ -783,6 +786,6 @@ def test_an_approval_names_the_notes_rules_after_its_own():
 def test_the_one_line_summary_names_every_rule_the_verdict_cites(proposed):
     """The audit lists a verdict by its summary alone: the sanity layer's rules, added last, are named there too."""
     doubted_limit = scene(speed=10.0, limit=85 * MPH, objects=[obj("car", -3.5, 2, lane=1)], lanes=2, lane=2)
-    verdict = Reasoner().decide(doubted_limit, proposed)
+    verdict = window_reasoner().decide(doubted_limit, proposed)
     assert "san.limit.implausible" in verdict.rules
     assert all(rule in verdict.justification.summary for rule in verdict.rules), (verdict.rules, verdict.justification.summary)

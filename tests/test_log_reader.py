@@ -22,13 +22,13 @@ from discern.monitor.log.channels import STATUS_TOPIC
 from discern.monitor.log.reader import log_files
 from discern.monitor.protocol import RULE_BAD_INPUT, failsafe_verdict
 from discern.monitor.status import StatusCounters
-from discern.rules.engine import Reasoner
 from discern.rules.scene import Proposal
+from discern.sanity import window_reasoner
 from tests.monitor_process import wait_until
 
 
 def write_session(directory, frames=5, **settings) -> list[Proposal]:
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     writer = McapLogWriter(LogSettings(directory=directory, **settings), "unit")
     proposals = []
     for f in range(frames):

@@ -13,6 +13,7 @@ from discern.monitor.protocol import encode
 from discern.monitor.server import Answer, Request, _AnswerLog
 from discern.rules.engine import Reasoner
 from discern.rules.scene import Proposal
+from discern.sanity import window_reasoner
 
 pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
 
@@ -32,7 +33,7 @@ def _logged(directory) -> list[tuple[str, int]]:
 
 
 def test_answers_reach_the_log_in_the_order_they_were_claimed_whichever_sender_releases_first(tmp_path):
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     writer = McapLogWriter(LogSettings(directory=tmp_path), "unit")
     answers = _AnswerLog(writer)
     first, second = _answered(reasoner, 0), _answered(reasoner, 1)
@@ -47,7 +48,7 @@ def test_answers_reach_the_log_in_the_order_they_were_claimed_whichever_sender_r
 def test_a_claimed_answer_waits_for_its_verdict_to_be_sent_before_the_writer_gets_it(tmp_path):
     writer = McapLogWriter(LogSettings(directory=tmp_path), "unit")
     answers = _AnswerLog(writer)
-    assert answers.claim(*_answered(Reasoner(), 0))
+    assert answers.claim(*_answered(window_reasoner(), 0))
     writer.close()  # closed between the claim and its release: nothing was handed over yet
     assert _logged(tmp_path) == []
 
@@ -55,7 +56,7 @@ def test_a_claimed_answer_waits_for_its_verdict_to_be_sent_before_the_writer_get
 def test_stopping_hands_the_claimed_answers_to_the_writer(tmp_path):
     writer = McapLogWriter(LogSettings(directory=tmp_path), "unit")
     answers = _AnswerLog(writer)
-    assert answers.claim(*_answered(Reasoner(), 3))
+    assert answers.claim(*_answered(window_reasoner(), 3))
     answers.flush("not read: the monitor stopped")
     writer.close()
     assert _logged(tmp_path) == [("proposal", 3), ("verdict", 3)]

@@ -18,6 +18,7 @@ from discern.monitor.example_planner import highway_scene
 from discern.rules.engine import Reasoner, Request
 from discern.rules.scene import Proposal
 from discern.rules.verdict import Verdict
+from discern.sanity import default_providers, window_reasoner
 from tests.monitor_process import serve, wait_until
 from tests.audit_logs import flashing
 
@@ -69,7 +70,7 @@ def test_a_burst_from_several_vehicles_is_decided_by_the_rules_each_as_if_alone(
     order = [(vehicle, f) for f in range(FRAMES) for vehicle in frames]  # interleaved, as a fleet sends
     verdicts = burst(monitor, [(v, payload(v, *frames[v][f])) for v, f in order])
     assert not [v for v in verdicts if v.failsafe], [v.error for v in verdicts if v.failsafe]
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     for (vehicle, f), verdict in zip(order, verdicts):
         history = tuple(scene for scene, _ in frames[vehicle][:f])
         assert comparable(verdict) == alone(reasoner, vehicle, *frames[vehicle][f], history)
@@ -92,7 +93,7 @@ def test_a_bad_proposal_in_a_burst_gets_its_error_and_the_rest_of_its_batch_is_d
     pacer, a1, a2, duplicate, malformed, b, a3 = burst(monitor, proposals)
     assert duplicate.failsafe and "duplicate frame 2" in duplicate.error and duplicate.rules == ["monitor.bad_input"]
     assert malformed.failsafe and "malformed JSON" in malformed.error and malformed.vehicle == "mixed_bad"
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     assert comparable(a1) == alone(reasoner, "mixed_a", one, "cruise", ())
     assert comparable(a2) == alone(reasoner, "mixed_a", two, "accelerate", (one,))
     assert comparable(a3) == alone(reasoner, "mixed_a", three, "cruise", (one, two))  # the duplicate left no trace
@@ -127,7 +128,7 @@ def test_a_batch_that_fails_is_decided_one_by_one_so_only_the_poisoned_frame_fai
             return super()._solve_text(text, proposed)
 
     judge = Judge(WorkerSettings(window_s=2.0, shadow=False))
-    judge.reasoner = Poisoned()
+    judge.reasoner = Poisoned(providers=default_providers())
     judge.time.learn(1, 0.001)  # timed once: it may batch
     backlog = jobs(3, 10.0)
     first, poisoned, third = judge.next_batch(backlog)
@@ -242,7 +243,7 @@ def test_the_largest_batch_that_fits_a_time_is_read_off_the_estimate():
 
 
 def test_decisions_leave_no_reference_cycles_for_the_full_collections_to_find():
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     frames = [highway_scene(f, 8, seed=4) for f in range(1, 6)]
     gc.collect()
     gc.set_debug(gc.DEBUG_SAVEALL)  # what a collection finds unreachable is kept in gc.garbage, not freed
@@ -261,7 +262,7 @@ def test_decisions_leave_no_reference_cycles_for_the_full_collections_to_find():
 
 
 def test_an_idle_worker_readies_controls_for_recent_frames_until_a_proposal_comes():
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     for seed, objects in ((1, 0), (2, 8)):  # two slices: with and without objects
         reasoner.decide(highway_scene(seed, objects, seed=seed), "cruise")
     made = []
@@ -277,7 +278,7 @@ def test_an_idle_worker_readies_controls_for_recent_frames_until_a_proposal_come
 
 
 def test_a_worker_whose_idle_work_fails_stops_it_and_still_decides(caplog):
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     scene = highway_scene(1, 8, seed=3)
     reasoner.decide(scene, "cruise")
     calls = []
@@ -303,7 +304,7 @@ def test_an_idle_worker_runs_a_full_collection_at_most_once_an_interval(monkeypa
 
     clock = [1000.0]
     monkeypatch.setattr(decision_worker.time, "monotonic", lambda: clock[0])
-    idle = decision_worker.IdleWork(Reasoner())
+    idle = decision_worker.IdleWork(window_reasoner())
     gc.callbacks.append(count)
     try:
         idle.run()  # just started: too soon

@@ -15,9 +15,9 @@ import pytest
 from discern.monitor import keys
 from discern.monitor.client import Monitor
 from discern.monitor.example_planner import highway_scene
-from discern.rules.engine import Reasoner
 from discern.rules.verdict import Decision
 from discern.monitor.config import free_port
+from discern.sanity import window_reasoner
 from tests.monitor_process import REPO, endpoint, serve, status, wait_until
 
 pytestmark = pytest.mark.wall_clock  # run alone: see the marker in pyproject.toml
@@ -47,7 +47,7 @@ def client(monitor):
 def test_query_returns_the_cores_verdict(client):
     scene = highway_scene(300, 8)  # the car ahead is close: cruise is forbidden
     verdict = client("car_q").check(scene, "cruise")
-    expected = Reasoner().decide(scene, "cruise")
+    expected = window_reasoner().decide(scene, "cruise")
     assert (verdict.decision, verdict.action, verdict.rules) == (expected.decision, expected.action, expected.rules)
     assert verdict.decision is Decision.override and not verdict.failsafe and verdict.error is None
     assert verdict.vehicle == "car_q" and verdict.frame_id == 300 and verdict.proposed.value == "cruise"
@@ -475,7 +475,7 @@ def test_the_vehicles_recent_frames_reach_the_sanity_layer(client, rule):
     for frame in earlier:
         assert not monitor.check(frame, example.proposed).failsafe
     verdict = monitor.check(last, example.proposed)
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     with_history = reasoner.decide(last, example.proposed, history=tuple(earlier))
     assert (verdict.decision, verdict.action, verdict.rules) == (with_history.decision, with_history.action, with_history.rules)
     assert rule in verdict.rules
@@ -504,6 +504,6 @@ def test_the_window_reaches_the_sanity_layer_across_a_frame_counter_that_wraps(c
     for k, frame in enumerate(earlier):  # counted up to 65535, the last frame as 0
         assert not monitor.check(frame.model_copy(update={"frame_id": 65536 - len(earlier) + k}), example.proposed).failsafe
     verdict = monitor.check(last.model_copy(update={"frame_id": 0}), example.proposed)
-    with_history = Reasoner().decide(last, example.proposed, history=tuple(earlier))
+    with_history = window_reasoner().decide(last, example.proposed, history=tuple(earlier))
     assert (verdict.decision, verdict.action, verdict.rules) == (with_history.decision, with_history.action, with_history.rules)
     assert rule in verdict.rules and verdict.frame_id == 0

@@ -265,8 +265,8 @@ def test_a_monitor_decides_with_the_reasoning_parameters_it_is_given_and_logs_th
     """A fleet that brakes at 4 m/s² once had no way to tell its monitor: every monitor decided on the defaults."""
     from discern.monitor.client import Monitor
     from discern.monitor.log.reader import log_metadata
-    from discern.rules.engine import Reasoner
     from discern.rules.facts import Params
+    from discern.sanity import window_reasoner
     from tests.monitor_process import serve
     from tests.scenes import obj, scene
 
@@ -274,14 +274,14 @@ def test_a_monitor_decides_with_the_reasoning_parameters_it_is_given_and_logs_th
     # (20² - 5²) / (2 * 6) = 31.25 m more than the car to stop braking at the default 6 m/s² (71.25 m in all), but
     # 46.9 m more at 4 (86.9 m)
     ahead = scene(speed=20, limit=30, zone="highway", objects=[obj("car", 0, 80, lane=1, vy=5)])
-    assert Reasoner().decide(ahead, "cruise").action.value == "cruise"
+    assert window_reasoner().decide(ahead, "cruise").action.value == "cruise"
     proc, ep = serve("--id", "trucks", "--budget-ms", "5000", "--param", "decel=4", "--log-dir", str(tmp_path))
     try:
         with Monitor("truck_1", connect=[ep], timeout=5.0) as client:
             verdict = client.check(ahead, "cruise")
     finally:
         assert proc.stop() == 0, proc.output
-    expected = Reasoner(params=Params(decel=4)).decide(ahead, "cruise")
+    expected = window_reasoner(params=Params(decel=4)).decide(ahead, "cruise")
     assert verdict.action.value == "brake" and not verdict.failsafe
     assert (verdict.decision, verdict.action, verdict.rules) == (expected.decision, expected.action, expected.rules)
     [log] = sorted(tmp_path.glob("*.mcap"))

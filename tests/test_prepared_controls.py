@@ -6,12 +6,13 @@ from discern.adapters.avcsr import read_dir
 from discern.rules import controls
 from discern.rules.controls import PreparedControls
 from discern.rules.engine import Reasoner
+from discern.sanity import window_reasoner
 from tests.test_batch import _comparable, _frames
 
 
 def test_verdicts_on_controls_readied_in_idle_time_equal_verdicts_on_fresh_ones(avcsr_dir):
     frames = [(f.scene, f.expected, ()) for f in read_dir(avcsr_dir)] + _frames(7, 24)
-    fresh, warm = Reasoner(), Reasoner()
+    fresh, warm = window_reasoner(), window_reasoner()
     for scene, action, history in frames:
         warm.decide(scene, action, history)
     warm.prepare()
@@ -24,7 +25,7 @@ def test_verdicts_on_controls_readied_in_idle_time_equal_verdicts_on_fresh_ones(
 
 def test_idle_time_readies_each_recent_slice_once(avcsr_dir):
     frame = read_dir(avcsr_dir)[0]
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     reasoner.decide(frame.scene, frame.expected)
     assert reasoner.prepare() == 1
     assert reasoner.prepare() == 0
@@ -64,7 +65,7 @@ def test_a_slice_learned_from_another_is_readied_in_its_place():
 
 def test_after_a_kinds_first_frame_idle_time_readies_the_slice_its_next_frames_take(avcsr_dir):
     frame = read_dir(avcsr_dir)[0]
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     reasoner.decide(frame.scene, frame.expected)  # grounds the whole slice and learns the kind's
     assert reasoner.prepare() == 1
     text = reasoner.frame_facts(frame.scene, frame.expected, ())
@@ -105,7 +106,7 @@ def test_a_retired_control_is_freed_by_the_next_prepare_or_at_once_past_the_limi
 
 def test_a_readied_control_has_what_no_frame_changes_grounded_before_the_frame_comes(avcsr_dir):
     frame = read_dir(avcsr_dir)[0]
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     for _ in range(2):  # the first frame of its kind learns the slice (presence.py), the second uses it
         reasoner.decide(frame.scene, frame.expected)
     reasoner.prepare()
@@ -119,6 +120,9 @@ def test_a_readied_control_has_what_no_frame_changes_grounded_before_the_frame_c
 
 def test_a_frame_fact_of_a_predicate_the_catalog_defines_for_every_frame_is_refused_by_name(avcsr_dir):
     class Relabels:
+        predicates = frozenset({("is_a", 2)})
+        params = frozenset()
+
         def facts(self, scene, history):
             return "is_a(car,bicycle)."
 

@@ -4,10 +4,10 @@ test_engine.py compares a long varied run's answer sets with the full program's.
 
 from discern.adapters.avcsr import read_dir
 from discern.rules.catalog import load_catalog
-from discern.rules.engine import Reasoner
 from discern.rules.presence import PresenceSlicer
 from discern.rules.scene import Action
 from discern.rules.terms import pattern_text
+from discern.sanity import window_reasoner
 from tests.scenes import obj, scene
 
 
@@ -17,7 +17,7 @@ def kind_of(reasoner, sc, proposed="cruise"):
 
 
 def test_a_predicate_absent_from_earlier_frames_is_derived_when_a_frame_has_it():
-    reasoner, fresh = Reasoner(), Reasoner()
+    reasoner, fresh = window_reasoner(), window_reasoner()
     far, near = scene(objects=[obj("pedestrian", 0, 80, lane=1)]), scene(objects=[obj("pedestrian", 0, 6, lane=1)])
     assert kind_of(reasoner, far) == kind_of(reasoner, near)  # the same kinds of facts: one learned set
     reasoner.decide(far, "accelerate")
@@ -29,7 +29,7 @@ def test_a_predicate_absent_from_earlier_frames_is_derived_when_a_frame_has_it()
 
 
 def test_kitti_frames_ground_fewer_rules_than_their_slice_once_learned(avcsr_dir):
-    reasoner = Reasoner()
+    reasoner = window_reasoner()
     frames = read_dir(avcsr_dir)
     for f in frames:
         reasoner.decide(f.scene, f.expected)
@@ -44,7 +44,7 @@ def test_kitti_frames_ground_fewer_rules_than_their_slice_once_learned(avcsr_dir
 
 
 def test_a_pattern_that_the_facts_match_makes_a_frame_of_another_kind_grounded_without_a_guard():
-    reasoner, fresh = Reasoner(), Reasoner()
+    reasoner, fresh = window_reasoner(), window_reasoner()
     onward, merging = scene(lanes=2), scene(lanes=2, intent="merge_into_right_lane")
     merge = "intent(merge_into_right_lane)"
     assert merge in {pattern_text(p) for p in kind_of(reasoner, onward)[1]}  # its facts match no such atom
@@ -60,7 +60,7 @@ def test_a_pattern_that_the_facts_match_makes_a_frame_of_another_kind_grounded_w
 
 def test_frames_whose_facts_put_objects_in_other_lanes_learn_apart_and_a_derived_lane_is_still_found():
     """obj_lane is given by facts and derived by rules too: the facts key the kind, a guard checks what rules add."""
-    reasoner, fresh = Reasoner(), Reasoner()
+    reasoner, fresh = window_reasoner(), window_reasoner()
     pavement = dict(cls="pedestrian", y=10, lane=1, kind="sidewalk_right")
     beside, ahead, in_lane = (scene(other_lanes=("sidewalk_right",), objects=[o]) for o in (
         obj(x=4.0, **pavement), obj(x=0.5, **pavement), obj("pedestrian", 0.5, 10, lane=1)))
@@ -78,7 +78,7 @@ def test_frames_whose_facts_put_objects_in_other_lanes_learn_apart_and_a_derived
 
 
 def test_a_derived_pattern_absent_from_earlier_frames_is_matched_when_a_frame_has_it():
-    reasoner, fresh = Reasoner(), Reasoner()
+    reasoner, fresh = window_reasoner(), window_reasoner()
     right, left = (scene(intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
                          objects=[obj("pedestrian", x, 4, lane=1, kind="cross_left")]) for x in (4.0, -4.0))
     kind = kind_of(reasoner, right, "turn_left")  # the proposal is a fact of the kind: the movement a light governs
@@ -96,7 +96,7 @@ def test_a_derived_pattern_absent_from_earlier_frames_is_matched_when_a_frame_ha
 
 def test_a_rule_joined_with_a_listed_kind_is_left_out_only_when_no_kind_of_the_list_has_atoms():
     """`obj_lane(O,K,_), crossing_kind(K)`: the catalog lists cross_left and cross_right, so the rule needs one."""
-    catalog = Reasoner().catalog
+    catalog = window_reasoner().catalog
     crossing = [r for r in catalog.compiled if r.info.id == "def.crossing_user"]
     present = catalog.derivable(frozenset({"object", "obj_pos", "obj_lane", "ego_lane", "lane", "ego_speed"}))
     left, right = (next(p for p in catalog.patterns_within(present) if pattern_text(p) == f"obj_lane(_,{k},_)")
@@ -108,7 +108,7 @@ def test_a_rule_joined_with_a_listed_kind_is_left_out_only_when_no_kind_of_the_l
 
 
 def test_frames_without_crossing_traffic_ground_no_crossing_rules_and_a_crossing_frame_decides_as_alone():
-    reasoner, fresh = Reasoner(), Reasoner()
+    reasoner, fresh = window_reasoner(), window_reasoner()
     crossing = scene(intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),
                      objects=[obj("pedestrian", -4.0, 4, lane=1, kind="cross_left")])
     quiet = scene(intersection={"type": "four_way", "stage": "at"}, other_lanes=("cross_left",),

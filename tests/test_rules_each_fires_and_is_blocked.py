@@ -13,13 +13,13 @@ from pathlib import Path
 import pytest
 
 from discern.rules.catalog import catalog_dirs, load_catalog
-from discern.rules.engine import Reasoner
 from discern.rules.justify import Prover
 from discern.rules.scene import Lane, Scene
+from discern.sanity import window_reasoner
 from tests.scenes import obj
 from tests.scenes import scene as base_scene
 
-REASONER = Reasoner()
+REASONER = window_reasoner()
 
 
 def scene(*args, more_lanes: tuple = (), **kwargs) -> Scene:
@@ -589,7 +589,7 @@ def test_an_object_reported_without_a_lane_just_beyond_the_kerb_side_lane_is_on_
 
 
 def test_the_shoulder_is_on_the_kerb_side_of_the_jurisdiction():
-    uk = Reasoner(jurisdiction="uk")
+    uk = window_reasoner(jurisdiction="uk")
     on_the_uk_shoulder = scene(lane=1, lanes=2, intent="pull_over", objects=[obj("truck", -3.5, 4, vy=0)])
     assert "po.kerb_taken" in uk.decide(on_the_uk_shoulder, "pull_over").rules
     offside = scene(lane=1, lanes=2, intent="pull_over", objects=[obj("truck", 3.5 * 2, 4, vy=0)])
@@ -621,7 +621,7 @@ def test_every_two_wheeler_on_the_inside_is_hooked_by_a_kerb_side_turn(cls):
     assert "tr.kerb_side_user" in decide(us, "turn_right").rules
     uk = scene(speed=4, intent="enter_left_lane", other_lanes=("shoulder", "cross_left"), intersection=at_stop,
                objects=[obj(cls, -2.6, -8, lane=1, kind="shoulder", vy=6.0)])
-    assert "tl.kerb_side_user" in Reasoner(jurisdiction="uk").decide(uk, "turn_left").rules
+    assert "tl.kerb_side_user" in window_reasoner(jurisdiction="uk").decide(uk, "turn_left").rules
     car = scene(speed=4, intent="enter_right_lane", other_lanes=("shoulder", "cross_right"), intersection=at_stop,
                 objects=[obj("car", 2.6, -8, lane=1, kind="shoulder", vy=6.0)])
     assert decide(car, "turn_right").decision.value == "approve"
@@ -785,7 +785,7 @@ def test_fallback_brake_is_recommended_when_no_rule_calls_for_anything(tmp_path:
     shutil.copytree(catalog_dirs()[0], rules)
     speed = rules / "30_speed.lp"
     speed.write_text(speed.read_text().replace("applicable(cruise).", ""))
-    reasoner = Reasoner(catalog=load_catalog([rules]))
+    reasoner = window_reasoner(catalog=load_catalog([rules]))
     verdict = reasoner.decide(scene(speed=15, limit=15), "cruise")
     assert verdict.recommended.value == "brake"
     assert "dec.fallback_brake" in Prover(reasoner.catalog, reasoner.solve(scene(speed=15, limit=15), "cruise").answer).fired_rules()
@@ -887,7 +887,7 @@ def test_a_camera_range_error_that_grows_with_distance_does_not_brake_for_the_ra
 def test_a_school_sign_sets_a_limit_in_the_us_and_only_warns_in_the_uk():
     sc = scene(speed=11.2, limit=13.4, sign="school_zone", zone="road")
     assert decide(sc, "cruise").decision.value == "override"
-    assert Reasoner(jurisdiction="uk").decide(sc, "cruise").decision.value == "approve"
+    assert window_reasoner(jurisdiction="uk").decide(sc, "cruise").decision.value == "approve"
 
 
 def test_a_lead_car_pulling_away_calls_for_no_braking_and_a_tailgater_still_forbids_it():
@@ -946,7 +946,7 @@ def test_a_moving_oncoming_car_alongside_the_ego_blocks_the_turn_across_its_lane
     alongside = obj("car", -3.5, 0, lane=1, kind="oncoming", vy=-10)
     verdict = decide(scene(**at_green_to_turn_left, objects=[alongside]), "turn_left")
     assert verdict.decision.value == "override" and "tl.yield_oncoming" in verdict.rules
-    uk = Reasoner(jurisdiction="uk")
+    uk = window_reasoner(jurisdiction="uk")
     mirrored = scene(**{**at_green_to_turn_left, "intent": "enter_right_lane"},
                      objects=[obj("car", 3.5, 0, lane=1, kind="oncoming", vy=-10)])
     verdict = uk.decide(mirrored, "turn_right")
@@ -976,7 +976,7 @@ def test_a_pedestrian_in_the_oncoming_lane_blocks_the_turn_across_it():
     assert "pedestrian 1 is in the oncoming lane a turn across it crosses" in verdict.justification.text
     beyond_reach = obj("pedestrian", -3.5, 40, lane=1, kind="oncoming", vy=0)
     assert decide(scene(**at_green_to_turn_left, objects=[beyond_reach]), "turn_left").decision.value == "approve"
-    uk = Reasoner(jurisdiction="uk")
+    uk = window_reasoner(jurisdiction="uk")
     mirrored = scene(**{**at_green_to_turn_left, "intent": "enter_right_lane"},
                      objects=[obj("pedestrian", 3.5, 3, lane=1, kind="oncoming", vy=0)])
     verdict = uk.decide(mirrored, "turn_right")
@@ -1029,7 +1029,7 @@ def test_at_a_roundabout_the_ego_gives_way_to_circulating_traffic_from_the_passi
     (UK): a car 25 m to that side, on the far side of the roundabout (20 m ahead, past the crossing distance), due
     in 2.5 s, holds the ego at the line; its mirror image on the other side does not (near cross traffic, within the
     crossing distance, holds it from either side)."""
-    reasoner = Reasoner(jurisdiction=jurisdiction)
+    reasoner = window_reasoner(jurisdiction=jurisdiction)
 
     def entry(x: float) -> object:
         # a limit usual in a city of either country: one above it, where cross traffic goes through, may be a
@@ -1050,9 +1050,9 @@ def test_in_the_uk_a_pedestrian_on_the_far_half_of_an_undivided_crossing_is_yiel
         return scene(other_lanes=("oncoming", "cross_right"), divided_road=divided,
                      objects=[obj("pedestrian", 4.5, 12, lane=1, kind="cross_right", velocity={"x": 0.0, "y": 0.0})])
 
-    uk = Reasoner(jurisdiction="uk").decide(crossing(), "cruise")
+    uk = window_reasoner(jurisdiction="uk").decide(crossing(), "cruise")
     assert uk.decision.value == "override" and "brake.pedestrian_at_crossing" in uk.rules
-    assert Reasoner(jurisdiction="uk").decide(crossing(divided=True), "cruise").decision.value == "approve"
+    assert window_reasoner(jurisdiction="uk").decide(crossing(divided=True), "cruise").decision.value == "approve"
     assert decide(crossing(), "cruise").decision.value == "approve"
 
 
@@ -1117,7 +1117,7 @@ def test_a_red_hidden_a_moment_is_cleared_as_one_in_view_where_the_ego_could_sto
 @pytest.mark.parametrize("jurisdiction", ["us", "uk"])
 def test_stopped_in_a_queue_short_of_a_red_the_ego_may_move_up_slowly_to_the_line(jurisdiction):
     """Standing 12 m short of the line with nothing ahead, accelerating was forbidden for as long as the red lasted."""
-    reasoner = Reasoner(jurisdiction=jurisdiction)
+    reasoner = window_reasoner(jurisdiction=jurisdiction)
 
     def red(speed: float, line: float):
         return scene(speed=speed, limit=13.4, light="red", intersection={"type": "signaled", "stage": "arriving", "distance": line})
@@ -1127,7 +1127,7 @@ def test_stopped_in_a_queue_short_of_a_red_the_ego_may_move_up_slowly_to_the_lin
     assert "acc.red_light" in reasoner.decide(red(8, 100), "accelerate").vetoed_by  # too fast to be moving up
 
 
-UK_REASONER = Reasoner(jurisdiction="uk")
+UK_REASONER = window_reasoner(jurisdiction="uk")
 
 # Rules of the UK pack: a scene where each fires, one where its condition or exception stops it.
 UK_CASES = {
@@ -1251,7 +1251,7 @@ def test_no_right_turn_on_a_red_right_arrow_after_a_stop_where_a_red_ball_allows
 
 @pytest.mark.parametrize("jurisdiction, turn, side", [("us", "left", -3.5), ("uk", "right", 3.5)])
 def test_a_green_arrow_protects_a_turn_from_oncoming_traffic_but_not_from_someone_crossing(jurisdiction, turn, side):
-    reasoner = Reasoner(jurisdiction=jurisdiction)
+    reasoner = window_reasoner(jurisdiction=jurisdiction)
     arrow = {"colour": "green", "direction": turn}
     waiting = {"speed": 0, "intent": f"enter_{turn}_lane", "intersection": at_signal, "other_lanes": ("oncoming", f"cross_{turn}"),
                "objects": [obj("car", side, 12, lane=1, kind="oncoming", vy=-10)]}

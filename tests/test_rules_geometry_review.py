@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from discern.rules.engine import Reasoner
+from discern.sanity import window_reasoner
 from tests.scenes import obj, scene
 
-REASONER = Reasoner()
+REASONER = window_reasoner()
 CROSS = ("oncoming", "cross_left", "cross_right")
 STANDING = {"x": 0.0, "y": 0.0}
 
@@ -104,7 +105,7 @@ def test_at_a_stop_sign_cross_traffic_of_unknown_speed_is_taken_to_come_at_the_z
 
 
 def test_in_the_uk_a_right_turn_out_of_a_minor_road_waits_for_cross_traffic_of_unknown_speed():
-    uk = Reasoner(jurisdiction="uk")
+    uk = window_reasoner(jurisdiction="uk")
     coming = stopped_at_the_minor_road("enter_right_lane", obj("car", 25, 4, lane=1, kind="cross_right"))
     verdict = decide(coming, "turn_right", uk)
     assert verdict.decision.value == "override" and "tr.yield_cross_traffic" in verdict.rules

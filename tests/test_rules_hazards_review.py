@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from discern.rules.engine import Reasoner
 from discern.rules.facts import Params
+from discern.sanity import window_reasoner
 from tests.scenes import obj, scene
 
-REASONERS = {"us": Reasoner(), "uk": Reasoner(jurisdiction="uk")}
+REASONERS = {"us": window_reasoner(), "uk": window_reasoner(jurisdiction="uk")}
 CROSS = ("oncoming", "cross_left", "cross_right")
 STANDING = {"x": 0.0, "y": 0.0}
 
@@ -136,7 +136,7 @@ def test_a_yellow_the_ego_could_stop_for_only_by_braking_hard_is_driven_through(
 
 def test_the_comfortable_rate_is_never_above_the_firm_one():
     # firm braking set to 2 m/s² (a slippery road): from 10 m/s that takes 35 m, so 30 m from the line is too close
-    slippery = Reasoner(params=Params(decel=2.0))
+    slippery = window_reasoner(params=Params(decel=2.0))
     assert slippery.decide(yellow(30, 10.0), "cruise").decision.value == "approve"
     assert decide(yellow(30, 10.0), "cruise").action.value == "brake"  # 26.7 m at 3 m/s²
     assert decide(yellow(20, 10.0), "cruise").decision.value == "approve"  # 18.3 m braking firmly, 26.7 m comfortably

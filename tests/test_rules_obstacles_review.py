@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from discern.rules.engine import Reasoner
+from discern.sanity import window_reasoner
 from tests.scenes import obj, scene
 
-REASONERS = {"us": Reasoner(), "uk": Reasoner(jurisdiction="uk")}
+REASONERS = {"us": window_reasoner(), "uk": window_reasoner(jurisdiction="uk")}
 STANDING = {"x": 0.0, "y": 0.0}
 CROSS = ("oncoming", "cross_left", "cross_right")
 

@@ -17,6 +17,7 @@ from discern.rules.engine import Reasoner
 from discern.rules.fact_text import fact_names
 from discern.rules.facts import Params
 from discern.rules.specialize import Specializer
+from discern.sanity import window_reasoner
 from tests.scenes import scene
 
 
@@ -30,12 +31,12 @@ def grounded_form(reasoner, rule_text):
 
 @pytest.fixture(scope="module")
 def us():
-    return Reasoner(jurisdiction="us")
+    return window_reasoner(jurisdiction="us")
 
 
 @pytest.fixture(scope="module")
 def uk():
-    return Reasoner(jurisdiction="uk")
+    return window_reasoner(jurisdiction="uk")
 
 
 def test_parameters_are_put_into_the_rules_that_read_them(us):
@@ -62,7 +63,7 @@ def test_a_rule_whose_parameters_contradict_it_is_left_out(us):
 
 
 def test_other_parameters_change_what_the_rules_read():
-    fast = Reasoner(params=Params(reaction_s=1.5))
+    fast = window_reasoner(params=Params(reaction_s=1.5))
     special = grounded_form(fast, "braking_distance(C,D) :- needs_braking(C); C > 0; param(reaction_ms,R); "
                                   "param(decel,A); D = (((C*R)/1000)+((C*C)/(2*A))).")
     assert "C*1500" in special
@@ -152,6 +153,9 @@ def test_bounds_that_an_equality_carries_over_to_a_variable_stay_the_static_atom
 
 class _WetRoad:
     """A fact provider that gives a parameter of its own: the rules already have the reasoner's put in."""
+
+    predicates = frozenset({("param", 2)})
+    params = frozenset()
 
     def facts(self, scene, history):
         return "param(decel,300)."

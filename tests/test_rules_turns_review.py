@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from discern.rules.engine import reasoner_for
 from discern.rules.scene import Scene
+from discern.sanity import reasoner_for
 from tests.scenes import obj, scene
 
 US, UK = reasoner_for("us"), reasoner_for("uk")

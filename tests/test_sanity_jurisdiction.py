@@ -6,8 +6,9 @@ import random
 
 import pytest
 
-from discern.rules.engine import Reasoner, jurisdiction_pack, reasoner_for
+from discern.rules.engine import jurisdiction_pack
 from discern.rules.scene import Action, Scene
+from discern.sanity import reasoner_for, window_reasoner
 from discern.sanity.examples import obj, scene, sensor
 from tests.mirror import mirror_action, mirror_scene
 
@@ -117,7 +118,7 @@ def test_unknown_jurisdiction_is_rejected_naming_the_known_ones():
     with pytest.raises(ValueError, match=r"unknown jurisdiction 'fr': choose from us, uk"):
         reasoner_for("fr")
     with pytest.raises(ValueError, match="unknown jurisdiction"):
-        Reasoner(jurisdiction="mars")
+        window_reasoner(jurisdiction="mars")
 
 
 def test_reasoner_for_builds_each_jurisdiction_once():
@@ -126,7 +127,7 @@ def test_reasoner_for_builds_each_jurisdiction_once():
 
 
 def test_default_reasoner_is_us_and_lists_the_pack_rules():
-    ids = {r.id for r in Reasoner().catalog.rules}
+    ids = {r.id for r in window_reasoner().catalog.rules}
     assert {"jur.us", "jur.right_hand_traffic", "jur.us.right_on_red"} <= ids and "jur.uk" not in ids
 
 

@@ -5,8 +5,9 @@ from __future__ import annotations
 import pytest
 
 from discern.rules.catalog import catalog_dirs, load_catalog
-from discern.rules.engine import Reasoner, jurisdiction_pack, reasoner_for
+from discern.rules.engine import Reasoner, jurisdiction_pack
 from discern.rules.scene import Lane, LaneKind
+from discern.sanity import reasoner_for
 from discern.sanity.examples import MPH, limit_sign, obj, scene
 
 US = reasoner_for("us")

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 from clingo import Function, Number
 
-from discern.rules.engine import reasoner_for
 from discern.rules.scene import Action, Scene
 from discern.rules.verdict import Decision
+from discern.sanity import reasoner_for
 from discern.sanity import examples
 from discern.sanity.examples import EXAMPLES, fired, obj, scene, sensor
 
@@ -451,13 +451,13 @@ def test_an_ultrasonic_reading_at_60_m_does_not_brake_the_ego_where_the_front_ra
 
 def test_a_front_reading_confirms_a_camera_object_within_the_range_match_parameter():
     """The same tolerance that lets a front reading explain an object lets it confirm one (no phantom then)."""
-    from discern.rules.engine import Reasoner
     from discern.rules.facts import Params
+    from discern.sanity import window_reasoner
 
     car = scene(speed=10.0, objects=[obj(1, "car", 0.0, 20.0, 1, sources=("camera",))],
                 sensors=[{"side": "front", "distance": 24.0, "kind": "radar"}])
     for range_match, confirmed in [(3.0, False), (5.0, True)]:
-        answer = Reasoner(params=Params(range_match=range_match)).solve(car, Action.cruise).answer
+        answer = window_reasoner(params=Params(range_match=range_match)).solve(car, Action.cruise).answer
         assert (Function("confirmed", [Number(1)]) in answer.of("confirmed", 1)) is confirmed
         assert (Function("doubtful", [Number(1)]) in answer.of("doubtful", 1)) is not confirmed
 

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from discern.rules.engine import reasoner_for
 from discern.rules.scene import Scene
+from discern.sanity import reasoner_for
 from discern.scenarios.model import Scenario
 
 ROOT = Path(__file__).resolve().parents[1] / "scenarios" / "sanity"

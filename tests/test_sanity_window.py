@@ -9,8 +9,8 @@ from clingo import Function
 
 from discern.rules.scene import ObjectClass
 from discern.sanity import WindowConfig, WindowProvider, default_providers
-from discern.sanity.window import Bodies
 from discern.sanity.examples import MPH, limit_sign, obj, scene, sensor
+from discern.sanity.window import Bodies
 
 PROVIDER = WindowProvider()
 
@@ -26,9 +26,9 @@ def facts(frames, provider=PROVIDER) -> set[str]:
 
 
 def test_reasoner_picks_up_the_window_provider():
-    from discern.rules.engine import Reasoner
+    from discern.sanity import window_reasoner
 
-    assert [type(p) for p in Reasoner().providers] == [WindowProvider]
+    assert [type(p) for p in window_reasoner().providers] == [WindowProvider]
     assert isinstance(default_providers()[0], WindowProvider)
 
 
@@ -373,13 +373,13 @@ def test_a_lost_object_ahead_of_the_bumper_is_read_by_the_sensor_facing_it():
 
 
 def test_whether_the_ego_stopped_in_the_window_is_the_rules_call_with_their_parameter():
-    from discern.rules.engine import Reasoner
     from discern.rules.facts import Params
+    from discern.sanity import window_reasoner
 
     frames = [at(0.1 * i, speed=0.8) for i in range(3)] + [at(0.3, speed=3.0)]
     assert "slowest_recent_speed(80)." in facts(frames)
     for stopped_speed, stopped in [(0.5, False), (1.0, True)]:
-        solved = Reasoner(params=Params(stopped_speed=stopped_speed)).solve(frames[-1], "cruise", frames[:-1])
+        solved = window_reasoner(params=Params(stopped_speed=stopped_speed)).solve(frames[-1], "cruise", frames[:-1])
         assert solved.answer.holds(Function("stopped_recently")) is stopped
 
 
@@ -556,8 +556,9 @@ def test_the_window_sizes_and_faces_objects_as_its_reasoners_catalog_and_paramet
     import shutil
 
     from discern.rules.catalog import catalog_dirs, load_catalog
-    from discern.rules.engine import Reasoner, jurisdiction_pack
+    from discern.rules.engine import jurisdiction_pack
     from discern.rules.facts import Params
+    from discern.sanity import window_reasoner
 
     edited = tmp_path / "catalog"
     shutil.copytree(catalog_dirs()[0], edited)
@@ -565,10 +566,10 @@ def test_the_window_sizes_and_faces_objects_as_its_reasoners_catalog_and_paramet
     assert "typical_length(car, 450)." in geometry.read_text()
     geometry.write_text(geometry.read_text().replace("typical_length(car, 450).", "typical_length(car, 520)."))
     catalog = load_catalog([edited, catalog_dirs()[1]], [jurisdiction_pack("us")])
-    bodies = Reasoner(catalog=catalog, params=Params(lane_width=3.0)).providers[0].bodies
+    bodies = window_reasoner(catalog=catalog, params=Params(lane_width=3.0)).providers[0].bodies
     assert bodies.lengths[ObjectClass.car] == 5.2 and bodies.half_lane == 1.5
     assert bodies.lengths[ObjectClass.pedestrian] == 0.6  # a class the catalog gives no length keeps the window's
-    shipped = Reasoner().providers[0].bodies
+    shipped = window_reasoner().providers[0].bodies
     assert shipped.lengths[ObjectClass.car] == 4.5 and shipped.half_lane == 1.75 and shipped == Bodies.shipped()
 
 

@@ -2,8 +2,8 @@ from pathlib import Path
 
 import pytest
 
-from discern.rules.engine import reasoner_for
 from discern.rules.scene import Action
+from discern.sanity import reasoner_for
 from discern.scenarios import runner
 
 ROOT = Path(__file__).resolve().parents[1] / "scenarios"
@@ -50,11 +50,10 @@ def test_a_rule_expected_absent_is_reported_when_the_verdict_cites_it(reasoner):
 
 
 def test_every_fact_a_frame_gives_is_of_a_predicate_the_catalog_loader_knows_frames_give():
-    """The loader warns of a rule that reads a predicate nothing gives (`catalog.frame_predicates`) or a
-    window_param no window names: a frame fact it did not know of would make it warn of a sound rule."""
+    """The loader warns of a rule that reads a predicate nothing gives (`Reasoner.frame_predicates`, its providers'
+    too) or a window_param no provider names: a frame fact it did not know of would make it warn of a sound rule."""
     import clingo
 
-    from discern.rules.catalog import frame_predicates
     from discern.sanity.window import WINDOW_PARAMS
 
     texts = []
@@ -69,6 +68,6 @@ def test_every_fact_a_frame_gives_is_of_a_predicate_the_catalog_loader_knows_fra
     control.add("base", [], "".join(texts))
     control.ground([("base", [])])
     given = {(name, arity) for name, arity, _ in control.symbolic_atoms.signatures}
-    assert given - frame_predicates() == set()
+    assert given - reasoner.frame_predicates == set()
     named = {atom.symbol.arguments[0].name for atom in control.symbolic_atoms.by_signature("window_param", 2)}
     assert named == WINDOW_PARAMS

@@ -102,10 +102,10 @@ def _checker(variant: str, setup: Setup, vehicle: str):
 
     key = ("reasoner", setup.params)
     if key not in _worker:
-        from discern.rules.engine import Reasoner
+        from discern.sanity import window_reasoner
         from discern.rules.facts import Params
 
-        _worker[key] = Reasoner(params=Params(**dict(setup.params)), jurisdiction=JURISDICTION)
+        _worker[key] = window_reasoner(params=Params(**dict(setup.params)), jurisdiction=JURISDICTION)
     return ReasonerChecker(reasoner=_worker[key], vehicle=vehicle)  # the reasoner is shared, the vehicle the episode's
 
 

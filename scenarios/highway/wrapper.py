@@ -67,10 +67,10 @@ class ReasonerChecker:
 
     def __init__(self, reasoner=None, explain: bool = False, shadow: bool = False, params=None, vehicle: str = "ego"):
         if reasoner is None:
-            from discern.rules.engine import Reasoner
+            from discern.sanity import window_reasoner
             from discern.rules.facts import Params
 
-            reasoner = Reasoner(params=params or Params(**VEHICLE_PARAMS))
+            reasoner = window_reasoner(params=params or Params(**VEHICLE_PARAMS))
         self.reasoner = reasoner
         self.explain = explain
         self.shadow = shadow
