@@ -86,7 +86,7 @@ def test_every_proposal_the_schema_admits_decodes_strictly_or_fails_only_a_cross
 
 
 @pytest.mark.parametrize("path, value, expected", [
-    (("scene", "frame_id"), True, "scene.frame_id: Input should be a valid integer (got True)"),
+    (("scene", "frame_id"), True, "scene.frame_id: Input should be a valid integer (got true)"),
     (("scene", "frame_id"), "7", "scene.frame_id: Input should be a valid integer (got '7')"),
     (("scene", "ego", "speed"), "25", "scene.ego.speed: Input should be a valid number (got '25')"),
     (("scene", "ego", "lane"), "2", "scene.ego.lane: Input should be a valid integer (got '2')"),
@@ -94,7 +94,7 @@ def test_every_proposal_the_schema_admits_decodes_strictly_or_fails_only_a_cross
     (("explain",), "yes", "explain: Input should be a valid boolean (got 'yes')"),
     (("explain",), 1, "explain: Input should be a valid boolean (got 1)"),
     (("version",), "1", "version: Input should be 1 (got '1')"),
-    (("version",), True, "version: Input should be 1 (got True)"),
+    (("version",), True, "version: Input should be 1 (got true)"),
     (("scene", "ego", "lane"), 1.5, "scene.ego.lane: Input should be a valid integer (got 1.5)"),
 ])
 def test_a_wire_value_of_another_json_type_than_the_schema_says_is_refused_not_converted(path, value, expected):

@@ -111,7 +111,7 @@ BAD = {
         "schema",
     ),
     "frame_id_as_boolean": (
-        lambda v: with_scene(v, ("frame_id",), True), "scene.frame_id: Input should be a valid integer (got True)",
+        lambda v: with_scene(v, ("frame_id",), True), "scene.frame_id: Input should be a valid integer (got true)",
         "schema",
     ),
     "explain_as_text": (
@@ -297,7 +297,7 @@ def test_the_client_sends_wrongly_typed_fields_as_they_are_so_the_monitor_refuse
 
 def test_a_typed_scene_given_a_nan_after_it_was_built_is_refused_naming_the_field_and_the_nan(monitor):
     """pydantic does not check a field set after the model was built: the NaN went out as null, refused as a missing
-    number ("got None"), where the same scene as a dict was refused as a NaN."""
+    number ("got null"), where the same scene as a dict was refused as a NaN."""
     ep, _ = monitor
     scene = highway_scene(1, 3)
     scene.ego.speed = math.nan  # a perception filter diverged
