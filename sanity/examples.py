@@ -67,6 +67,16 @@ def limit_sign(mph: float) -> dict:
     return {"kind": "speed_limit", "value": round(mph * MPH, 3), "source": "camera"}
 
 
+def exit_sign(x: float) -> Scene:
+    """The middle lane of three on a highway, the right one an exit 150 m on; a 25 mph sign x metres to the side."""
+    lanes = [{"kind": "current", "id": 1}, {"kind": "current", "id": 2},
+             {"kind": "current", "id": 3, "ends_in": 150.0, "leaves_road": True}]
+    data = scene(speed=30.0, lane=2, lanes=3, zone="highway", limit=None,
+                 signs=[{**limit_sign(25), "position": {"x": x, "y": 60.0}}],
+                 objects=[obj(2, "truck", 0.0, -5.0, 2, vy=30.0)]).model_dump(mode="json", by_alias=True, exclude_none=True)
+    return Scene.model_validate({**data, "lanes": lanes})
+
+
 def sensor(side: str, distance: float, kind: str = "radar") -> dict:
     return {"side": side, "distance": distance, "kind": kind}
 
@@ -179,9 +189,10 @@ def _examples() -> list[Example]:
     hw = {"zone": "highway", "limit": 29.0, "lanes": 2, "lane": 2, "speed": 15.0}
     truck = obj(2, "truck", 0.0, 30.0, 1, vy=12.0, size={"length": 12.0, "width": 2.5})
     toy_car = obj(11, "car", 0.0, 14.0, 1, vy=0.0, sources=("camera",), size={"length": 0.7, "width": 0.3})
-    # a flash is about 1 Hz: frames half a second apart see the light lit, dark, lit, dark (a 0.1 s gap is a lost frame)
+    # a flash is about 1 Hz: frames half a second apart see the light lit, dark, lit, dark (a 0.1 s gap is a lost
+    # frame); perception lists it dark (colour none), since a light it does not list is out of view, not dark
     flashing_red = [scene(frame=i + 1, timestamp=0.5 * (i + 1), speed=8.0 - i, limit=11.0,
-                          lights=[{"colour": "red"}] if i % 2 == 0 else [], intersection=arriving) for i in range(4)]
+                          lights=[{"colour": "red" if i % 2 == 0 else "none"}], intersection=arriving) for i in range(4)]
     red_then_dark = tuple(flashing_red[:2])
     steady_red = (scene(frame=1, speed=8.0, limit=11.0, lights=[{"colour": "red"}], intersection=arriving),
                   scene(frame=2, speed=7.0, limit=11.0, lights=[{"colour": "red"}], intersection=arriving))
@@ -289,6 +300,17 @@ def _examples() -> list[Example]:
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(5)],
                        objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),), Action.cruise,
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(45)],
+                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),)),
+        Example("san.limit.exit_lane_sign",
+                "At 30 m/s in the middle lane of a highway whose right lane is an exit, the camera reads a 25 mph sign "
+                "standing 9 m to the right, past the exit lane, with a truck 5 m behind (the near miss: on the left verge).",
+                (exit_sign(9.0),), Action.cruise, (exit_sign(-9.0),)),
+        Example("san.limit.below_the_mapped_highway_limit",
+                "On a highway the map says 70 mph and the camera reads a 25 mph sign; the ego drives 30 m/s with a "
+                "truck 5 m behind (the near miss: the map says 25 mph too).",
+                (scene(speed=30.0, zone="highway", limit=None, map_speed_limit=31.3, signs=[limit_sign(25)],
+                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),), Action.cruise,
+                (scene(speed=30.0, zone="highway", limit=None, map_speed_limit=11.2, signs=[limit_sign(25)],
                        objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),)),
         Example("san.limit.unusually_low",
                 "In a city the camera reads a 5 mph sign in one frame; the ego drives 10 m/s.",

@@ -93,10 +93,14 @@ class _Summary:
     perceived: Optional[int]  # the perceived limit (the scene's speed_limit)
     stop_evidence: tuple[str, ...]  # what showed a stop sign belonged at the approach, where none was read as one
     on_vehicles: frozenset[int]  # limits read off signs inside a motor vehicle's outline (a sticker, an advert)
+    beside_exits: frozenset[int]  # limits read only off signs beside a lane that leaves the road (an exit's own)
     # lit lamps by the rules' name for them (rules.facts.lamp): a ball's colour, or an arrow's, `red_left_arrow`
     lights: frozenset[str]
     flashing: frozenset[str]
     steady: frozenset[str]  # lamps some light of which is not flagged flashing
+    # where a light is listed unlit (colour "none"): None for a ball, else the arrow's direction. A lamp not listed
+    # at all is out of view, not dark: a truck passing in front of a steady yellow makes no dark phase
+    unlit: frozenset[Optional[str]]
     stop_sign: bool
     school_sign: bool
     dark: bool  # traffic lights in view, none of them lit
@@ -117,11 +121,14 @@ class _Summary:
             perceived=cm(scene.speed_limit) if scene.speed_limit is not None else None,
             stop_evidence=_stop_evidence(scene),
             on_vehicles=frozenset(value for value, _, cls in _signs_within(scene, bodies) if cls in bodies.motor),
+            beside_exits=frozenset(value for value, _ in _signs_beside_exits(scene, bodies.half_lane)),
             # a lamp of colour "none" (unlit, glare, unreadable) shows no colour: it is no light seen, and does not
             # make a red seen before any less the last colour seen (the core gives it no fact either)
             lights=frozenset(lamp(l) for l in scene.traffic_lights if l.colour is not LightColour.none),
             flashing=frozenset(lamp(l) for l in scene.traffic_lights if l.flashing and l.colour is not LightColour.none),
             steady=frozenset(lamp(l) for l in scene.traffic_lights if not l.flashing and l.colour is not LightColour.none),
+            unlit=frozenset(l.direction and l.direction.value for l in scene.traffic_lights
+                            if l.colour is LightColour.none),
             stop_sign=any(s.kind is SignKind.stop for s in scene.signs),
             school_sign=any(s.kind is SignKind.school_zone for s in scene.signs),
             dark=_dark(scene),
@@ -191,8 +198,10 @@ WINDOW_PREDICATES = frozenset({
     ("signal_dark", 0), ("window_frames", 1), ("window_param", 2), ("light_seen_on_approach", 0),
     ("slowest_recent_speed", 1), ("slowest_at_line", 1), ("reading_seen", 3), ("reading_span", 2), ("reading_run", 2),
     ("reading_time", 2), ("misread_before", 2), ("sign_on_vehicle_before", 1), ("sign_within", 2),
+    ("sign_beside_exit", 2), ("sign_beside_exit_before", 1),
     ("sign_confidence", 2), ("remembered_limit", 1), ("prior_limit", 1), ("prior_run", 2), ("prior_time", 2),
-    ("light_flashing_frames", 2), ("light_flashing_time", 2), ("light_flashes", 1), ("light_seen_recently", 1),
+    ("light_flashing_frames", 2), ("light_flashing_time", 2), ("light_lit_time", 2), ("light_flashes", 1),
+    ("light_seen_recently", 1),
     ("sign_seen_recently", 1), ("school_sign_run", 1), ("school_sign_time", 1), ("obj_size", 3), ("overlaps", 2),
     ("predicted_conflict", 3), ("obj_source_before", 2), ("remembered", 2), ("remembered_object", 2),
     ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2), ("track_time", 2), ("remembered_lane", 3),
@@ -200,7 +209,7 @@ WINDOW_PREDICATES = frozenset({
     ("reported_before", 2), ("ran_beside", 2), ("remembered_conflict", 3), ("lights_frames", 2), ("lights_time", 2),
     ("crept_at_line", 1), ("stepped_conflict", 3), ("remembered_stepped_conflict", 3),
 })
-WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "track_ms", "window_ms"})
+WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "track_ms", "window_ms", "flash_max_ms"})
 
 
 class WindowProvider:
@@ -239,7 +248,8 @@ class WindowProvider:
                 f"window_param(track_frames,{c.track_frames})."
             )
             out.append(f"window_param(confirm_ms,{round(c.confirm_s * 1000)}).window_param(track_ms,{round(c.track_s * 1000)}).")
-            out.append(f"window_param(window_ms,{round(c.seconds * 1000)}).")
+            out.append(f"window_param(window_ms,{round(c.seconds * 1000)})."
+                       f"window_param(flash_max_ms,{round(c.flash_max_phase_s * 1000)}).")
             now, past = self._summary(scene), [self._summary(s) for s in window]
             times = [s.timestamp for s in window] + [scene.timestamp]
             clock = _Clock.of(times, c.untimed_frame_s)
@@ -485,6 +495,7 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
     out = sorted({f"misread_before({v},{e})." for misread, lit in zip(misreads, signalled) for v, e in misread
                   if not (lit and e == LINE_EVIDENCE)})
     out.extend(sorted({f"sign_on_vehicle_before({v})." for p in past for v in p.on_vehicles}))
+    out.extend(sorted({f"sign_beside_exit_before({v})." for p in past for v in p.beside_exits}))
     here = len(past)  # the current frame's index
     readings = [p.readings for p in past] + [now.readings]
     for value in sorted(now.readings):
@@ -523,8 +534,9 @@ def _limit_facts(now: _Summary, past: list[_Summary], confirm: int, clock: _Cloc
 
 def _no_limit_in(frame: _Summary, misread: tuple[tuple[int, str], ...], value: Optional[int], signalled: bool) -> bool:
     """Whether the rules took the sign that read `value` in this frame (its `misread` values, the perceived limit's
-    among them) for a stop sign, or it was on a vehicle."""
-    return value in frame.on_vehicles or any(v == value and not (signalled and e == LINE_EVIDENCE) for v, e in misread)
+    among them) for a stop sign, or it was on a vehicle or beside an exit lane (an exit's limit, not the road's)."""
+    return (value in frame.on_vehicles or value in frame.beside_exits
+            or any(v == value and not (signalled and e == LINE_EVIDENCE) for v, e in misread))
 
 
 # --- lights and signs ---------------------------------------------------------
@@ -545,9 +557,14 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
         flagged, first, last = _recent_run(states, times, config)
         if flagged:
             out.append(f"light_flashing_frames({name},{flagged}).light_flashing_time({name},{clock.lasted(first, last)}).")
-        # a yellow lit now needs a whole lit phase seen as well as a dark one: a steady yellow hidden for a moment
-        # and back is on, off, on too, and taking it for flashing would let the ego run it
-        if _flashes([name in f.lights for f in frames], times, config, whole_lit=_colour(name) is LightColour.yellow):
+            # a light lit longer than a flash is lit is steady, whatever its flags (an LED flickering on camera)
+            first, last = _lit_phase([name in f.lights for f in frames], times, config)
+            out.append(f"light_lit_time({name},{clock.lasted(first, last)}).")
+        # lit (True), listed unlit (False), or out of view (None), which keeps what was seen last: only a light
+        # seen dark has a dark phase. A yellow lit now needs a whole lit phase seen as well as a dark one: a steady
+        # yellow hidden for a moment and back is on, off, on too, and taking it for flashing would let the ego run it
+        seen = [True if name in f.lights else False if _place(name) in f.unlit else None for f in frames]
+        if _flashes(seen, times, config, whole_lit=_colour(name) is LightColour.yellow):
             out.append(f"light_flashes({name}).")
     last = next((p for p in reversed(past) if p.lights), None)
     if not now.lights and last is not None:
@@ -565,6 +582,11 @@ def _light_facts(now: _Summary, past: list[_Summary], times: list[float], config
 def _colour(name: str) -> LightColour:
     """The colour of a lamp named as rules.facts.lamp names it."""
     return LightColour(name.partition("_")[0])
+
+
+def _place(name: str) -> Optional[str]:
+    """Where a lamp named as rules.facts.lamp names it sits: None for a ball, else its arrow's direction."""
+    return name.split("_")[1] if name.endswith("_arrow") else None
 
 
 def _dark(scene: Scene) -> bool:
@@ -614,8 +636,25 @@ def _recent_run(states: Sequence[Optional[bool]], times: Sequence[float], config
     return count, first, last
 
 
-def _flashes(on: list[bool], times: list[float], config: WindowConfig, whole_lit: bool = False) -> bool:
-    """Whether a light seen on (True) and off over frames at `times` goes through a whole flash cycle.
+def _lit_phase(lit: list[bool], times: list[float], config: WindowConfig) -> tuple[int, int]:
+    """The indices of the first and the last frame of the latest lit phase of a light lit (True) in some frames at
+    `times`. Two lit frames no further apart than a flash's shortest phase have no dark phase between them (what is
+    missed between them is a lost frame or flicker); further apart, one may have passed unseen, and the phase ends."""
+    shortest = round(config.flash_min_phase_s * 1000)
+    ms = [round(t * 1000) for t in times]
+    last = max(i for i, on in enumerate(lit) if on)
+    first = last
+    for i in reversed(range(first)):
+        if lit[i]:
+            if ms[first] - ms[i] > shortest:
+                break
+            first = i
+    return first, last
+
+
+def _flashes(seen: list[Optional[bool]], times: list[float], config: WindowConfig, whole_lit: bool = False) -> bool:
+    """Whether a light seen on (True) and off (False) over frames at `times` goes through a whole flash cycle. A
+    frame that does not show it (None) keeps what was seen before; frames before it is first seen do not count.
 
     It must go on, off and on again (one whole dark phase seen between two lit ones), and every
     phase must last as long as a flash does: a steady light that drops out of one frame or
@@ -625,6 +664,11 @@ def _flashes(on: list[bool], times: list[float], config: WindowConfig, whole_lit
     Without timestamps nothing lasts, and nothing is seen flashing. With `whole_lit`, a light lit now must
     also have been seen through a whole lit phase (on, off, on, off, on, or off, on, off, on).
     """
+    known = next((i for i, state in enumerate(seen) if state is not None), len(seen))
+    on: list[bool] = []
+    for state in seen[known:]:
+        on.append(on[-1] if state is None else state)
+    times = times[known:]
     starts = [i for i in range(len(on)) if i == 0 or on[i] != on[i - 1]]
     if len(starts) < 3 or not any(on[i] for i in starts[:-2]):  # no on, off, on
         return False
@@ -725,6 +769,7 @@ def _world_facts(scene: Scene, bodies: Bodies) -> list[str]:
     sizes = [(o.id, _measured_size(o)) for o in scene.objects]
     out = [f"obj_size({oid},{cm(size.length)},{cm(size.width)})." for oid, size in sizes if size is not None]
     out.extend(f"sign_within({value},{oid})." for value, oid, _ in _signs_within(scene, bodies))
+    out.extend(f"sign_beside_exit({value},{lane})." for value, lane in _signs_beside_exits(scene, bodies.half_lane))
     out.extend(f"sign_confidence({value},{percent})." for value, percent in _confidences(scene).items())
     camera_only = [o for o in scene.objects if o.sources == [Source.camera]]
     if not camera_only:
@@ -753,6 +798,35 @@ def _confidences(scene: Scene) -> dict[int, int]:
         else:
             found[cm(sign.value)] = max(found.get(cm(sign.value), 0), round(sign.confidence * 100))
     return {value: percent for value, percent in found.items() if value not in unknown}
+
+
+def _signs_beside_exits(scene: Scene, half_lane: float) -> list[tuple[int, int]]:
+    """(value, lane id) of each limit read only off signs that stand past the outer edge of a lane that leaves the
+    road (the ego's road's outermost lane on that side, not the ego's own): where an exit posts its own limit
+    (san.limit.exit_lane_sign). A value also read off a sign elsewhere is the road's too."""
+    current = sorted(l.id for l in scene.lanes if l.kind is LaneKind.current)
+    ego = scene.ego.lane
+    edges = {}  # exit lane id: (side, its outer edge's offset from the ego's line on that side)
+    for lane in scene.lanes:
+        if lane.kind is LaneKind.current and lane.leaves_road and lane.ends_in is not None and lane.id != ego:
+            if lane.id == current[-1] and lane.id > ego:
+                edges[lane.id] = (1, (2 * (lane.id - ego) + 1) * half_lane)
+            elif lane.id == current[0] and lane.id < ego:
+                edges[lane.id] = (-1, (2 * (ego - lane.id) + 1) * half_lane)
+    if not edges:
+        return []
+    beside: dict[int, int] = {}
+    elsewhere: set[int] = set()
+    for sign in scene.signs:
+        if sign.kind is not SignKind.speed_limit or sign.value is None:
+            continue
+        x = sign.position.x if sign.position is not None else None
+        lane = next((lid for lid, (side, edge) in edges.items() if x is not None and side * x > edge), None)
+        if lane is None:
+            elsewhere.add(cm(sign.value))
+        else:
+            beside.setdefault(cm(sign.value), lane)
+    return [(value, lane) for value, lane in sorted(beside.items()) if value not in elsewhere]
 
 
 def _signs_within(scene: Scene, bodies: Bodies) -> list[tuple[int, int, ObjectClass]]:

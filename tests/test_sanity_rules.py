@@ -58,6 +58,7 @@ def test_docs_show_the_engines_own_output_for_every_example():
 
 AT_LINE = {"type": "signaled", "stage": "at", "distance": 0.0}
 RED = [{"colour": "red"}]
+UNLIT = [{"colour": "none"}]  # a light listed unlit: a dark phase (one not listed is out of view)
 
 
 def _timed(frames: list[tuple[float, list]], **kw):
@@ -78,12 +79,12 @@ def test_a_steady_red_with_one_dropped_frame_keeps_the_ego_at_the_stop_line():
 
 
 def test_an_inferred_flash_does_not_release_the_ego_at_the_stop_line():
-    flashing = _timed([(0.0, RED), (0.5, []), (1.0, RED), (1.5, []), (2.0, RED)])
+    flashing = _timed([(0.0, RED), (0.5, UNLIT), (1.0, RED), (1.5, UNLIT), (2.0, RED)])
     assert "san.lights.flashing" in fired(reasoner_for("us"), flashing, Action.accelerate)
     verdict = _decide(flashing, Action.accelerate)
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
     assert "brake.red_light" in verdict.rules
-    dark = _timed([(0.0, RED), (0.5, []), (1.0, RED), (1.5, []), (2.0, RED), (2.5, [])])
+    dark = _timed([(0.0, RED), (0.5, UNLIT), (1.0, RED), (1.5, UNLIT), (2.0, RED), (2.5, UNLIT)])
     verdict = _decide(dark, Action.accelerate)  # nor does the dark phase that follows
     assert verdict.decision is Decision.override and "san.memory.red_light" in verdict.rules
 
@@ -177,7 +178,7 @@ def test_a_red_reported_steady_now_is_steady_whatever_earlier_frames_flagged():
 
 def test_an_inferred_flashing_red_still_stops_the_arriving_ego():
     arriving = {"type": "signaled", "stage": "arriving", "distance": 25.0}
-    frames = _timed([(0.0, RED), (0.5, []), (1.0, RED)], speed=8.0, intersection=arriving)
+    frames = _timed([(0.0, RED), (0.5, UNLIT), (1.0, RED)], speed=8.0, intersection=arriving)
     verdict = _decide(frames, Action.cruise)
     assert verdict.action is Action.brake and "san.lights.flashing_red_stop" in verdict.rules
 

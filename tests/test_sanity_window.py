@@ -126,7 +126,7 @@ def test_window_keeps_every_timed_frame_of_its_seconds_however_fast_they_come():
 def test_a_flashing_light_is_seen_flashing_in_every_frame_at_any_frame_rate(hz):
     """Lit for 0.5 s and dark for 0.5 s: at 50 Hz a 40-frame cap cut the window to 0.8 s, and the flash was
     seen in 45 of 150 frames."""
-    frames = [at(1.0 + i / hz, lights=RED if (i / hz) % 1.0 < 0.5 else ()) for i in range(6 * hz)]
+    frames = [at(1.0 + i / hz, lights=RED if (i / hz) % 1.0 < 0.5 else DARK) for i in range(6 * hz)]
     seen = [("light_flashes(red)." in facts(frames[k - 2 * hz:k + 1])) for k in range(3 * hz, 6 * hz)]
     assert all(seen)
 
@@ -182,13 +182,14 @@ def test_a_limit_read_over_frames_is_remembered_when_the_sign_has_gone():
 
 def test_a_light_going_on_and_off_is_flashing_and_a_steady_one_is_not():
     red = [{"colour": "red"}]
-    flashing = [at(0.0, lights=red), at(0.25), at(0.5, lights=red)]
+    flashing = [at(0.0, lights=red), at(0.25, lights=DARK), at(0.5, lights=red)]
     steady = [at(0.0, lights=red), at(0.25, lights=red), at(0.5, lights=red)]
     assert "light_flashes(red)." in facts(flashing)
     assert not any(f.startswith("light_flashes") for f in facts(steady))
 
 
 RED = [{"colour": "red"}]
+DARK = [{"colour": "none"}]  # a light listed unlit: a dark phase (one not listed is out of view)
 
 
 def _flashes(frames) -> bool:
@@ -203,7 +204,7 @@ def test_a_steady_red_that_drops_one_frame_is_not_flashing():
 
 def test_a_light_flashing_at_one_hertz_over_ten_frames_a_second_is_flashing():
     lit = [(i // 5) % 2 == 0 for i in range(16)]  # 0.5 s lit, 0.5 s dark, ...
-    assert _flashes([at(round(0.1 * i, 1), lights=RED if on else []) for i, on in enumerate(lit)])
+    assert _flashes([at(round(0.1 * i, 1), lights=RED if on else DARK) for i, on in enumerate(lit)])
 
 
 def test_a_flicker_faster_than_a_flash_is_not_flashing():
@@ -226,7 +227,7 @@ def test_frames_without_timestamps_never_show_a_flash():
 
 
 def test_the_shortest_flash_phase_is_a_window_parameter():
-    frames = [at(0.0, lights=RED), at(0.2), at(0.4, lights=RED)]
+    frames = [at(0.0, lights=RED), at(0.2, lights=DARK), at(0.4, lights=RED)]
     assert not _flashes(frames)  # dark for 0.2 s: shorter than a flash by default
     assert "light_flashes(red)." in facts(frames, WindowProvider(WindowConfig(flash_min_phase_s=0.2)))
 
@@ -423,7 +424,7 @@ def test_a_yellow_lit_again_after_one_dark_gap_is_not_yet_seen_flashing():
     frames = [at(round(0.1 * i, 1), lights=YELLOW if on else []) for i, on in enumerate(lit)]
     assert all("light_flashes(yellow)." not in facts(frames[:k]) for k in range(1, len(frames) + 1))
     flashing = [(i // 5) % 2 == 0 for i in range(21)]  # 1 Hz: a whole lit and a whole dark phase seen
-    frames = [at(round(0.1 * i, 1), lights=YELLOW if on else []) for i, on in enumerate(flashing)]
+    frames = [at(round(0.1 * i, 1), lights=YELLOW if on else DARK) for i, on in enumerate(flashing)]
     assert "light_flashes(yellow)." in facts(frames)
 
 
@@ -599,7 +600,8 @@ def test_an_arrow_flashes_apart_from_the_ball_and_from_the_other_arrows():
     """A flashing yellow left arrow beside a steady yellow ball is no flashing ball, nor a flashing right arrow."""
     ball, left, right = {"colour": "yellow"}, {"colour": "yellow", "direction": "left"}, {"colour": "yellow", "direction": "right"}
     lit = [(i // 5) % 2 == 0 for i in range(21)]  # the left arrow at 1 Hz; the ball and the right arrow steady
-    frames = [at(round(0.1 * i, 1), lights=[ball, right, {**left, "flashing": True}] if on else [ball, right])
+    frames = [at(round(0.1 * i, 1), lights=[ball, right, {**left, "flashing": True}] if on
+                 else [ball, right, {"colour": "none", "direction": "left"}])
               for i, on in enumerate(lit)]
     found = facts(frames)
     assert {"light_flashes(yellow_left_arrow).", "light_flashing_frames(yellow_left_arrow,11)."} <= found
