@@ -9,29 +9,15 @@ import pytest
 from discern.rules.scene import Scene
 from discern.sanity import reasoner_for
 from discern.scenarios.model import Scenario
+from discern.scenarios.runner import run
 
 ROOT = Path(__file__).resolve().parents[1] / "scenarios" / "sanity"
 FILES = sorted(ROOT.glob("*.json"))
 
 
 def problems(scenario: Scenario) -> list[str]:
-    reasoner = reasoner_for(scenario.jurisdiction)
-    found, history = [], []
-    for index, frame in enumerate(scenario.frames):
-        verdict = reasoner.decide(frame.scene, frame.proposed, history=tuple(history), explain=True)
-        expect = frame.expect
-        where = f"frame {index}"
-        if expect.decision is not None and verdict.decision is not expect.decision:
-            found.append(f"{where}: decision {verdict.decision.value}, expected {expect.decision.value}")
-        if expect.action is not None and verdict.action is not expect.action:
-            found.append(f"{where}: action {verdict.action.value}, expected {expect.action.value}")
-        if expect.recommended is not None and verdict.recommended is not expect.recommended:
-            found.append(f"{where}: recommended {verdict.recommended}, expected {expect.recommended.value}")
-        found += [f"{where}: rule {r} not in {verdict.rules}" for r in expect.rules if r not in verdict.rules]
-        found += [f"{where}: rule {r} in {verdict.rules}" for r in expect.absent_rules if r in verdict.rules]
-        found += [f"{where}: text lacks {t!r}" for t in expect.text_contains if t not in verdict.justification.full_text()]
-        history.append(frame.scene)
-    return found
+    """What `discern scenarios run` finds wrong, frame by frame (scenarios.runner checks each expectation)."""
+    return [f"frame {o.index}: {p}" for o in run(scenario, reasoner_for(scenario.jurisdiction)) for p in o.problems]
 
 
 @pytest.mark.parametrize("path", FILES, ids=[p.stem for p in FILES])
