@@ -300,6 +300,7 @@ class Prover:
             # rules the rule out (not "needs that it is not so that X, but it is").
             reason.text = (f"{subject} is ruled out, because {reason.text}" if witness
                            else f"{subject} needs {reason.text}")
+            reason.rule_tried = rule.info.id
         if single:
             only = reasons[0]
             if only.kind == "blocked":  # a need that fails, or a fact that rules it out: the rule that needed otherwise
@@ -311,7 +312,7 @@ class Prover:
                     else "and 1 other way it could apply, failing as well")
             reasons.append(JustificationNode(literal=goal, holds=False, kind="blocked", text=text))
         return JustificationNode(literal=goal, holds=False, text=f"rule {rule.info.id} does not apply",
-                                 rule=rule.info.id, kind="blocked", children=reasons)
+                                 rule=rule.info.id, rule_tried=rule.info.id, kind="blocked", children=reasons)
 
     def _failure_node(self, rule: CompiledRule, failure: _Failure, depth: int, negative_left: int) -> JustificationNode:
         lit = failure.literal

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import html
 import json
-import re
 from typing import Optional
 
 from .verdict import Justification, JustificationNode, Verdict
@@ -33,7 +32,6 @@ FOLD_RULES = 3
 # the sanity layer noted) are cut this many levels below their first line in the text; the tree keeps them whole.
 SUPPORT_DEPTH = 4
 _DECIDING = ("forbidden(", "permitted(", "applicable(")  # the roots a verdict rests on: proved in full
-_RULE_TRIED = re.compile(r"^rule (\S+) ")  # a negative proof's reason for one rule: "rule brake.red_light needs ..."
 
 
 def folded_rules(node: JustificationNode) -> list[str]:
@@ -44,11 +42,10 @@ def folded_rules(node: JustificationNode) -> list[str]:
         return []
     tried: list[str] = []
     for child in node.children:
-        found = _RULE_TRIED.match(child.text)
-        if found is None:
+        if child.rule_tried is None:
             return []
-        if found.group(1) not in tried:
-            tried.append(found.group(1))
+        if child.rule_tried not in tried:
+            tried.append(child.rule_tried)
     return tried if len(tried) >= FOLD_RULES else []
 
 

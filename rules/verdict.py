@@ -27,6 +27,8 @@ class JustificationNode(BaseModel):
                         "(false), or the atom that rules the rule out (true)")
     text: str
     rule: Optional[str] = None
+    rule_tried: Optional[str] = Field(None, description="on a reason why a goal does not hold: the id of the rule "
+                                      "this reason is about, which does not derive the goal")
     kind: Literal["derived", "fact", "builtin", "absent", "blocked", "negation", "loop"] = "derived"
     children: list["JustificationNode"] = Field(default_factory=list)
 
