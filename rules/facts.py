@@ -29,7 +29,7 @@ MAX_PARAM_SPEED = 50.0  # m/s: a closing speed (up to twice MAX_SPEED_MS) raised
 _TIMES = frozenset({"reaction_s", "headway_s", "slow_headway_s", "turn_gap_s"})
 _DECELERATIONS = frozenset({"decel", "heavy_decel"})
 _SPEEDS = frozenset({"stopped_speed", "drift_speed", "accel_step", "speed_margin", "turn_speed", "caution_speed", "caution_drop",
-                     "cyclist_speed", "fast_traffic_speed"})
+                     "cyclist_speed", "slow_traffic_speed", "fast_traffic_speed"})
 
 
 def _largest(name: str) -> float:
@@ -49,7 +49,9 @@ class Params:
     heavy_decel: float = 4.5  # m/s^2, a loaded truck's or bus's full braking (FMVSS 121: 250 ft from 60 mph, 4.7 m/s^2)
     min_gap: float = 10.0  # m, AV-CSR's fixed gap: the floor of every gap
     headway_s: float = 2.0  # time gap kept to a vehicle ahead when following in faster-moving traffic (Highway Code 126)
-    slow_headway_s: float = 1.0  # time gap kept below fast_traffic_speed, where the gap needed to stop is the rule
+    slow_headway_s: float = 1.0  # time gap kept up to slow_traffic_speed, where the gap needed to stop is the rule
+    slow_traffic_speed: float = 15.6464  # m/s (35 mph), up to this speed slow_headway_s applies; above it the time gap
+    # rises evenly to headway_s at fast_traffic_speed, so that no small change of speed doubles the gap kept
     fast_traffic_speed: float = 17.8816  # m/s (40 mph), from this speed on traffic is faster-moving: headway_s applies
     swerve_dist: float = 20.0  # m, AV-CSR's look-ahead for swerving around objects
     overtake_dist: float = 40.0  # m, how far ahead a slower vehicle makes the ego overtake

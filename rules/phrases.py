@@ -55,6 +55,7 @@ _ARTICLE = re.compile(r"\b([aA]) (?:(debris)\b|(?=(?!uni|use|usu|one\b)[aeiou]|8
 _SETTINGS = {
     "reaction_ms": ("reaction time", "s", 1000), "headway_ms": ("headway kept in faster-moving traffic", "s", 1000),
     "slow_headway_ms": ("headway kept in slower traffic", "s", 1000),
+    "slow_traffic_speed": ("speed up to which the headway of slower traffic is kept", "m/s", 100),
     "fast_traffic_speed": ("speed from which traffic is faster-moving", "m/s", 100),
     "turn_gap_ms": ("time a turn takes to clear", "s", 1000), "decel": ("firm braking deceleration", "m/s²", 100),
     "heavy_decel": ("full braking deceleration of a truck or bus", "m/s²", 100),
