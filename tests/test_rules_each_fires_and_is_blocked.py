@@ -1291,12 +1291,17 @@ def test_a_cruise_from_a_lane_that_turns_either_way_goes_only_where_both_turns_l
     assert decide(sc, "cruise").decision.value == decision
 
 
-def test_a_green_arrow_lets_a_cruise_from_its_turn_only_lane_go_where_the_red_ball_holds_one_from_an_unmarked_lane():
+def test_a_cruise_from_a_turn_only_lane_is_held_by_the_red_ball_too_as_it_may_go_straight_on_where_a_turn_goes():
+    """A planner that cruises in a left-only lane may turn or may go straight on against the markings: a green
+    arrow beside a red ball lets the proposed turn go, not the cruise."""
     sc = scene(speed=8, limit=13.4, intersection=arriving_20m, traffic_lights=[red_ball, green_left_arrow],
-               movements={1: ["left"]})
-    assert decide(sc, "cruise").decision.value == "approve"
-    unmarked = scene(speed=8, limit=13.4, intersection=arriving_20m, traffic_lights=[red_ball, green_left_arrow])
-    assert decide(unmarked, "cruise").action.value == "brake"
+               movements={1: ["left"]}, other_lanes=("cross_left",))
+    verdict = decide(sc, "cruise")
+    assert verdict.action.value == "brake" and "brake.red_light" in verdict.rules
+    at_the_line = sc.model_copy(update={"ego": sc.ego.model_copy(update={"speed": 3.0}),
+                                        "intersection": sc.intersection.model_copy(update={"distance": 3.0})})
+    assert decide(at_the_line, "turn_left").decision.value == "approve"
+    assert decide(at_the_line, "cruise").action.value == "brake"
 
 
 def test_a_lane_change_out_of_a_turn_only_lane_is_judged_going_straight_as_the_lane_it_enters_goes():
