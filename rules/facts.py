@@ -130,6 +130,7 @@ SCENE_PREDICATES = frozenset({
     ("light_steady", 1), ("traffic_sign", 1), ("sign_reading", 3), ("intersection", 1), ("intersection_stage", 1),
     ("intersection_road", 1), ("arrival_rank", 1), ("intersection_distance", 1), ("stop_line", 0),
     ("stop_controlled", 0), ("sensor", 3), ("paths_cross", 2), ("proposed", 1),
+    ("lane_movement", 2),
 })
 
 
@@ -169,6 +170,8 @@ def scene_facts(scene: Scene, proposed: Action | None = None) -> str:
             out.append(f"lane_ends({lane.id},{cm(lane.ends_in)}).")
             if lane.leaves_road:
                 out.append(f"lane_leaves_road({lane.id}).")
+        for movement in lane.movements or ():  # a current lane's only (scene.Lane)
+            out.append(f"lane_movement({lane.id},{movement.value}).")
         if lane.speed_limit is not None:
             out.append(f"lane_speed_limit({lane.kind.value},{lane.id},{cm(lane.speed_limit)}).")
     for obj in scene.objects:

@@ -255,6 +255,12 @@ class Ego(Strict):
     predicted_path: Optional[PathId] = Field(None, description="id of the ego's predicted path")
 
 
+# Each movement once, at least one: as a JSON Schema array it is `uniqueItems`, which pydantic does not check itself
+# (Lane._movements_once_each does).
+LaneMovements = Annotated[list[ArrowDirection], Field(min_length=1, max_length=len(ArrowDirection),
+                                                       json_schema_extra={"uniqueItems": True})]
+
+
 class Lane(Strict):
     kind: LaneKind
     id: WholeNumber = Field(ge=1, le=MAX_LANE_ID, description="1 = leftmost lane of its kind")
@@ -262,6 +268,29 @@ class Lane(Strict):
     leaves_road: bool = Field(False, description="where it ends, this lane leaves the road (an exit or turn lane) "
                               "rather than dropping into the next lane")
     speed_limit: Optional[Speed] = Field(None, description="map speed limit of this lane, m/s")
+    movements: Optional[LaneMovements] = Field(
+        None, description="the movements this lane may make at the junction ahead (straight, left, right), as its lane-use "
+        "arrows, signs or markings show them; a current lane's only. Omitted, they are not known: the ego's movement "
+        "is then the proposed action's alone. A lane that allows turns and no straight on takes the ego its way "
+        "whatever the proposal, so the light for that turn governs a cruise from it; a turn it does not allow is "
+        "forbidden coming up to the junction")
+
+    @field_validator("movements")
+    @classmethod
+    def _movements_once_each(cls, movements: Optional[LaneMovements]) -> Optional[LaneMovements]:
+        for movement in movements or ():
+            if movements.count(movement) > 1:
+                raise ValueError(f"movements lists {movement.value} twice")
+        return movements
+
+    @model_validator(mode="after")
+    def _movements_of_a_current_lane(self) -> "Lane":
+        """Lane-use arrows say which way the ego's road goes at the junction: an oncoming or crossing lane's would be
+        read by no rule, and silently dropping what a producer sent would hide its mistake."""
+        if self.movements is not None and self.kind is not LaneKind.current:
+            raise ValueError(f"movements given for a lane of kind {self.kind.value}: only a current lane's lane-use "
+                             "arrows are read (the movements the ego's road may make at the junction ahead)")
+        return self
 
 
 class LaneRef(Strict):

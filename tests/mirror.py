@@ -6,7 +6,7 @@ mirrored world (the same situation in the US and in the UK).
 
 from __future__ import annotations
 
-from discern.rules.scene import Action, Indicator, Intent, LaneKind, Scene, SensorSide
+from discern.rules.scene import Action, ArrowDirection, Indicator, Intent, LaneKind, Scene, SensorSide
 
 _ACTIONS = {
     Action.change_lane_left: Action.change_lane_right,
@@ -37,6 +37,7 @@ _SIDES = {
     SensorSide.rear_right: SensorSide.rear_left,
 }
 _INDICATORS = {Indicator.left: Indicator.right, Indicator.right: Indicator.left}
+_MOVEMENTS = {ArrowDirection.left: ArrowDirection.right, ArrowDirection.right: ArrowDirection.left}
 
 
 def mirror_action(action: Action) -> Action:
@@ -58,6 +59,10 @@ def mirror_scene(scene: Scene) -> Scene:
     data["ego"]["intent"] = _INTENTS.get(scene.ego.intent, scene.ego.intent)
     for lane in data["lanes"]:
         lane["id"], lane["kind"] = lane_id(lane["kind"], lane["id"]), _KINDS.get(lane["kind"], lane["kind"])
+        if lane.get("movements"):  # a left-turn lane is the mirrored world's right-turn lane
+            lane["movements"] = [_MOVEMENTS.get(m, m) for m in lane["movements"]]
+    for light in data["traffic_lights"]:
+        light["direction"] = _MOVEMENTS.get(light["direction"], light["direction"])
     for obj in data["objects"]:
         obj["position"]["x"] = -obj["position"]["x"]
         if obj.get("velocity"):

@@ -23,12 +23,15 @@ def scene(speed: float = 10.0, lane: int = 1, lanes: int = 1, limit: Optional[fl
           intent: str = "continue_in_lane", objects: tuple = (), light: Optional[str] = None,
           sign: Optional[str] = None, intersection: Optional[dict] = None, sensors: Optional[dict] = None,
           other_lanes: tuple = (), zone: str = "city", frame: int = 1, path: Optional[str] = None,
-          crossings: tuple = (), lane_ends: Optional[dict] = None, exits: tuple = (), **extra) -> Scene:
+          crossings: tuple = (), lane_ends: Optional[dict] = None, exits: tuple = (),
+          movements: Optional[dict] = None, **extra) -> Scene:
     lane_list = [{"kind": "current", "id": i} for i in range(1, lanes + 1)]
     for l in lane_list:
         if lane_ends and l["id"] in lane_ends:
             l["ends_in"] = lane_ends[l["id"]]
             l["leaves_road"] = l["id"] in exits
+        if movements and l["id"] in movements:
+            l["movements"] = list(movements[l["id"]])
     lane_list += [{"kind": k, "id": 1} for k in other_lanes]
     objs = []
     for i, o in enumerate(objects, start=1):

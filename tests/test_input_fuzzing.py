@@ -78,10 +78,12 @@ def test_every_proposal_the_schema_admits_decodes_strictly_or_fails_only_a_cross
     try:
         decode_proposal(json.dumps(document).encode(), document.get("vehicle", "car_1"))
     except InputError as exc:
-        # the lanes and the object ids are checked across fields, which a JSON Schema cannot say;
-        # and the schema's pattern lets Python's `$` take a vehicle id ending in a newline, which no key holds
+        # the lanes (the ego's, and whose lane-use movements), and the object ids are checked across fields, which a
+        # JSON Schema cannot say; and the schema's pattern lets Python's `$` take a vehicle id ending in a newline,
+        # which no key holds
         assert exc.kind == "vehicle" or any(
-            problem in str(exc) for problem in ("does not exist: current lanes are", "appears twice")
+            problem in str(exc) for problem in ("does not exist: current lanes are", "appears twice",
+                                                "movements given for a lane of kind")
         ), str(exc)
 
 
@@ -336,3 +338,18 @@ def test_a_scene_without_its_zone_is_judged_as_in_a_city_and_says_so():
     assert any(n.startswith("ego.zone not given: a city zone is assumed") for n in scene.notes)
     given = Scene.model_validate({"frame_id": 1, "ego": {"speed": 10, "lane": 1, "zone": "city"}})
     assert not any(n.startswith("ego.zone") for n in given.notes)
+
+
+@pytest.mark.parametrize("lane, problem", [
+    ({"kind": "current", "id": 1, "movements": []}, "lanes.0.movements: List should have at least 1 item"),
+    ({"kind": "current", "id": 1, "movements": ["left", "straight", "left"]}, "lanes.0.movements: movements lists left twice"),
+    ({"kind": "current", "id": 1, "movements": ["u_turn"]}, "lanes.0.movements.0: unknown value 'u_turn'"),
+    ({"kind": "oncoming", "id": 1, "movements": ["left"]},
+     "lanes.0: movements given for a lane of kind oncoming: only a current lane's lane-use arrows are read"),
+])
+def test_lane_use_movements_that_say_nothing_or_belong_to_no_current_lane_are_refused_by_name(lane, problem):
+    """An empty or repeated list, or arrows on a lane no rule reads them of, is a producer's mistake: named, not dropped."""
+    with pytest.raises(ValidationError) as refused:
+        Scene.model_validate({"frame_id": 1, "ego": {"speed": 0, "lane": 1}, "lanes": [lane]})
+    assert describe_errors(refused.value).startswith(problem)
+    assert SCENE_SCHEMA["$defs"]["Lane"]["properties"]["movements"]["anyOf"][0]["uniqueItems"] is True  # as published

@@ -394,6 +394,13 @@ CASES = {
     "tr.red_arrow": (scene(intersection=at_stop, traffic_lights=[green_ball, red_right_arrow]),
                      scene(intersection=at_stop, traffic_lights=[red_ball])),
     "def.ego_movement": (scene(), None),
+    "ent.lane_keeping_actions": (scene(), None),
+    "def.follows_turn_lane": (scene(movements={1: ["left"]}), scene(movements={1: ["left", "straight"]})),
+    "def.ego_movement_by_lane": (scene(movements={1: ["left", "right"]}), scene(lanes=2, lane=2, movements={1: ["left"]})),
+    "tl.lane_use": (scene(speed=3, intersection=at_stop, movements={1: ["straight", "right"]}),
+                    scene(speed=3, intersection={"type": "four_way", "stage": "enter"}, movements={1: ["straight"]})),
+    "tr.lane_use": (scene(speed=3, intersection=at_stop, movements={1: ["left"]}),
+                    scene(speed=3, movements={1: ["left"]})),
     "def.light_for": (scene(light="red"), scene()),
     "def.faces_light": (scene(traffic_lights=[green_ball, red_left_arrow]), scene(traffic_lights=[red_left_arrow])),
     "def.protected_turn": (
@@ -468,7 +475,7 @@ CASES = {
 
 # The proposal of a case's scenes where it is not cruise: rules about replacing a forbidden proposal need one.
 PROPOSED = {"dec.replacement_holds_speed": "change_lane_left", "def.rear_closing_unknown_rider": "turn_right",
-            "san.track.stepped_crossing": "accelerate"}
+            "san.track.stepped_crossing": "accelerate", "tl.lane_use": "turn_left", "tr.lane_use": "turn_right"}
 
 
 def fired(sc, proposed: str = "cruise") -> set[str]:
@@ -1270,3 +1277,42 @@ def test_an_arrow_for_another_movement_has_no_bearing_on_the_egos():
     straight_red = scene(speed=10, limit=20, intersection={"type": "signaled", "stage": "arriving", "distance": 30},
                          traffic_lights=[green_ball, {"colour": "red", "direction": "straight"}])
     assert "brake.red_light" in decide(straight_red, "cruise").rules
+
+
+red_right_beside_green = [green_ball, red_right_arrow]
+arriving_20m = {"type": "signaled", "stage": "arriving", "distance": 20.0}
+
+
+@pytest.mark.parametrize("lights, decision", [([green_ball], "approve"), (red_right_beside_green, "override"),
+                                              ([green_ball, red_left_arrow], "override")])
+def test_a_cruise_from_a_lane_that_turns_either_way_goes_only_where_both_turns_lights_let_it(lights, decision):
+    """Which way a planner cruising in a left-or-right lane will turn is not known: either light's red holds it."""
+    sc = scene(speed=8, limit=13.4, intersection=arriving_20m, traffic_lights=lights, movements={1: ["left", "right"]})
+    assert decide(sc, "cruise").decision.value == decision
+
+
+def test_a_cruise_from_a_turn_only_lane_is_held_by_the_red_ball_too_as_it_may_go_straight_on_where_a_turn_goes():
+    """A planner that cruises in a left-only lane may turn or may go straight on against the markings: a green
+    arrow beside a red ball lets the proposed turn go, not the cruise."""
+    sc = scene(speed=8, limit=13.4, intersection=arriving_20m, traffic_lights=[red_ball, green_left_arrow],
+               movements={1: ["left"]}, other_lanes=("cross_left",))
+    verdict = decide(sc, "cruise")
+    assert verdict.action.value == "brake" and "brake.red_light" in verdict.rules
+    at_the_line = sc.model_copy(update={"ego": sc.ego.model_copy(update={"speed": 3.0}),
+                                        "intersection": sc.intersection.model_copy(update={"distance": 3.0})})
+    assert decide(at_the_line, "turn_left").decision.value == "approve"
+    assert decide(at_the_line, "cruise").action.value == "brake"
+
+
+def test_a_lane_change_out_of_a_turn_only_lane_is_judged_going_straight_as_the_lane_it_enters_goes():
+    sc = scene(speed=8, limit=13.4, lanes=2, lane=1, intersection=arriving_20m, traffic_lights=[green_ball, red_left_arrow],
+               movements={1: ["left"], 2: ["straight"]})
+    assert decide(sc, "change_lane_right").decision.value == "approve"
+    assert decide(sc, "cruise").action.value == "brake"
+
+
+def test_a_turn_from_a_lane_that_does_not_allow_it_is_judged_only_coming_up_to_a_placed_junction():
+    straight_only = {"movements": {1: ["straight"]}, "speed": 3, "intent": "enter_left_lane", "other_lanes": ("cross_left",)}
+    assert "tl.lane_use" in decide(scene(**straight_only, intersection=arriving_20m | {"distance": 5.0}), "turn_left").rules
+    for placed in (None, {"type": "four_way", "stage": "enter"}):
+        assert "tl.lane_use" not in decide(scene(**straight_only, intersection=placed), "turn_left").rules

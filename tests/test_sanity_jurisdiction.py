@@ -20,7 +20,16 @@ def with_lane_end(sc: Scene, lane: int, metres: float) -> Scene:
     data["lanes"][lane - 1]["ends_in"] = metres
     return Scene.model_validate(data)
 
+
+def with_movements(sc: Scene, movements: dict[int, list[str]]) -> Scene:
+    data = sc.model_dump(by_alias=True)
+    for lane, allowed in movements.items():
+        data["lanes"][lane - 1]["movements"] = allowed
+    return Scene.model_validate(data)
+
+
 AT = {"type": "four_way", "stage": "at"}
+ARRIVING = {"type": "signaled", "stage": "arriving", "distance": 20.0}
 
 MIRROR_CASES = {
     "swerve around a roadblock": (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]), "cruise"),
@@ -43,6 +52,13 @@ MIRROR_CASES = {
                                        objects=[obj(4, "emergency_vehicle", 0.0, -30.0, 1, vy=20.0, emergency_lights=True)]),
                                  "cruise"),
     "pull over from the wrong lane": (scene(lanes=2, lane=1, intent="pull_over"), "pull_over"),
+    "cruise from a turn-only lane on its red arrow": (
+        with_movements(scene(speed=8.0, lanes=2, lane=1, intersection=ARRIVING,
+                             lights=[{"colour": "green"}, {"colour": "red", "direction": "left"}]),
+                       {1: ["left"], 2: ["straight"]}), "cruise"),
+    "turn from a lane that goes straight on only": (
+        with_movements(scene(speed=3.0, limit=11.0, intent="enter_left_lane", intersection=AT, lights=[{"colour": "green"}]),
+                       {1: ["straight"]}), "turn_left"),
 }
 
 
