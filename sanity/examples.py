@@ -554,7 +554,7 @@ def _examples() -> list[Example]:
                 stopped_then_lost(60.0), Action.accelerate, stopped_then_lost(19.0)),
         Example("san.memory.id_reused",
                 "The camera loses a car standing 20 m ahead, and the tracker gives its id to a car 80 m ahead on the "
-                "left; the front radar still reads 19 m, so the standing car is kept, as car -1 (the near miss: the "
+                "left; the front radar still reads 19 m, so the standing car is kept, as the car once tracked as 1 (the near miss: the "
                 "radar reads clear road 60 m ahead, and it is let go).",
                 stopped_then_renamed(19.0), Action.accelerate, stopped_then_renamed(60.0)),
         Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",

@@ -232,6 +232,7 @@ class WindowProvider:
         self.accel_step: float = Params().accel_step
         # by id() of a live scene: a frame is read again by every later window it sits in
         self._summaries: dict[int, _Summary] = {}
+        self._jumped: dict[tuple[int, int, int], frozenset[int]] = {}  # _jumps, by the two frames and their interval
 
     def bind(self, static_atoms: Sequence[Symbol], params) -> None:
         """Called by the Reasoner it feeds: its catalog's and parameters' idea of objects (Bodies)."""
@@ -269,7 +270,9 @@ class WindowProvider:
             out.extend(_light_facts(now, past, times, c, clock))
             out.extend(_dark_signal(now, past, c, clock))
             out.extend(_sign_facts(now, past, clock))
-            out.extend(_memory_facts(scene, now, window, past, c, clock, bodies, self.accel_step))
+            jumped = [self._jumps(a, b, sa, sb, clock.ms[k + 1] - clock.ms[k])
+                      for k, (a, b, sa, sb) in enumerate(zip(window, [*window[1:], scene], past, [*past[1:], now]))]
+            out.extend(_memory_facts(scene, now, window, past, jumped, c, clock, bodies, self.accel_step))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
             at_line = [p.speed for p in past if p.at_line]  # a stop in a queue short of the line is no stop at it
             if at_line:
@@ -292,6 +295,21 @@ class WindowProvider:
             summary = self._summaries[id(scene)] = _Summary.of(scene, self.bodies)
             weakref.finalize(scene, self._summaries.pop, id(scene), None).atexit = False  # nothing to do at exit
         return summary
+
+    def _jumps(self, before: Scene, after: Scene, was: _Summary, now: _Summary, ms: int) -> frozenset[int]:
+        """The ids two frames in a row both show that name different objects (`_same_object`), worked out once per
+        pair: a pair of frames sits in many later windows, and judging every object of every pair in each window
+        cost a 50-object frame's window 5 ms. Kept as long as both frames live, as summaries are."""
+        key = (id(before), id(after), ms)
+        jumped = self._jumped.get(key)
+        if jumped is None:
+            legs, bodies = _legs([before, after]), self.bodies
+            jumped = self._jumped[key] = frozenset(
+                oid for oid in was.ids & now.ids
+                if not _same_object(was.objects[oid], now.objects[oid], legs, ms / 1000, bodies))
+            for scene in (before, after):
+                weakref.finalize(scene, self._jumped.pop, key, None).atexit = False
+        return jumped
 
     def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:
         """The recent frames, oldest first: those of the current run newer than `seconds` before this one.
@@ -978,12 +996,13 @@ def _same_object(before: DetectedObject, after: DetectedObject, legs: Sequence[t
     return math.hypot(x - after.position.x, y - after.position.y) <= slack
 
 
-def _names(now: _Summary, summaries: list[_Summary], legs: Sequence[tuple[float, float]], clock: _Clock,
-           bodies: Bodies) -> list[dict[int, int]]:
+def _names(now: _Summary, summaries: list[_Summary], jumped: Sequence[frozenset[int]],
+           legs: Sequence[tuple[float, float]], clock: _Clock, bodies: Bodies) -> list[dict[int, int]]:
     """Per past frame, the name the window's facts give each object it shows: its id where it is the object the id
     names last (seen now, or lost), the id negated where it is the object the tracker had under the id before it
     handed the id to another (an object lost while its id lives on elsewhere is still lost); an object under the id
-    before those two is left out. Sightings of an id that `_same_object` cannot join are different objects."""
+    before those two is left out. Sightings of an id that `_same_object` cannot join are different objects (for
+    frames in a row, `jumped[i]`: the ids frame i and the one after it show for different objects)."""
     sightings: dict[int, list[tuple[int, DetectedObject]]] = {}
     for index, summary in enumerate([*summaries, now]):
         for oid in summary.ids:
@@ -992,7 +1011,8 @@ def _names(now: _Summary, summaries: list[_Summary], legs: Sequence[tuple[float,
     for oid, seen in sightings.items():
         other = 0  # how many objects the id has named since, counting back from its latest sighting
         for (j, after), (i, before) in zip(reversed(seen), reversed(seen[:-1])):
-            if not _same_object(before, after, legs[i:j], (clock.ms[j] - clock.ms[i]) / 1000, bodies):
+            if (oid in jumped[i] if j == i + 1 else
+                    not _same_object(before, after, legs[i:j], (clock.ms[j] - clock.ms[i]) / 1000, bodies)):
                 other += 1
             if other > 1:
                 break
@@ -1003,7 +1023,8 @@ def _names(now: _Summary, summaries: list[_Summary], legs: Sequence[tuple[float,
 
 
 def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: list[_Summary],
-                  config: WindowConfig, clock: _Clock, bodies: Bodies, step: float) -> list[str]:
+                  jumped: Sequence[frozenset[int]], config: WindowConfig, clock: _Clock, bodies: Bodies,
+                  step: float) -> list[str]:
     """Objects the camera lost, where their track puts them now, and what says they are still there;
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
@@ -1017,7 +1038,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     # a frame sits in some twenty windows: set operations on its summary, not a pass over its objects
     legs = _legs([*window, scene])
     # by name (`_names`): an id the tracker gave another object is not the object it named before
-    names = _names(now, summaries, legs, clock, bodies)
+    names = _names(now, summaries, jumped, legs, clock, bodies)
     for index, (summary, named) in enumerate(zip(summaries, names)):
         for oid, name in sorted(named.items()):
             if name not in now.ids:
