@@ -146,6 +146,8 @@ class Phrasebook:
                 found = self._answer.with_first("object", 2, sym)
                 cls = _words(found[0].arguments[1]) if found else ""
                 cls = self._classes[n] = "unknown object" if cls == "unknown" else cls  # not "unknown 7"
+            if n < 0:  # the window's name for an object whose id the tracker gave another (sanity/window.py, _names)
+                return f"the {cls or 'object'} once tracked as {-n}"
             return f"{cls} {n}" if cls else f"object {n}"
         return str(n)
 

@@ -246,6 +246,12 @@ def _examples() -> list[Example]:
                 for i in range(5)]
         return (*seen, scene(frame=6, speed=12.0, limit=15.0, sensors=[sensor("front", front)]))
 
+    def stopped_then_renamed(front: float) -> tuple[Scene, ...]:
+        """As `stopped_then_lost`, but the tracker has given the car's id to a car 80 m ahead on the left."""
+        *seen, _ = stopped_then_lost(front)
+        return (*seen, scene(frame=6, speed=12.0, limit=15.0, objects=[obj(1, "car", -3.5, 80.0, vy=12.0)],
+                             sensors=[sensor("front", front)]))
+
     walker = obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5, sources=("camera", "lidar"))
     stroller = obj(3, "pedestrian", 5.5, 22.0, vy=1.2, vx=0.0, sources=("camera", "lidar"))
     pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
@@ -546,6 +552,11 @@ def _examples() -> list[Example]:
                 "The camera loses a car standing 20 m ahead that it and the radar reported; the front radar now reads "
                 "clear road 60 m ahead, so the car is let go (the near miss: the radar reads 19 m, where the car is).",
                 stopped_then_lost(60.0), Action.accelerate, stopped_then_lost(19.0)),
+        Example("san.memory.id_reused",
+                "The camera loses a car standing 20 m ahead, and the tracker gives its id to a car 80 m ahead on the "
+                "left; the front radar still reads 19 m, so the standing car is kept, as the car once tracked as 1 (the near miss: the "
+                "radar reads clear road 60 m ahead, and it is let go).",
+                stopped_then_renamed(19.0), Action.accelerate, stopped_then_renamed(60.0)),
         Example("san.track.predicted_crossing", "A pedestrian on the right walks towards the road, 22 m ahead.",
                 (scene(speed=8.0, limit=11.0, objects=[walker]),), Action.cruise,
                 (scene(speed=8.0, limit=11.0, objects=[stroller]),)),

@@ -42,6 +42,13 @@ FLASH_MAX_PHASE_S = 1.0  # s: the longest (0.8 s lit at 50 a minute), with a fra
 LINE_EVIDENCE = "a_stop_line_and_no_traffic_lights"
 STAGES = list(IntersectionStage)  # in the order the ego goes through them
 APPROACH_SLACK = 2.0  # m the distance to the stop line may grow, as perception wavers, on the same approach
+# How far an object may be from where its course put it and still be the object its id named (`_same_object`): a
+# detector's ranging errs by a metre or two, and by some 10 % of the range for a camera's depth; a hard brake or
+# swerve adds 8 m/s^2; an object of unknown speed may move at any speed a road user does.
+REUSE_GATE_M = 2.0
+REUSE_GATE_SHARE = 0.15
+REUSE_ACCEL = 8.0  # m/s^2
+REUSE_ANY_SPEED = 30.0  # m/s
 
 
 @dataclass(frozen=True)
@@ -207,7 +214,7 @@ WINDOW_PREDICATES = frozenset({
     ("remembered_pos", 3), ("last_seen_ahead", 2), ("track_frames", 2), ("track_time", 2), ("remembered_lane", 3),
     ("remembered_velocity", 3), ("remembered_source", 2), ("sensor_still_reads", 4), ("sensor_reads_past", 4),
     ("reported_before", 2), ("ran_beside", 2), ("remembered_conflict", 3), ("lights_frames", 2), ("lights_time", 2),
-    ("crept_at_line", 1), ("stepped_conflict", 3), ("remembered_stepped_conflict", 3),
+    ("crept_at_line", 1), ("id_reused", 2), ("stepped_conflict", 3), ("remembered_stepped_conflict", 3),
 })
 WINDOW_PARAMS = frozenset({"confirm_frames", "track_frames", "confirm_ms", "track_ms", "window_ms", "flash_max_ms"})
 
@@ -225,6 +232,7 @@ class WindowProvider:
         self.accel_step: float = Params().accel_step
         # by id() of a live scene: a frame is read again by every later window it sits in
         self._summaries: dict[int, _Summary] = {}
+        self._jumped: dict[tuple[int, int, int], frozenset[int]] = {}  # _jumps, by the two frames and their interval
 
     def bind(self, static_atoms: Sequence[Symbol], params) -> None:
         """Called by the Reasoner it feeds: its catalog's and parameters' idea of objects (Bodies)."""
@@ -262,7 +270,9 @@ class WindowProvider:
             out.extend(_light_facts(now, past, times, c, clock))
             out.extend(_dark_signal(now, past, c, clock))
             out.extend(_sign_facts(now, past, clock))
-            out.extend(_memory_facts(scene, now, window, past, c, clock, bodies, self.accel_step))
+            jumped = [self._jumps(a, b, sa, sb, clock.ms[k + 1] - clock.ms[k])
+                      for k, (a, b, sa, sb) in enumerate(zip(window, [*window[1:], scene], past, [*past[1:], now]))]
+            out.extend(_memory_facts(scene, now, window, past, jumped, c, clock, bodies, self.accel_step))
             out.append(f"slowest_recent_speed({min(p.speed for p in past)}).")  # stopped or not: the rules say
             at_line = [p.speed for p in past if p.at_line]  # a stop in a queue short of the line is no stop at it
             if at_line:
@@ -285,6 +295,21 @@ class WindowProvider:
             summary = self._summaries[id(scene)] = _Summary.of(scene, self.bodies)
             weakref.finalize(scene, self._summaries.pop, id(scene), None).atexit = False  # nothing to do at exit
         return summary
+
+    def _jumps(self, before: Scene, after: Scene, was: _Summary, now: _Summary, ms: int) -> frozenset[int]:
+        """The ids two frames in a row both show that name different objects (`_same_object`), worked out once per
+        pair: a pair of frames sits in many later windows, and judging every object of every pair in each window
+        cost a 50-object frame's window 5 ms. Kept as long as both frames live, as summaries are."""
+        key = (id(before), id(after), ms)
+        jumped = self._jumped.get(key)
+        if jumped is None:
+            legs, bodies = _legs([before, after]), self.bodies
+            jumped = self._jumped[key] = frozenset(
+                oid for oid in was.ids & now.ids
+                if not _same_object(was.objects[oid], now.objects[oid], legs, ms / 1000, bodies))
+            for scene in (before, after):
+                weakref.finalize(scene, self._jumped.pop, key, None).atexit = False
+        return jumped
 
     def window(self, scene: Scene, history: Sequence[Scene]) -> list[Scene]:
         """The recent frames, oldest first: those of the current run newer than `seconds` before this one.
@@ -318,13 +343,17 @@ class WindowProvider:
             run.append(frame)
         run.pop()  # the scene itself
         kept: list[Scene] = []
-        timed = scene.timestamp > 0
-        # frames without timestamps last untimed_frame_s each: as many as fill `seconds`, and no more than max_frames
+        # frames whose age cannot be told, without timestamps or stamped no earlier than the frame after them (a
+        # clock that has stopped), last untimed_frame_s each: as many as fill `seconds`, and no more than max_frames.
+        # A stopped clock kept every frame since it stopped, and a red light seen 25 s before held the ego
         untimed = min(self.config.max_frames, max(1, round(self.config.seconds / self.config.untimed_frame_s)))
+        unaged, after = 0, scene
         for past in reversed(run):
-            if scene.timestamp - past.timestamp > self.config.seconds or (not timed and len(kept) >= untimed):
+            unaged += past.timestamp >= after.timestamp
+            if scene.timestamp - past.timestamp > self.config.seconds or unaged > untimed:
                 break
             kept.append(past)
+            after = past
         kept.reverse()
         return kept
 
@@ -468,10 +497,11 @@ class _Clock:
     @classmethod
     def of(cls, times: Sequence[float], untimed_frame_s: float) -> "_Clock":
         """A frame lasts the window's median frame interval (the lower middle one): the frame rate's, which a dropout
-        does not stretch as it does the mean. Frames without timestamps (all 0) or out of order come `untimed_frame_s`
-        apart; frames of one instant are one frame seen again, which lasts as long as one."""
+        does not stretch as it does the mean. Frames without timestamps (all 0), out of order, or three and more all of
+        one instant (a clock that has stopped) come `untimed_frame_s` apart; two frames of one instant are one frame
+        seen again, which lasts as long as one."""
         ms = [round(t * 1000) for t in times]
-        if not any(ms) or ms[-1] < ms[0]:
+        if not any(ms) or ms[-1] < ms[0] or len(ms) > 2 and ms[-1] == ms[0]:
             ms = [round(i * untimed_frame_s * 1000) for i in range(len(times))]
         steps = [b - a for a, b in zip(ms, ms[1:]) if b > a]
         return cls(tuple(ms), statistics.median_low(steps) if steps else round(untimed_frame_s * 1000))
@@ -908,17 +938,19 @@ def _legs(scenes: Sequence[Scene]) -> list[tuple[float, float]]:
     return [(max(b.timestamp - a.timestamp, 0.0), (a.ego.speed + b.ego.speed) / 2) for a, b in zip(scenes, scenes[1:])]
 
 
-def _track(obj: DetectedObject, legs: Sequence[tuple[float, float]], bodies: Bodies) -> Optional[tuple[float, float]]:
+def _track(obj: DetectedObject, legs: Sequence[tuple[float, float]], bodies: Bodies,
+           solid: bool = True) -> Optional[tuple[float, float]]:
     """Where the track of a lost object puts it now, (x, y), from where it was last seen, at the velocity it had,
     while the ego drove the legs since as it did (slowing down, it leaves a pedestrian ahead of it, not under it).
-    None if on the way the track overlaps the ego's own footprint: an object cannot be where the ego is."""
+    None if on the way the track overlaps the ego's own footprint: an object cannot be where the ego is (`solid`;
+    without it, where the course alone puts it)."""
     length, width = _extent(obj, bodies)  # along y, along x
     x, y = obj.position.x, _to_centre(obj.position.y, length)
     for seconds, ego_speed in legs:
         vx, vy = _relative_velocity(obj, ego_speed, bodies)
         span_x = _inside(x, vx, (EGO_WIDTH + width) / 2)
         span_y = _inside(y, vy, (EGO_LENGTH + length) / 2)
-        if span_x is not None and span_y is not None and \
+        if solid and span_x is not None and span_y is not None and \
                 max(span_x[0], span_y[0], 0.0) < min(span_x[1], span_y[1], seconds):
             return None
         x, y = x + vx * seconds, y + vy * seconds
@@ -950,8 +982,49 @@ def _ran_beside(oid: int, seen_in: list[int], summaries: list[_Summary]) -> set[
     return found
 
 
+def _same_object(before: DetectedObject, after: DetectedObject, legs: Sequence[tuple[float, float]], seconds: float,
+                 bodies: Bodies) -> bool:
+    """Whether `after`, reported under the id of `before` `seconds` later, can be the object `before` was: within
+    reach of where the course `before` was on puts it, give or take what a detector's ranging errs by (REUSE_GATE_M,
+    and REUSE_GATE_SHARE of its range), what a hard brake or swerve changes (REUSE_ACCEL) and, where its speed was
+    not known (or the frames have no timestamps, so that nothing moves between them), what any speed would. A
+    tracker that hands a freed id to a new object makes the id jump to wherever the new object is."""
+    x, y = _track(before, legs, bodies, solid=False)
+    unmoved = before.velocity is None or not any(leg_s for leg_s, _ in legs)
+    slack = (REUSE_GATE_M + REUSE_GATE_SHARE * math.hypot(after.position.x, after.position.y)
+             + REUSE_ACCEL * seconds ** 2 / 2 + (REUSE_ANY_SPEED * seconds if unmoved else 0.0))
+    return math.hypot(x - after.position.x, y - after.position.y) <= slack
+
+
+def _names(now: _Summary, summaries: list[_Summary], jumped: Sequence[frozenset[int]],
+           legs: Sequence[tuple[float, float]], clock: _Clock, bodies: Bodies) -> list[dict[int, int]]:
+    """Per past frame, the name the window's facts give each object it shows: its id where it is the object the id
+    names last (seen now, or lost), the id negated where it is the object the tracker had under the id before it
+    handed the id to another (an object lost while its id lives on elsewhere is still lost); an object under the id
+    before those two is left out. Sightings of an id that `_same_object` cannot join are different objects (for
+    frames in a row, `jumped[i]`: the ids frame i and the one after it show for different objects)."""
+    sightings: dict[int, list[tuple[int, DetectedObject]]] = {}
+    for index, summary in enumerate([*summaries, now]):
+        for oid in summary.ids:
+            sightings.setdefault(oid, []).append((index, summary.objects[oid]))
+    names: list[dict[int, int]] = [{} for _ in summaries]
+    for oid, seen in sightings.items():
+        other = 0  # how many objects the id has named since, counting back from its latest sighting
+        for (j, after), (i, before) in zip(reversed(seen), reversed(seen[:-1])):
+            if (oid in jumped[i] if j == i + 1 else
+                    not _same_object(before, after, legs[i:j], (clock.ms[j] - clock.ms[i]) / 1000, bodies)):
+                other += 1
+            if other > 1:
+                break
+            names[i][oid] = -oid if other else oid
+        if seen[-1][0] < len(summaries):  # lost: its latest sighting is named by the id itself
+            names[seen[-1][0]][oid] = oid
+    return names
+
+
 def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: list[_Summary],
-                  config: WindowConfig, clock: _Clock, bodies: Bodies, step: float) -> list[str]:
+                  jumped: Sequence[frozenset[int]], config: WindowConfig, clock: _Clock, bodies: Bodies,
+                  step: float) -> list[str]:
     """Objects the camera lost, where their track puts them now, and what says they are still there;
     earlier confirming sources of objects seen now; emergency lights over the window."""
     out = []
@@ -963,21 +1036,26 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
     echoed: dict[int, set[Source]] = {}  # lost objects: the confirming sources that reported them in the window
     seen_in: dict[int, list[int]] = {}  # lost objects: the frames (their indices) they were seen in
     # a frame sits in some twenty windows: set operations on its summary, not a pass over its objects
-    for index, (past, summary) in enumerate(zip(window, summaries)):
-        for oid in sorted(summary.ids - now.ids):
-            last[oid] = (index, summary.objects[oid])
-            seen_in.setdefault(oid, []).append(index)
+    legs = _legs([*window, scene])
+    # by name (`_names`): an id the tracker gave another object is not the object it named before
+    names = _names(now, summaries, jumped, legs, clock, bodies)
+    for index, (summary, named) in enumerate(zip(summaries, names)):
+        for oid, name in sorted(named.items()):
+            if name not in now.ids:
+                last[name] = (index, summary.objects[oid])
+                seen_in.setdefault(name, []).append(index)
         for oid, confirming in summary.confirmed:
-            if oid in unconfirmed:
-                earlier.setdefault(oid, set()).update(confirming)
-            elif oid not in now.ids:
-                echoed.setdefault(oid, set()).update(confirming)
+            name = named.get(oid)
+            if name in unconfirmed:
+                earlier.setdefault(name, set()).update(confirming)
+            elif name is not None and name not in now.ids:
+                echoed.setdefault(name, set()).update(confirming)
         for oid in summary.lit:
-            lights.setdefault(oid, []).append(index)
+            if oid in named:
+                lights.setdefault(named[oid], []).append(index)
     for oid, found in earlier.items():
         out.extend(f"obj_source_before({oid},{s.value})." for s in sorted(found, key=lambda s: s.value))
     kept: set[int] = set()
-    legs = _legs([*window, scene])
     for oid, (seen, obj) in last.items():
         age = max(clock.ms[-1] - clock.ms[seen], 0) / 1000  # frames without timestamps: untimed_frame_s apart
         placed = _track(obj, legs[seen:], bodies)
@@ -994,6 +1072,8 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         kept.add(oid)
         out.append(f"remembered({oid},{int(round(age * 1000))}).remembered_object({oid},{obj.cls.value}).")
         out.append(f"remembered_pos({oid},{cm(x)},{cm(y)}).track_frames({oid},{tracked}).")
+        if oid < 0:
+            out.append(f"id_reused({oid},{-oid}).")
         out.append(f"last_seen_ahead({oid},{cm(obj.position.y)}).")  # where it was when lost: a phantom is judged there
         # from its first frame in the window to its last, or as many frames as its tracker has followed it; a
         # tracker's age past clingo's 32-bit integers (weeks) saturates, never wrapping into a brief track
@@ -1013,7 +1093,7 @@ def _memory_facts(scene: Scene, now: _Summary, window: list[Scene], summaries: l
         # the range sensors that reported it: one that echoes is gone when they read past it, and one none did may
         # have been a phantom
         out.extend(f"reported_before({oid},{s.value})." for s in sorted(echoed.get(oid, ()), key=lambda s: s.value))
-        out.extend(f"ran_beside({oid},{s.value})." for s in sorted(_ran_beside(oid, seen_in[oid], summaries), key=lambda s: s.value))
+        out.extend(f"ran_beside({oid},{s.value})." for s in sorted(_ran_beside(abs(oid), seen_in[oid], summaries), key=lambda s: s.value))
         found = _conflict(obj, x, y, scene.ego.speed, config.horizon_s, bodies)
         if found is not None:
             out.append(f"remembered_conflict({oid},{found[0]},{found[1]}).")
