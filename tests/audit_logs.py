@@ -52,19 +52,20 @@ def highway(frame: int, speed: float = 31.0):
         limit=30.0,
         zone="highway",
         frame=frame,
+        timestamp=frame * 0.1,
         objects=(obj("car", 0.0, 80.0, lane=2, vy=31.0), obj("car", -3.5, -10.0, lane=1, vy=30.0)),  # past two seconds
     )
 
 
 def town(frame: int, pedestrian: bool):
     objects = (obj("pedestrian", 0.5, 12.0, lane=1),) if pedestrian else ()
-    return scene(speed=8.0, limit=13.9, frame=frame, objects=objects)
+    return scene(speed=8.0, limit=13.9, frame=frame, timestamp=frame * 0.1, objects=objects)
 
 
 def flashing(frame: int, lights: bool = True):
     """A car ahead whose emergency lights are on in some frames: one on duty once seen on in two frames of the
     window (or in the first frame, when no earlier one is known): a verdict that depends on the history."""
-    return scene(frame=frame, objects=(obj("car", 0.0, 40.0, lane=1, emergency_lights=lights),))
+    return scene(frame=frame, timestamp=frame * 0.1, objects=(obj("car", 0.0, 40.0, lane=1, emergency_lights=lights),))
 
 
 def serve_log(directory: Path, monitor_id: str, send, log: Optional[dict] = None, **config) -> list[Path]:

@@ -208,7 +208,7 @@ def test_a_refused_out_of_order_frame_does_not_move_the_odometer(capsys, tmp_pat
     def drive(endpoint: str) -> None:
         with Monitor("car_o", connect=[endpoint], timeout=10.0) as car:
             for frame in [*range(1, 21), 5, *range(21, 31)]:  # frame 5 again after 20: refused
-                verdict = car.check(scene(frame=frame, speed=10.0), "cruise")
+                verdict = car.check(scene(frame=frame, timestamp=frame * 0.1, speed=10.0), "cruise")
                 if verdict.failsafe:
                     refused.append((frame, verdict.rules))
 

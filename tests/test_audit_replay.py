@@ -190,8 +190,9 @@ def test_a_frame_reused_while_the_cache_overflows_is_still_compared(monkeypatch,
     frames = []
     for f in range(150):
         t = start + f * 10**8
-        frames.append(("parked", scene(frame=f, speed=0.0), "cruise", t, t + 10**6))
-        frames.append(("moving", scene(frame=f, speed=5.0 + f * 0.01), "cruise", t + 1000, t + 1000 + 10**6))
+        frames.append(("parked", scene(frame=f, timestamp=f * 0.1, speed=0.0), "cruise", t, t + 10**6))
+        frames.append(("moving", scene(frame=f, timestamp=f * 0.1, speed=5.0 + f * 0.01), "cruise", t + 1000,
+                       t + 1000 + 10**6))
     log = str(write_log(tmp_path / "log", frames, reasoner))
     roomy = replay_logs([log], workers=1).tally
     assert roomy.solved > 150 and roomy.reused > 100  # the parked car's frame repeats once its window is full
@@ -358,7 +359,8 @@ def test_a_proposal_the_lead_in_gives_up_on_is_counted_unanswered_once(tmp_path,
     files are read again was counted by their own task; read with a lead-in or without, the count is the same."""
     start = 1_800_000_000 * 10**9
     frames = [
-        ("car_a", scene(frame=f), "cruise", start + f * 10**7, start + f * 10**7 + 1 if f % 3 == 0 else None)
+        ("car_a", scene(frame=f, timestamp=f * 0.1), "cruise", start + f * 10**7,
+         start + f * 10**7 + 1 if f % 3 == 0 else None)
         for f in range(600)
     ]
     log = write_log(tmp_path / "src", frames, reasoner)
@@ -536,8 +538,8 @@ def test_a_replay_decides_with_the_jurisdiction_and_window_the_monitor_logged(ca
     def send(endpoint: str) -> None:
         with Monitor("car_uk", connect=[endpoint], timeout=10.0) as car:
             for i in range(5):
-                assert car.check(scene(speed=12, limit=13, sign="school_zone", frame=i + 1), "accelerate").decision \
-                    .value == "approve"
+                school = scene(speed=12, limit=13, sign="school_zone", frame=i + 1, timestamp=(i + 1) * 0.1)
+                assert car.check(school, "accelerate").decision.value == "approve"
 
     files = serve_log(tmp_path / "uk", "uk", send, jurisdiction="uk", window_s=1.5)
     metadata = log_metadata(files[0])

@@ -13,7 +13,7 @@ from discern.rules.facts import Params, scene_facts
 from discern.rules.scene import Action, Scene
 from discern.sanity import window_reasoner
 from tests.conftest import REPO
-from tests.scenes import obj, scene
+from tests.scenes import obj, scene, sensor
 
 CLASSES = ["car", "truck", "pedestrian", "bicycle", "plastic_bag", "roadblock", "unknown"]
 
@@ -30,7 +30,7 @@ def random_scene(rng: random.Random):
         extra["traffic_lights"] = [arrow] + ([{"colour": rng.choice(["red", "green"])}] if rng.random() < 0.7 else [])
     return scene(speed=rng.uniform(0, 30), lane=rng.randint(1, lanes), lanes=lanes, limit=rng.choice([None, 15, 30]),
                  objects=objects, light=rng.choice([None, "red", "green", "yellow"]),
-                 sensors=rng.choice([None, {"left": rng.uniform(0, 3)}]),
+                 sensors=rng.choice([(), [sensor("left", rng.uniform(0, 3))]]),
                  intent=rng.choice(["continue_in_lane", "merge_into_left_lane", "enter_right_lane"]), **extra)
 
 

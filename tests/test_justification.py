@@ -19,9 +19,8 @@ from discern.rules.render import render_html, render_json, render_text
 from discern.rules.scene import Action
 from discern.rules.verdict import Verdict
 from discern.sanity import window_reasoner
-from discern.sanity.examples import MPH, limit_sign, obj as sanity_obj, scene as sanity_scene, sensor
 from discern.scenarios.runner import load, scenario_files
-from tests.scenes import obj, scene
+from tests.scenes import MPH, limit_sign, obj, scene, sensor
 from tests.test_engine import random_scene as varied_scene
 
 
@@ -232,10 +231,12 @@ def test_a_fact_predicate_that_a_rule_also_defines_is_read_from_clingo():
 
 def test_a_lost_object_kept_in_the_scene_is_proved_alike_alone_and_in_a_batch(reasoner):
     """Its position is derived by the sanity rules, not given: the single frame reads it from clingo too."""
-    history = tuple(sanity_scene(frame=i + 1, speed=12.0, lane=2, lanes=2, limit=15.0,
-                                 objects=[sanity_obj(7, "car", -3.5, -12.8 + 0.8 * i, 1, vy=20.0)]) for i in range(3))
-    now = sanity_scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)],
-                       objects=[sanity_obj(8, "car", 0.0, 40.0, 2, vy=12.0)])  # a given position beside the derived one
+    history = tuple(scene(frame=i + 1, speed=12.0, lane=2, lanes=2, limit=15.0,
+                          objects=[obj("car", -3.5, -12.8 + 0.8 * i, 1, oid=7, vy=20.0, sources=("camera", "radar"))])
+                    for i in range(3))
+    # the car 40 m ahead is a given position beside the derived one
+    now = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 11.0)],
+                objects=[obj("car", 0.0, 40.0, 2, oid=8, vy=12.0, sources=("camera", "radar"))])
     alone = reasoner.decide(now, "change_lane_left", history, explain=True)
     batched = reasoner.decide_many([Request(now, Action.change_lane_left, history, explain=True),
                                     Request(now, Action.cruise, history)])[0]
@@ -663,7 +664,7 @@ def test_a_closing_speed_a_rule_assumes_reads_as_assumed_not_as_measured(reasone
 
 def test_a_rule_ruled_out_by_what_holds_says_so_without_a_double_negative(reasoner):
     """'needs that it is not so that X, but it is' made the reader undo two negations."""
-    taped = sanity_scene(speed=16.0, limit=85 * MPH, signs=[limit_sign(85)])
+    taped = scene(speed=16.0, limit=85 * MPH, signs=[limit_sign(85)])
     text = reasoner.decide(taped, "accelerate", explain=True).justification.full_text()
     assert "it is not so that" not in text
     assert "rule def.trusted_reading is ruled out, because the limit reading of 38.0 m/s (85 mph) is doubted" in text
@@ -734,7 +735,8 @@ def test_a_time_made_of_a_distance_and_a_speed_reads_in_seconds():
 
 def test_a_70_mph_sign_read_as_31_3_m_s_is_usual_on_a_highway(reasoner):
     """31.3 m/s is 70 mph rounded; it once read as above the usual 31.29 m/s and was doubted as unusual."""
-    sc = sanity_scene(speed=25.0, zone="highway", limit=31.3, signs=[{"kind": "speed_limit", "value": 31.3, "source": "camera"}])
+    sc = scene(speed=25.0, zone="highway", limit=31.3,
+               signs=[{"kind": "speed_limit", "value": 31.3, "source": "camera"}])
     verdict = reasoner.decide(sc, "accelerate", explain=True)
     assert "is doubted: unusual" not in verdict.justification.full_text() and not any(r.startswith("san.limit") for r in verdict.rules)
 

@@ -1,10 +1,12 @@
-"""Data flows one way, and the sanity layer builds on rules: rules/ never imports it, not even inside a function."""
+"""Data flows one way: the sanity layer builds on rules, so rules/ never imports it, and the installed package
+never imports tests/, which is not installed; not even inside a function."""
 
 import ast
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1]  # discern/
 RULES = PACKAGE / "rules"
+INSTALLED = ("adapters", "monitor", "rules", "sanity", "scenarios")  # pyproject's package-dir
 
 
 def imported_modules(source: str, package: str) -> list[tuple[int, str]]:
@@ -39,3 +41,22 @@ def test_the_import_check_sees_the_sanity_layer_however_it_is_imported():
         assert any(m.startswith("discern.sanity") for _, m in imported_modules(source, "discern.rules")), source
     assert not any(m.startswith("discern.sanity") for _, m in imported_modules("from .facts import Params\n",
                                                                                  "discern.rules"))
+
+
+def test_no_module_of_the_installed_package_imports_the_tests():
+    """The scene builder and the worked examples are test data in tests/, which pip does not install."""
+    files = sorted(path for folder in INSTALLED for path in (PACKAGE / folder).rglob("*.py"))
+    assert len(files) > 50
+    offending = [f"{path.relative_to(PACKAGE)}:{line}: {module}" for path in files
+                 for line, module in imported_modules(path.read_text(encoding="utf-8"),
+                                                      ".".join(("discern",) + path.relative_to(PACKAGE).parent.parts))
+                 if module == "tests" or module.startswith("tests.")]
+    assert offending == []
+
+
+def test_the_import_check_sees_the_tests_however_they_are_imported():
+    sources = ["def f():\n    from tests.scenes import scene\n", "import tests.worked_examples\n",
+               "from tests import scenes\n"]
+    for source in sources:
+        modules = [m for _, m in imported_modules(source, "discern.sanity")]
+        assert any(m == "tests" or m.startswith("tests.") for m in modules), source

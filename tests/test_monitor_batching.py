@@ -319,11 +319,11 @@ def test_an_idle_worker_runs_a_full_collection_at_most_once_an_interval(monkeypa
 @pytest.mark.parametrize("window_s, remembered", [(2.0, False), (5.0, True)])
 def test_the_sanity_rules_see_the_whole_window_the_monitor_keeps(window_s, remembered):
     """`--window-s 5`: a red light seen 3 s ago and hidden now is still remembered, as in a 5 s window it must be."""
-    from discern.sanity.examples import scene
+    from tests.scenes import scene
 
     judge = Judge(WorkerSettings(window_s=window_s, shadow=False))
-    red = scene(frame=1, speed=8.0, lights=[{"colour": "red"}]).model_copy(update={"timestamp": 1.0})
-    hidden = scene(frame=2, speed=8.0).model_copy(update={"timestamp": 4.0})
+    red = scene(frame=1, speed=8.0, lights=[{"colour": "red"}], limit=13.0).model_copy(update={"timestamp": 1.0})
+    hidden = scene(frame=2, speed=8.0, limit=13.0).model_copy(update={"timestamp": 4.0})
     now = time.monotonic()
     backlog = deque(Job(i, "v", Proposal(vehicle="v", action=action, scene=sc).model_dump_json().encode(), now, now + 10)
                     for i, (sc, action) in enumerate([(red, "brake"), (hidden, "cruise")]))

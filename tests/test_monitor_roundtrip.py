@@ -467,7 +467,7 @@ def test_shadow_mode_vetoes_without_replacing_the_action():
 @pytest.mark.parametrize("rule", ["san.memory.stop_sign", "san.memory.object_permanence", "san.limit.remembered"])
 def test_the_vehicles_recent_frames_reach_the_sanity_layer(client, rule):
     """The monitor's per-vehicle window is the `history` the sanity rules need: same verdict as in-process."""
-    from discern.sanity.examples import EXAMPLES
+    from tests.worked_examples import EXAMPLES
 
     [example] = [e for e in EXAMPLES if e.rule == rule]
     *earlier, last = example.frames
@@ -496,7 +496,7 @@ def test_a_frame_counter_that_wraps_gets_verdicts_not_order_refusals(client):
 @pytest.mark.parametrize("rule", ["san.memory.stop_sign", "san.memory.object_permanence", "san.limit.remembered"])
 def test_the_window_reaches_the_sanity_layer_across_a_frame_counter_that_wraps(client, rule):
     """The frames before the wrap are the history of the frames after it, as if the counter had run on."""
-    from discern.sanity.examples import EXAMPLES
+    from tests.worked_examples import EXAMPLES
 
     [example] = [e for e in EXAMPLES if e.rule == rule]
     *earlier, last = example.frames

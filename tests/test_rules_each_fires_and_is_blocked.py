@@ -16,7 +16,7 @@ from discern.rules.catalog import catalog_dirs, load_catalog
 from discern.rules.justify import Prover
 from discern.rules.scene import Lane, Scene
 from discern.sanity import window_reasoner
-from tests.scenes import obj
+from tests.scenes import obj, sensor
 from tests.scenes import scene as base_scene
 
 REASONER = window_reasoner()
@@ -190,10 +190,10 @@ CASES = {
         scene(**merging_path, objects=[obj("car", -3.5, 8, lane=1, vy=30.0, predicted_path="op1")]),
         scene(**merging_path, objects=[obj("car", -3.5, -40, lane=1, vy=30.0, predicted_path="op1")]),
     ),
-    "brake.front_sensor_close": (scene(sensors={"front": 0.3}), scene(sensors={"front": 2.0})),
+    "brake.front_sensor_close": (scene(sensors=[sensor("front", 0.3)]), scene(sensors=[sensor("front", 2.0)])),
     "brake.front_range_obstacle": (
-        scene(speed=10, sensors={"front": 12.0}),
-        scene(speed=10, sensors={"front": 12.0}, objects=[obj("car", 0, 12.5, lane=1, vy=10)]),
+        scene(speed=10, sensors=[sensor("front", 12.0)]),
+        scene(speed=10, sensors=[sensor("front", 12.0)], objects=[obj("car", 0, 12.5, lane=1, vy=10)]),
     ),
     "brake.wait_to_turn": (
         scene(intent="enter_left_lane", intersection={"type": "t_intersect", "stage": "at"}),
@@ -298,7 +298,7 @@ CASES = {
                    scene(speed=15, lane=2, lanes=2, limit=20, objects=[obj("car", -3, 3, lane=1, vy=11, indicator="left")])),
     "cruise.over_limit": (scene(speed=25, limit=9), scene(speed=9.5, limit=9)),
     "brake.over_limit": (scene(speed=25, limit=9), scene(speed=9.5, limit=9)),
-    "acc.hazard": (scene(sensors={"front": 0.2}), scene(sensors={"front": 60.0})),
+    "acc.hazard": (scene(sensors=[sensor("front", 0.2)]), scene(sensors=[sensor("front", 60.0)])),
     "cruise.default": (scene(), None),
     "cruise.hazard": (scene(objects=[ped_ahead]), scene(objects=[obj("pedestrian", 0, 30, lane=1)])),
     "brake.no_phantom_braking": (
@@ -318,8 +318,10 @@ CASES = {
     "clr.lane_ends": (scene(lane=1, lanes=2, lane_ends={1: 80}), scene(lane=1, lanes=2, lane_ends={1: 80, 2: 90})),
     "cll.overtake": (scene(speed=20, limit=30, lane=2, lanes=2, objects=[obj("truck", 0, 30, lane=2, vy=15)]),
                      scene(speed=20, limit=30, lane=2, lanes=2, objects=[obj("truck", 0, 30, lane=2, vy=31)])),
-    "clr.left_contact": (scene(lane=1, lanes=2, sensors={"left": 0.4}), scene(lane=1, lanes=2, sensors={"left": 0.9})),
-    "cll.right_contact": (scene(lane=2, lanes=2, sensors={"right": 0.4}), scene(lane=2, lanes=2, sensors={"right": 0.9})),
+    "clr.left_contact": (scene(lane=1, lanes=2, sensors=[sensor("left", 0.4)]),
+                         scene(lane=1, lanes=2, sensors=[sensor("left", 0.9)])),
+    "cll.right_contact": (scene(lane=2, lanes=2, sensors=[sensor("right", 0.4)]),
+                          scene(lane=2, lanes=2, sensors=[sensor("right", 0.9)])),
     "cll.no_lane": (scene(lane=1, lanes=2), scene(lane=2, lanes=2)),
     "clr.no_lane": (scene(lane=2, lanes=2), scene(lane=1, lanes=2)),
     "cll.lane_taken": (scene(lane=2, lanes=2, objects=[car_left_close]), scene(lane=2, lanes=2, objects=[obj("car", -3.5, 25, lane=1)])),
@@ -331,8 +333,10 @@ CASES = {
                          scene(lane=1, lanes=3, objects=[obj("car", 7, -60, lane=3, vy=10, indicator="left")])),
     "cll.target_lane_ends": (scene(speed=20, lane=2, lanes=2, lane_ends={1: 90}), scene(speed=20, lane=2, lanes=2, lane_ends={1: 200})),
     "clr.target_lane_ends": (scene(speed=20, lane=1, lanes=2, lane_ends={2: 90}), scene(speed=20, lane=1, lanes=2, lane_ends={2: 200})),
-    "cll.sensor_blocked": (scene(lane=2, lanes=2, sensors={"left": 0.4}), scene(lane=2, lanes=2, sensors={"left": 2.5})),
-    "clr.sensor_blocked": (scene(lane=1, lanes=2, sensors={"rear_right": 0.6}), scene(lane=1, lanes=2, sensors={"rear_right": 2.5})),
+    "cll.sensor_blocked": (scene(lane=2, lanes=2, sensors=[sensor("left", 0.4)]),
+                           scene(lane=2, lanes=2, sensors=[sensor("left", 2.5)])),
+    "clr.sensor_blocked": (scene(lane=1, lanes=2, sensors=[sensor("rear_right", 0.6)]),
+                           scene(lane=1, lanes=2, sensors=[sensor("rear_right", 2.5)])),
     "cll.in_intersection": (scene(lane=2, lanes=2, intersection=at_stop), scene(lane=2, lanes=2)),
     "clr.in_intersection": (scene(lane=1, lanes=2, intersection={"type": "signaled", "stage": "enter"}), scene(lane=1, lanes=2)),
     "tl.intent": (scene(intent="enter_left_lane"), scene(intent="enter_right_lane")),
@@ -548,9 +552,10 @@ def test_right_on_red_yields_to_approaching_cross_traffic():
 
 
 def test_a_front_radar_reading_inside_the_stopping_gap_brakes_when_the_camera_sees_nothing():
-    verdict = decide(scene(speed=20, limit=31, zone="highway", sensors={"front": 6.0}), "accelerate")
+    verdict = decide(scene(speed=20, limit=31, zone="highway", sensors=[sensor("front", 6.0)]), "accelerate")
     assert verdict.action.value == "brake" and "brake.front_range_obstacle" in verdict.rules
-    assert decide(scene(speed=20, limit=31, zone="highway", sensors={"front": 80.0}), "accelerate").decision.value == "approve"
+    assert decide(scene(speed=20, limit=31, zone="highway", sensors=[sensor("front", 80.0)]),
+                  "accelerate").decision.value == "approve"
 
 
 def test_a_tailgater_does_not_turn_a_reasoned_slow_down_into_speeding_up():
@@ -887,7 +892,8 @@ def test_a_left_turn_left_in_the_junction_clears_it_past_an_oncoming_car_waiting
 
 def test_a_camera_range_error_that_grows_with_distance_does_not_brake_for_the_radar():
     """Radar 64 m, camera 60 m to the same car: one car, not an unexplained obstacle."""
-    lead = scene(speed=30, limit=31, zone="highway", sensors={"front": 64.0}, objects=[obj("car", 0, 60, lane=1, vy=30)])
+    lead = scene(speed=30, limit=31, zone="highway", sensors=[sensor("front", 64.0)],
+                 objects=[obj("car", 0, 60, lane=1, vy=30)])
     assert decide(lead, "cruise").decision.value == "approve"
 
 

@@ -8,7 +8,7 @@ from discern.rules.catalog import catalog_dirs, load_catalog
 from discern.rules.engine import Reasoner, jurisdiction_pack
 from discern.rules.scene import Lane, LaneKind
 from discern.sanity import reasoner_for
-from discern.sanity.examples import MPH, limit_sign, obj, scene
+from tests.scenes import MPH, limit_sign, obj, scene
 
 US = reasoner_for("us")
 
@@ -49,7 +49,7 @@ def test_a_reading_that_lowers_or_raises_a_settled_limit_takes_effect_on_its_sec
 def test_a_one_frame_low_reading_on_a_highway_does_not_brake_the_ego_with_a_truck_behind():
     """70 mph settled, then one frame reads 40 (an exit ramp's sign): the ego holds its speed; the 70 read again after
     it is the settled limit still, and stays in force when the sign has left the view."""
-    truck = (obj(9, "truck", 0.0, -5.0, 1, vy=31.0),)
+    truck = (obj("truck", 0.0, -5.0, 1, oid=9, vy=31.0, sources=("camera", "radar")),)
     readings = [70, 70, 70, 70, 40, 70, None]
     frames = [scene(frame=i + 1, timestamp=0.1 * i, speed=31.0, zone="highway", limit=None, objects=truck,
                     signs=[limit_sign(v)] if v else []) for i, v in enumerate(readings)]
@@ -78,7 +78,7 @@ def test_the_core_catalog_alone_believes_the_perceived_limit():
 def test_a_stop_sign_misread_as_a_limit_does_not_set_the_limit():
     misread = scene(speed=5.0, limit=None, signs=[limit_sign(45)],
                     intersection={"type": "unsignaled", "stage": "arriving", "stop_line": True},
-                    objects=[obj(1, "car", -3.5, -20.0, 1)], lanes=2, lane=2)
+                    objects=[obj("car", -3.5, -20.0, 1, oid=1, sources=("camera", "radar"))], lanes=2, lane=2)
     assert limit_in_force(misread) == 15.65  # the zone's usual limit, not the "45" of the stickered sign
 
 
@@ -146,7 +146,7 @@ def test_a_higher_reading_is_confirmed_by_how_long_it_was_read_whatever_the_fram
 def _tailgated_highway(signs, frame: int = 1, timestamp: float = 0.1, **kw):
     """30 m/s on a highway, a truck 5 m behind at the same speed."""
     return scene(frame=frame, timestamp=timestamp, speed=30.0, zone="highway", signs=signs,
-                 objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0, sources=("radar",))], **{"limit": None, **kw})
+                 objects=[obj("truck", 0.0, -5.0, 1, oid=2, vy=30.0, sources=("radar",))], **{"limit": None, **kw})
 
 
 @pytest.mark.parametrize("jurisdiction", ["us", "uk"])
@@ -237,10 +237,8 @@ def test_a_one_frame_low_misread_between_two_settled_readings_is_no_limit_to_fal
 def test_a_25_mph_sign_read_as_11_2_m_s_is_no_unusual_reading_for_the_stop_sign_evidence(reading, misread):
     """11.2 m/s is 25 mph rounded, the usual residential limit (11.18 m/s); with a car braking ahead at a crossing, it
     was once still read as a stickered stop sign, while 30 mph (13.4 m/s) rightly is."""
-    from tests.scenes import obj as car, scene as plain_scene
-
-    sc = plain_scene(speed=8, limit=reading, zone="residential",
-                     intersection={"type": "four_way", "stage": "arriving", "distance": 20.0},
-                     objects=[car("car", 0, 12, lane=1, vy=1.0, indicator="brake_light")],
-                     signs=[{"kind": "speed_limit", "value": reading, "source": "camera"}])
+    sc = scene(speed=8, limit=reading, zone="residential",
+               intersection={"type": "four_way", "stage": "arriving", "distance": 20.0},
+               objects=[obj("car", 0, 12, lane=1, vy=1.0, indicator="brake_light")],
+               signs=[{"kind": "speed_limit", "value": reading, "source": "camera"}])
     assert ("san.stop.misread_sign" in US.decide(sc, "cruise").rules) is misread

@@ -12,8 +12,9 @@ from clingo import Function, Number
 from discern.rules.scene import Action, Scene
 from discern.rules.verdict import Decision
 from discern.sanity import reasoner_for
-from discern.sanity import examples
-from discern.sanity.examples import EXAMPLES, fired, obj, scene, sensor
+from tests import worked_examples
+from tests.scenes import MPH, obj, scene, sensor
+from tests.worked_examples import EXAMPLES, fired
 
 BY_RULE = {e.rule: e for e in EXAMPLES}
 DOC = Path(__file__).resolve().parents[1] / "docs" / "sanity.md"
@@ -49,9 +50,9 @@ def test_uk_pack_rules_have_english_sources_and_templates():
 
 def test_docs_show_the_engines_own_output_for_every_example():
     text = DOC.read_text(encoding="utf-8")
-    block = text[text.index(examples.BEGIN) + len(examples.BEGIN): text.index(examples.END)]
-    assert block.strip() == examples.markdown(EXAMPLES).strip(), (
-        "docs/sanity.md is out of date: run `python -m discern.sanity.examples docs/sanity.md`")
+    block = text[text.index(worked_examples.BEGIN) + len(worked_examples.BEGIN): text.index(worked_examples.END)]
+    assert block.strip() == worked_examples.markdown(EXAMPLES).strip(), (
+        "docs/sanity.md is out of date: run `python -m tests.worked_examples docs/sanity.md`")
 
 
 # --- flashing lights: a dropped frame is no flash, and an inferred flash does not release the ego at the line
@@ -141,7 +142,8 @@ def test_one_camera_frame_delivered_twice_is_not_two_flashing_flags():
 
 
 def _van(lit: bool) -> dict:
-    return obj(5, "truck", -3.5, -20.0, 1, vy=30.0, emergency_lights=lit)  # coming up behind
+    # coming up behind
+    return obj("truck", -3.5, -20.0, 1, oid=5, vy=30.0, emergency_lights=lit, sources=("camera", "radar"))
 
 
 def test_emergency_lights_in_two_frames_20_ms_apart_are_a_glint_but_lit_for_0_3_s_a_beacon():
@@ -192,22 +194,23 @@ def test_an_inferred_flash_with_no_intersection_known_does_not_release_a_stopped
 
 
 def test_a_childs_bicycle_confirmed_by_radar_and_lidar_is_braked_for():
-    bike = obj(2, "bicycle", 0.0, 9.0, 1, vy=0.0, sources=("camera", "radar", "lidar"), size={"length": 1.1, "width": 0.5})
+    bike = obj("bicycle", 0.0, 9.0, 1, oid=2, vy=0.0, sources=("camera", "radar", "lidar"),
+               size={"length": 1.1, "width": 0.5})
     verdict = _decide((scene(speed=10.0, zone="residential", limit=11.0, objects=[bike]),), Action.accelerate)
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
     assert "san.world.size" not in verdict.rules
 
 
 def test_a_police_motorcycle_with_its_lights_on_is_an_emergency_vehicle_on_duty():
-    moto = obj(4, "emergency_vehicle", 0.0, -6.0, 1, vy=16.0, sources=("camera", "radar"), emergency_lights=True,
+    moto = obj("emergency_vehicle", 0.0, -6.0, 1, oid=4, vy=16.0, sources=("camera", "radar"), emergency_lights=True,
                size={"length": 2.3, "width": 0.9})
     verdict = _decide((scene(speed=12.0, limit=15.6, objects=[moto]),), Action.accelerate)
     assert verdict.decision is Decision.override and "san.emergency.give_way" in verdict.rules
 
 
 def test_a_camera_only_childs_bicycle_fits_its_class_but_a_camera_only_toy_car_does_not():
-    bike = obj(2, "bicycle", 0.0, 25.0, 1, vy=0.0, sources=("camera",), size={"length": 0.9, "width": 0.4})
-    toy = obj(3, "car", 0.0, 25.0, 1, sources=("camera",), size={"length": 0.7, "width": 0.3})
+    bike = obj("bicycle", 0.0, 25.0, 1, oid=2, vy=0.0, sources=("camera",), size={"length": 0.9, "width": 0.4})
+    toy = obj("car", 0.0, 25.0, 1, oid=3, sources=("camera",), size={"length": 0.7, "width": 0.3})
     us = reasoner_for("us")
     radar = [sensor("front", 60.0)]
     assert "san.world.size" not in fired(us, (scene(speed=10.0, limit=11.0, objects=[bike], sensors=radar),))
@@ -218,7 +221,7 @@ def test_a_camera_only_childs_bicycle_fits_its_class_but_a_camera_only_toy_car_d
 def test_a_camera_only_car_of_unlikely_size_is_braked_for_with_no_radar_or_too_close_to_stop(length):
     # A detector may give a length of 0 for one it does not know: a size is an estimate, and a doubt is no reason to
     # hit a car that may be real.
-    car = obj(5, "car", 0.0, 6.0, 1, vy=0.0, sources=("camera",), size={"length": length, "width": 1.6})
+    car = obj("car", 0.0, 6.0, 1, oid=5, vy=0.0, sources=("camera",), size={"length": length, "width": 1.6})
     for sensors in ([], [sensor("front", 60.0)]):  # no radar; a radar reading clear road, but 6 m is too close
         verdict = _decide((scene(speed=8.0, limit=11.0, objects=[car], sensors=sensors),), Action.accelerate)
         assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
@@ -229,8 +232,8 @@ def test_a_camera_only_car_of_unlikely_size_is_braked_for_with_no_radar_or_too_c
 def test_a_camera_only_car_given_a_size_of_0_is_of_unknown_size_not_a_toy(size):
     """A detector may give 0 for a size it does not know: taken as measured, it set a car the running radar did not
     return aside as a toy, and the ego sped up towards it."""
-    car = obj(5, "car", 0.0, 45.0, 2, vy=0.0, sources=("camera",), size=size)
-    radar_car = obj(8, "car", -3.5, 70.0, 1, vy=15.0)  # keeps the radar running
+    car = obj("car", 0.0, 45.0, 2, oid=5, vy=0.0, sources=("camera",), size=size)
+    radar_car = obj("car", -3.5, 70.0, 1, oid=8, vy=15.0, sources=("camera", "radar"))  # keeps the radar running
     verdict = _decide((scene(speed=15.0, limit=17.9, lanes=2, lane=2, objects=[car, radar_car]),), Action.accelerate)
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
     assert "san.world.size" not in verdict.rules and "san.radar.phantom_caution" in verdict.rules
@@ -238,7 +241,8 @@ def test_a_camera_only_car_given_a_size_of_0_is_of_unknown_size_not_a_toy(size):
 
 def test_a_crossing_car_given_a_size_of_0_by_0_reaches_across_the_road_as_long_as_its_class():
     """Its centre is beside the ego's corridor; taken as 0 m long, its body was a point that left the ego's way free."""
-    car = obj(3, "car", -2.6, 8.0, 1, kind="cross_left", vy=0.0, size={"length": 0.0, "width": 0.0})
+    car = obj("car", -2.6, 8.0, 1, oid=3, kind="cross_left", vy=0.0, size={"length": 0.0, "width": 0.0},
+              sources=("camera", "radar"))
     verdict = _decide((scene(speed=8.0, limit=11.0, other_lanes=("cross_left",), objects=[car]),), Action.accelerate)
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
     assert "brake.obstacle_ahead" in verdict.rules
@@ -246,12 +250,12 @@ def test_a_crossing_car_given_a_size_of_0_by_0_reaches_across_the_road_as_long_a
 
 # --- possible phantoms: close ones are real, far ones cost speed, people are never doubted
 
-RADAR_CAR = obj(2, "car", -3.5, 60.0, 1, vy=15.0)  # keeps the radar running
+RADAR_CAR = obj("car", -3.5, 60.0, 1, oid=2, vy=15.0, sources=("camera", "radar"))  # keeps the radar running
 HW = {"zone": "highway", "limit": 29.0, "lanes": 2, "lane": 2, "speed": 15.0}
 
 
 def test_a_camera_only_pedestrian_inside_the_stopping_distance_is_braked_for():
-    walker = obj(3, "pedestrian", 0.0, 16.0, 2, sources=("camera",))
+    walker = obj("pedestrian", 0.0, 16.0, 2, oid=3, sources=("camera",))
     verdict = _decide((scene(**HW, objects=[RADAR_CAR, walker]),), Action.cruise)
     assert (verdict.decision, verdict.action) == (Decision.override, Action.brake)
     assert "brake.obstacle_ahead" in verdict.rules and "san.radar.phantom" not in verdict.rules
@@ -259,13 +263,13 @@ def test_a_camera_only_pedestrian_inside_the_stopping_distance_is_braked_for():
 
 @pytest.mark.parametrize("cls", ["pedestrian", "bicycle", "animal"])
 def test_a_vulnerable_road_user_is_never_doubted_for_lack_of_a_radar_echo(cls):
-    far = obj(3, cls, 0.0, 60.0, 2, vy=0.0, sources=("camera",))
+    far = obj(cls, 0.0, 60.0, 2, oid=3, vy=0.0, sources=("camera",))
     assert "san.radar.phantom" not in fired(reasoner_for("us"), (scene(**HW, objects=[RADAR_CAR, far]),))
 
 
 def test_a_standing_camera_only_car_closer_than_braking_takes_is_treated_as_real():
     # closing at 15 m/s, braking at once takes 18.75 m: at 17 m there is no waiting for the radar
-    stopped = obj(9, "car", 0.0, 17.0, 2, vy=0.0, sources=("camera",))
+    stopped = obj("car", 0.0, 17.0, 2, oid=9, vy=0.0, sources=("camera",))
     verdict = _decide((scene(**HW, objects=[RADAR_CAR, stopped]),), Action.cruise)
     assert "brake.obstacle_ahead" in verdict.rules and "san.radar.phantom" not in verdict.rules
 
@@ -275,7 +279,7 @@ def test_a_close_camera_only_car_the_front_radar_reads_past_is_slowed_for_and_on
     contradicts it: the ego slows down, no hard brake, no swerve. A reading short of it, one past a car off the beam, a
     radar-confirmed car and a pedestrian (a weak echo) stay obstacles."""
     def ahead(x: float = 0.0, sources: tuple = ("camera",), cls: str = "car", reading: float = 60.0):
-        stopped = obj(9, cls, x, 12.0, 2, vy=0.0, sources=sources)
+        stopped = obj(cls, x, 12.0, 2, oid=9, vy=0.0, sources=sources)
         return (scene(**HW, objects=[RADAR_CAR, stopped], sensors=[sensor("front", reading)]),)
 
     verdict = _decide(ahead(), Action.cruise)
@@ -292,10 +296,10 @@ def test_a_possible_phantom_nearer_than_a_comfortable_stop_is_slowed_for_as_a_co
     """Beyond the gap needed, a standing car makes the ego begin slowing comfortably; doubting it must not let the ego
     speed up instead (at 20 m/s braking at 3 m/s² takes 86.7 m)."""
     road = {"zone": "road", "limit": 22.0, "lanes": 2, "lane": 1, "speed": 20.0}
-    radar_beside = obj(9, "car", 3.5, 60.0, 2, vy=20.0, sources=("radar",))
+    radar_beside = obj("car", 3.5, 60.0, 2, oid=9, vy=20.0, sources=("radar",))
 
     def standing(distance: float, sources: tuple):
-        return (scene(**road, objects=[obj(1, "car", 0.0, distance, 1, vy=0.0, sources=sources), radar_beside]),)
+        return (scene(**road, objects=[obj("car", 0.0, distance, 1, oid=1, vy=0.0, sources=sources), radar_beside]),)
 
     for distance in (55.0, 75.0):
         doubted = _decide(standing(distance, ("camera",)), Action.accelerate)
@@ -306,7 +310,7 @@ def test_a_possible_phantom_nearer_than_a_comfortable_stop_is_slowed_for_as_a_co
 
 
 def test_a_far_possible_phantom_forbids_holding_speed_as_well_as_accelerating():
-    phantom = obj(9, "car", 0.0, 16.0, 2, vy=5.0, sources=("camera",))
+    phantom = obj("car", 0.0, 16.0, 2, oid=9, vy=5.0, sources=("camera",))
     frames = (scene(**HW, objects=[RADAR_CAR, phantom]),)
     cruise, accelerate = _decide(frames, Action.cruise), _decide(frames, Action.accelerate)
     assert (cruise.decision, cruise.action) == (Decision.override, Action.brake)
@@ -316,16 +320,16 @@ def test_a_far_possible_phantom_forbids_holding_speed_as_well_as_accelerating():
 
 
 def test_a_camera_only_pedestrian_in_front_of_a_bus_is_no_picture_on_it():
-    bus = obj(2, "bus", 0.0, 30.0, 1, vy=0.0, size={"length": 12.0, "width": 2.5})
-    walker = obj(5, "pedestrian", 0.3, 23.5, 1, sources=("camera",))
+    bus = obj("bus", 0.0, 30.0, 1, oid=2, vy=0.0, size={"length": 12.0, "width": 2.5}, sources=("camera", "radar"))
+    walker = obj("pedestrian", 0.3, 23.5, 1, oid=5, sources=("camera",))
     assert "san.world.picture_on_object" not in fired(reasoner_for("us"), (scene(speed=10.0, limit=13.0,
                                                                                    objects=[bus, walker]),))
 
 
 def test_traffic_is_no_stop_evidence_for_the_ego_on_the_major_road():
     def frames(road):
-        crossing = obj(5, "car", -15.0, 25.0, 1, kind="cross_left", vy=0.0, vx=10.0)
-        braking = obj(6, "car", 0.0, 20.0, 1, vy=8.0, indicator="brake_light")
+        crossing = obj("car", -15.0, 25.0, 1, oid=5, kind="cross_left", vy=0.0, vx=10.0, sources=("camera", "radar"))
+        braking = obj("car", 0.0, 20.0, 1, oid=6, vy=8.0, indicator="brake_light", sources=("camera", "radar"))
         intersection = {"type": "t_intersect", "stage": "arriving", "road": road}
         return (scene(limit=11.0, intersection=intersection, other_lanes=("cross_left",),
                       signs=[{"kind": "speed_limit", "value": 20.1, "source": "camera"}], objects=[crossing, braking]),)
@@ -343,14 +347,16 @@ LIMIT_45 = {"kind": "speed_limit", "value": 20.1, "source": "camera"}
 
 
 @pytest.mark.parametrize("case, frames", [
-    ("the map", [scene(speed=ROLLING, intersection={**AT_STOP_LINE, "stop_controlled": True})]),
-    ("a stop line and no lights", [scene(speed=ROLLING, intersection={**AT_STOP_LINE, "stop_line": True})]),
-    ("a stop sign read as 45 from a fused source", [scene(speed=ROLLING, signs=[{**LIMIT_45, "source": "fused"}],
-                                                         intersection={**AT_STOP_LINE, "stop_line": True})]),
-    ("a stop sign hidden now", [scene(frame=1, speed=8.0, signs=[{"kind": "stop"}], intersection={**AT_STOP_LINE, "stage": "arriving"}),
-                                scene(frame=2, speed=ROLLING, intersection=AT_STOP_LINE)]),
-    ("a flashing red light", [scene(frame=i, speed=ROLLING, lights=[{"colour": "red", "flashing": True}], intersection=AT_STOP_LINE)
-                              for i in (1, 2)]),
+    ("the map", [scene(speed=ROLLING, intersection={**AT_STOP_LINE, "stop_controlled": True}, limit=13.0)]),
+    ("a stop line and no lights", [scene(speed=ROLLING, intersection={**AT_STOP_LINE, "stop_line": True}, limit=13.0)]),
+    ("a stop sign read as 45 from a fused source", [scene(speed=ROLLING, limit=13.0,
+                                                          signs=[{**LIMIT_45, "source": "fused"}],
+                                                          intersection={**AT_STOP_LINE, "stop_line": True})]),
+    ("a stop sign hidden now", [scene(frame=1, speed=8.0, limit=13.0, signs=[{"kind": "stop"}],
+                                      intersection={**AT_STOP_LINE, "stage": "arriving"}),
+                                scene(frame=2, speed=ROLLING, limit=13.0, intersection=AT_STOP_LINE)]),
+    ("a flashing red light", [scene(frame=i, speed=ROLLING, limit=13.0, lights=[{"colour": "red", "flashing": True}],
+                                    intersection=AT_STOP_LINE) for i in (1, 2)]),
 ])
 def test_stop_control_the_sanity_layer_finds_forbids_a_rolling_stop_at_the_line(case, frames):
     verdict = _decide(tuple(frames), Action.accelerate)
@@ -360,18 +366,19 @@ def test_stop_control_the_sanity_layer_finds_forbids_a_rolling_stop_at_the_line(
 
 def test_a_stop_line_without_lights_stops_the_arriving_ego_though_no_sign_is_seen():
     arriving = {"type": "unsignaled", "stage": "arriving", "distance": 20.0, "stop_line": True}
-    verdict = _decide((scene(speed=8.0, intersection=arriving),), Action.accelerate)
+    verdict = _decide((scene(speed=8.0, intersection=arriving, limit=13.0),), Action.accelerate)
     assert verdict.action is Action.brake and "san.stop.line_controlled" in verdict.rules
     signalised = {**arriving, "type": "signaled"}
-    assert _decide((scene(speed=8.0, intersection=signalised),), Action.accelerate).decision is Decision.approve
+    assert _decide((scene(speed=8.0, intersection=signalised, limit=13.0),),
+                   Action.accelerate).decision is Decision.approve
 
 
 # --- what is set aside as not on the road
 
 
 def test_a_camera_only_car_pulling_out_from_the_side_is_no_roadside_advert():
-    lead = obj(2, "car", -3.5, 40.0, 1, vy=15.0)
-    pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
+    lead = obj("car", -3.5, 40.0, 1, oid=2, vy=15.0, sources=("camera", "radar"))
+    pulling_out = obj("car", 6.0, 20.0, oid=7, vy=0.0, vx=-4.0, sources=("camera",))
     verdict = _decide((scene(speed=10.0, limit=13.4, objects=[lead, pulling_out]),), Action.accelerate)
     assert verdict.action is Action.brake and "san.world.no_echo_off_lane" not in verdict.rules
     assert "car 7 is not on the road:" not in verdict.justification.text
@@ -381,7 +388,7 @@ def test_a_range_confirmed_object_high_above_the_road_is_set_aside_only_beyond_t
     """At 20 m/s the ego stops in 53 m: 5 m up, 20 m ahead, is a car on a rising road or a misjudged height as well as
     a bridge, and a range sensor says something is there; 60 m ahead the ego can still stop once it is nearer."""
     def cruise_past(elevation: float, y: float = 20.0, sources: tuple = ("camera", "radar", "lidar")):
-        truck = obj(2, "truck", 0.0, y, 1, vy=0.0, sources=sources, elevation=elevation)
+        truck = obj("truck", 0.0, y, 1, oid=2, vy=0.0, sources=sources, elevation=elevation)
         return _decide((scene(speed=20.0, zone="highway", limit=29.0, objects=[truck]),), Action.cruise)
 
     trailer = cruise_past(1.2)
@@ -397,8 +404,9 @@ def test_a_range_confirmed_object_high_above_the_road_is_set_aside_only_beyond_t
 def _past_a_floating_object(y: float, speed: float, radar: bool, cls: str = "truck"):
     """A camera-only object in the ego's lane whose base the camera puts 1.2 m up; with `radar`, the radar reports a car
     in the next lane, so it runs ahead."""
-    floating = obj(3, cls, 0.0, y, 2, vx=-4.0 if cls == "truck" else 0.0, vy=0.0, sources=("camera",), elevation=1.2)
-    lead = [obj(8, "car", -3.5, 90.0, 1, vy=speed)] if radar else []
+    floating = obj(cls, 0.0, y, 2, oid=3, vx=-4.0 if cls == "truck" else 0.0, vy=0.0, sources=("camera",),
+                   elevation=1.2)
+    lead = [obj("car", -3.5, 90.0, 1, oid=8, vy=speed, sources=("camera", "radar"))] if radar else []
     return _decide((scene(speed=speed, zone="highway", limit=29.0, lane=2, lanes=2, objects=[floating, *lead]),),
                    Action.cruise)
 
@@ -430,7 +438,7 @@ def test_a_camera_only_advert_above_the_road_is_set_aside_only_while_a_running_r
 
 def _cruise_with_front_readings(*readings: tuple[float, str], objects: tuple = ()):
     """At 29 m/s on a highway (the ego needs 99 m to stop), a car 90 m ahead that the radar reports."""
-    car = obj(8, "car", 0.0, 90.0, 1, vy=29.0)
+    car = obj("car", 0.0, 90.0, 1, oid=8, vy=29.0, sources=("camera", "radar"))
     return scene(speed=29.0, zone="highway", limit=29.0, objects=[car, *objects],
                  sensors=[sensor("front", d, kind) for d, kind in readings])
 
@@ -445,7 +453,7 @@ def test_an_ultrasonic_reading_at_60_m_does_not_brake_the_ego_where_the_front_ra
         verdict = _decide((_cruise_with_front_readings(*readings),), Action.cruise)
         assert verdict.action is Action.brake and "brake.front_range_obstacle" in verdict.rules, readings
     # nor does the faulty reading confirm a camera-only car at 60 m: it may be a phantom
-    ghost = obj(9, "car", 0.0, 60.0, 1, vy=20.0, sources=("camera",))
+    ghost = obj("car", 0.0, 60.0, 1, oid=9, vy=20.0, sources=("camera",))
     doubted = reasoner_for("us").solve(_cruise_with_front_readings((60.0, "ultrasonic"), objects=(ghost,)), Action.cruise)
     assert Function("doubtful", [Number(9)]) in doubted.answer.of("doubtful", 1)
 
@@ -455,8 +463,8 @@ def test_a_front_reading_confirms_a_camera_object_within_the_range_match_paramet
     from discern.rules.facts import Params
     from discern.sanity import window_reasoner
 
-    car = scene(speed=10.0, objects=[obj(1, "car", 0.0, 20.0, 1, sources=("camera",))],
-                sensors=[{"side": "front", "distance": 24.0, "kind": "radar"}])
+    car = scene(speed=10.0, objects=[obj("car", 0.0, 20.0, 1, oid=1, sources=("camera",))],
+                sensors=[{"side": "front", "distance": 24.0, "kind": "radar"}], limit=13.0)
     for range_match, confirmed in [(3.0, False), (5.0, True)]:
         answer = window_reasoner(params=Params(range_match=range_match)).solve(car, Action.cruise).answer
         assert (Function("confirmed", [Number(1)]) in answer.of("confirmed", 1)) is confirmed
@@ -466,7 +474,7 @@ def test_a_front_reading_confirms_a_camera_object_within_the_range_match_paramet
 @pytest.mark.parametrize("length", [0.6, 3.3])
 def test_a_cyclist_only_the_camera_sees_is_never_set_aside_for_its_size(length):
     """A child's bicycle or one with a trailer: its size does not fit a bicycle, and it is still a cyclist."""
-    cyclist = obj(3, "bicycle", 0.0, 9.0, 1, vy=2.0, size={"length": length, "width": 0.7}, sources=("camera",))
+    cyclist = obj("bicycle", 0.0, 9.0, 1, oid=3, vy=2.0, size={"length": length, "width": 0.7}, sources=("camera",))
     verdict = _decide((scene(speed=10.0, limit=13.4, objects=[cyclist]),), Action.accelerate)
     assert verdict.action is Action.brake and "san.world.size" not in verdict.rules
 
@@ -476,7 +484,8 @@ def test_a_lead_car_braking_at_speed_is_no_sign_that_the_ego_must_stop():
     def lead(vy: float):
         return scene(speed=17.0, zone="rural", limit=20.1, signs=[{"kind": "speed_limit", "value": 20.1}],
                      intersection={"type": "four_way", "stage": "arriving", "distance": 60.0},
-                     objects=[obj(3, "car", 0.0, 40.0, 1, vy=vy, indicator="brake_light")])
+                     objects=[obj("car", 0.0, 40.0, 1, oid=3, vy=vy, indicator="brake_light",
+                                  sources=("camera", "radar"))])
     assert _decide((lead(14.0),), Action.cruise).decision is Decision.approve
     assert "san.stop.evidence_traffic" not in fired(reasoner_for("us"), (lead(14.0),))
     stopping = fired(reasoner_for("us"), (lead(2.0),))
@@ -492,7 +501,7 @@ def _walker_then_hidden(sources: tuple, cls: str = "pedestrian"):
     """A road user seen over three frames stepping towards the ego's path, then hidden; the front-right radar reads 40 m."""
     radar = [{"side": "front_right", "distance": 40.0, "kind": "radar"}]
     seen = [scene(frame=i + 1, limit=13.4, sensors=radar, other_lanes=("sidewalk_right",),
-                  objects=[obj(2, cls, 4.0 - 0.15 * i, 20.0 - i, 1, kind="sidewalk_right", vy=0.0, vx=-1.5,
+                  objects=[obj(cls, 4.0 - 0.15 * i, 20.0 - i, 1, oid=2, kind="sidewalk_right", vy=0.0, vx=-1.5,
                                sources=sources)])
             for i in range(3)]
     return (*seen, scene(frame=4, limit=13.4, sensors=radar, other_lanes=("sidewalk_right",)))
@@ -516,8 +525,8 @@ def test_a_range_reading_past_a_hidden_road_user_that_echoed_before_clears_it():
 
 def _lead_stopping_at_a_crossing(mph: float):
     """Arriving at an uncontrolled four-way in a city behind a lead car braking to 4 m/s; the camera reads a limit sign."""
-    lead = obj(3, "car", 0.0, 30.0, 1, vy=4.0, indicator="brake_light")
-    return (scene(speed=8.0, limit=None, signs=[{"kind": "speed_limit", "value": round(mph * examples.MPH, 3)}],
+    lead = obj("car", 0.0, 30.0, 1, oid=3, vy=4.0, indicator="brake_light", sources=("camera", "radar"))
+    return (scene(speed=8.0, limit=None, signs=[{"kind": "speed_limit", "value": round(mph * MPH, 3)}],
                   intersection={"type": "four_way", "stage": "arriving", "distance": 20.0}, objects=[lead]),)
 
 
@@ -539,25 +548,26 @@ def test_traffic_evidence_with_a_reading_unusual_for_the_zone_still_makes_a_stop
 
 def _crossing_car_with(radar_objects_by_frame):
     """A camera-only car crossing 28 m ahead in the last frame; earlier frames as given."""
-    cross = obj(9, "car", 14.0, 28.0, vy=0.0, vx=-6.0, sources=("camera",))
+    cross = obj("car", 14.0, 28.0, oid=9, vy=0.0, vx=-6.0, sources=("camera",))
     frames = [scene(frame=i + 1, timestamp=round(0.1 * i, 1), speed=12.0, lane=2, lanes=2, limit=13.4, objects=objs)
               for i, objs in enumerate(radar_objects_by_frame)]
-    return tuple(frames[:-1]) + (frames[-1].model_copy(update={"objects": [*frames[-1].objects, *scene(objects=[cross]).objects]}),)
+    crossing = [*frames[-1].objects, *scene(objects=[cross], limit=13.0).objects]
+    return tuple(frames[:-1]) + (frames[-1].model_copy(update={"objects": crossing}),)
 
 
 def test_a_radar_that_fell_silent_is_not_running_because_of_a_car_it_reported_before():
     """The radar reported car 2 for three frames, then fell silent; the camera lost car 2 and sees a crossing car."""
-    car2 = obj(2, "car", -3.5, 40.0, 1, vy=12.0)
+    car2 = obj("car", -3.5, 40.0, 1, oid=2, vy=12.0, sources=("camera", "radar"))
     frames = _crossing_car_with([[car2], [car2], [car2], []])
     verdict = _decide(frames, Action.cruise)
     assert verdict.action is Action.brake and "san.radar.phantom" not in verdict.rules
 
 
 def test_a_rear_radar_return_is_no_sign_the_radar_would_see_a_car_ahead():
-    rear = obj(2, "car", -3.5, -15.0, 1, vy=12.0, sources=("radar",))
+    rear = obj("car", -3.5, -15.0, 1, oid=2, vy=12.0, sources=("radar",))
     verdict = _decide(_crossing_car_with([[rear]]), Action.cruise)
     assert verdict.action is Action.brake and "san.radar.phantom" not in verdict.rules
-    ahead = obj(2, "car", -3.5, 40.0, 1, vy=12.0, sources=("radar",))  # a forward return now: a possible phantom
+    ahead = obj("car", -3.5, 40.0, 1, oid=2, vy=12.0, sources=("radar",))  # a forward return now: a possible phantom
     assert "san.radar.phantom" in _decide(_crossing_car_with([[ahead]]), Action.cruise).rules
 
 
@@ -568,7 +578,7 @@ def _seen_then_hidden(hz: int, seen: int, cls: str = "pedestrian", sources=("cam
     """A road user 20 m ahead on the right walking towards the ego's path, seen in `seen` frames, then hidden 0.2 s."""
     dt = 1 / hz
     frames = [scene(frame=i + 1, timestamp=round(dt * i, 3), limit=13.4,
-                    objects=[obj(2, cls, 4.0 - 1.5 * dt * i, 20.0 - 10 * dt * i, vy=0.0, vx=-1.5, sources=sources)])
+                    objects=[obj(cls, 4.0 - 1.5 * dt * i, 20.0 - 10 * dt * i, oid=2, vy=0.0, vx=-1.5, sources=sources)])
               for i in range(seen)]
     hidden = [scene(frame=seen + i + 1, timestamp=round(dt * (seen + i), 3), limit=13.4) for i in range(max(1, hz // 5))]
     return tuple(frames + hidden)
@@ -585,7 +595,7 @@ def test_a_pedestrian_tracked_for_weeks_is_still_remembered_when_hidden():
     """Its tracker's age in milliseconds is past clingo's 32-bit integers: it must not wrap into a brief track."""
     dt = 0.05
     frames = tuple(scene(frame=i + 1, timestamp=round(dt * i, 3), speed=10.0, limit=13.4,
-                         objects=[obj(7, "pedestrian", 0.0, 25.0 - 0.5 * i, 1, vy=0.0, sources=("camera",),
+                         objects=[obj("pedestrian", 0.0, 25.0 - 0.5 * i, 1, oid=7, vy=0.0, sources=("camera",),
                                       track_age=2**31 - 30 + i)])
                    for i in range(10))
     hidden = scene(frame=11, timestamp=round(dt * 10, 3), speed=10.0, limit=13.4)
@@ -594,7 +604,7 @@ def test_a_pedestrian_tracked_for_weeks_is_still_remembered_when_hidden():
 
 
 def test_a_camera_only_ghost_seen_for_60_ms_at_50_hz_is_not_kept():
-    ghost = obj(8, "car", 0.0, 14.0, 1, vy=0.0, sources=("camera",))
+    ghost = obj("car", 0.0, 14.0, 1, oid=8, vy=0.0, sources=("camera",))
     frames = tuple(scene(frame=i + 1, timestamp=round(0.02 * i, 2), speed=12.0, limit=13.4,
                          objects=[ghost] if 5 <= i < 8 else []) for i in range(20))
     verdict = _decide(frames, Action.cruise)
@@ -617,7 +627,7 @@ def test_a_steady_yellow_hidden_for_0_4_s_is_still_a_yellow_and_no_flash_when_ba
 # --- emergency vehicles: only one near and coming (or that the ego comes up to) calls for giving way
 
 def _ambulance(x: float, y: float, vy=None, speed: float = 20.0):
-    siren = obj(9, "emergency_vehicle", x, y, 1, vy=vy, emergency_lights=True, sources=("radar", "camera"))
+    siren = obj("emergency_vehicle", x, y, 1, oid=9, vy=vy, emergency_lights=True, sources=("radar", "camera"))
     return (scene(speed=speed, zone="road", limit=25.0, objects=[siren]),)
 
 
@@ -644,7 +654,8 @@ def test_an_ambulance_near_and_coming_or_being_caught_up_is_pulled_over_for(y, v
 # --- lane labels that contradict the measured position: the position wins, close ahead only
 
 def _labelled(x: float, y: float, lane: int, kind: str = "current", cls: str = "car", **kw):
-    return scene(speed=10.0, limit=15.0, objects=[obj(1, cls, x, y, lane, kind=kind, sources=("camera", "lidar"))], **kw)
+    labelled = obj(cls, x, y, lane, oid=1, kind=kind, sources=("camera", "lidar"))
+    return scene(speed=10.0, limit=15.0, objects=[labelled], **kw)
 
 
 def test_an_object_straight_ahead_in_a_lane_the_scene_does_not_list_is_in_the_ego_lane():
@@ -678,7 +689,7 @@ def test_labels_that_fit_or_are_far_keep_their_lane(case, frame):
 def test_at_highway_speed_the_label_check_reaches_as_far_as_a_highway_bend_cannot_bring_the_next_lane_into_line(y, overruled):
     """At 30 m/s the tightest bend a road is built for (v²/a, a = 2 m/s²) moves the next lane a lane's width at 56 m."""
     frame = scene(speed=30.0, zone="highway", limit=31.3, lanes=2,
-                  objects=[obj(1, "car", 0.0, y, 2, vy=0.0, sources=("camera", "radar"))])
+                  objects=[obj("car", 0.0, y, 2, oid=1, vy=0.0, sources=("camera", "radar"))])
     assert ("san.lane.position_over_label" in fired(reasoner_for("us"), (frame,))) is overruled, y
 
 
@@ -689,7 +700,8 @@ def _run(frames, proposed: Action, jurisdiction: str = "us"):
 
 
 def _police_on_the_shoulder(speed: float):
-    police = obj(4, "emergency_vehicle", 3.5, 100.0, 1, kind="shoulder", vy=0.0, emergency_lights=True)
+    police = obj("emergency_vehicle", 3.5, 100.0, 1, oid=4, kind="shoulder", vy=0.0, emergency_lights=True,
+                 sources=("camera", "radar"))
     return tuple(scene(frame=i, speed=speed, zone="road", limit=24.5, other_lanes=("shoulder",), objects=[police])
                  for i in (1, 2, 3))
 
@@ -708,7 +720,8 @@ def test_a_standing_emergency_vehicle_is_passed_slowly_not_waited_for():
 
 def test_an_ambulance_parked_across_an_undivided_road_is_passed_slowly_but_one_coming_is_given_way_to():
     def ambulance(vy):
-        siren = obj(4, "emergency_vehicle", -3.5, 80.0, 1, kind="oncoming", vy=vy, emergency_lights=True)
+        siren = obj("emergency_vehicle", -3.5, 80.0, 1, oid=4, kind="oncoming", vy=vy, emergency_lights=True,
+                    sources=("camera", "radar"))
         return tuple(scene(frame=i, speed=0.0, zone="road", limit=24.5, other_lanes=("oncoming",), objects=[siren])
                      for i in (1, 2, 3))
 
@@ -719,7 +732,7 @@ def test_an_ambulance_parked_across_an_undivided_road_is_passed_slowly_but_one_c
 
 
 def _fire_truck(ego_lane: int, x: float):
-    truck = obj(4, "emergency_vehicle", x, 60.0, 2, vy=0.0, emergency_lights=True)
+    truck = obj("emergency_vehicle", x, 60.0, 2, oid=4, vy=0.0, emergency_lights=True, sources=("camera", "radar"))
     return tuple(scene(frame=i, speed=25.0, lane=ego_lane, lanes=2, zone="highway", limit=29.0, objects=[truck])
                  for i in (1, 2))  # above the cautious speed on this highway: 29 m/s less 20 mph
 
@@ -745,7 +758,8 @@ def test_in_the_lane_of_a_stopped_emergency_vehicle_the_ego_moves_out_of_it():
 @pytest.mark.parametrize("jurisdiction, ego_lane, x, kerb", [("us", 1, 3.5, Action.change_lane_right),
                                                              ("uk", 2, -3.5, Action.change_lane_left)])
 def test_the_ego_does_not_cut_in_front_of_an_emergency_vehicle_coming_up_in_the_kerb_lane(jurisdiction, ego_lane, x, kerb):
-    siren = obj(4, "emergency_vehicle", x, -30.0, 3 - ego_lane, vy=30.0, emergency_lights=True)
+    siren = obj("emergency_vehicle", x, -30.0, 3 - ego_lane, oid=4, vy=30.0, emergency_lights=True,
+                sources=("camera", "radar"))
     frames = tuple(scene(frame=i, speed=20.0, lane=ego_lane, lanes=2, zone="highway", limit=29.0, objects=[siren])
                    for i in (1, 2))
     cruise = _run(frames, Action.cruise, jurisdiction)
@@ -756,7 +770,7 @@ def test_the_ego_does_not_cut_in_front_of_an_emergency_vehicle_coming_up_in_the_
 
 
 def test_a_lane_change_away_from_an_emergency_vehicle_on_the_kerb_side_answers_it():
-    siren = obj(4, "emergency_vehicle", 3.5, -30.0, 3, vy=30.0, emergency_lights=True)
+    siren = obj("emergency_vehicle", 3.5, -30.0, 3, oid=4, vy=30.0, emergency_lights=True, sources=("camera", "radar"))
     frames = tuple(scene(frame=i, speed=20.0, lane=2, lanes=3, zone="highway", limit=29.0, objects=[siren]) for i in (1, 2))
     assert _run(frames, Action.change_lane_left).decision is Decision.approve
     towards = _run(frames, Action.change_lane_right)
@@ -823,7 +837,8 @@ def test_at_a_flashing_yellow_the_ego_is_told_to_slow_down_but_may_hold_its_spee
 
 def test_a_standing_emergency_vehicle_beside_a_fast_road_slows_the_ego_by_20_mph_not_to_15():
     """Move Over laws: 20 mph below the limit where the ego cannot change lanes, not a crawl on a highway."""
-    police = obj(4, "emergency_vehicle", 3.5, 100.0, 1, kind="shoulder", vy=0.0, emergency_lights=True)
+    police = obj("emergency_vehicle", 3.5, 100.0, 1, oid=4, kind="shoulder", vy=0.0, emergency_lights=True,
+                 sources=("camera", "radar"))
     frames = tuple(scene(frame=i, speed=21.0, lanes=1, zone="highway", limit=31.3, other_lanes=("shoulder",),
                          objects=[police]) for i in (1, 2, 3))
     assert _run(frames, Action.cruise).decision is Decision.approve  # 47 mph, under 70 less 20
@@ -834,7 +849,7 @@ def test_a_standing_emergency_vehicle_beside_a_fast_road_slows_the_ego_by_20_mph
 
 
 def test_a_uk_school_bus_is_passed_slowly_from_a_standstill():
-    bus = obj(4, "bus", -3.5, 20.0, 1, kind="shoulder", vy=0.0, emergency_lights=True)
+    bus = obj("bus", -3.5, 20.0, 1, oid=4, kind="shoulder", vy=0.0, emergency_lights=True, sources=("camera", "radar"))
     frames = tuple(scene(frame=i, speed=0.0, limit=13.0, other_lanes=("shoulder",), objects=[bus]) for i in (1, 2, 3))
     assert _run(frames, Action.accelerate, "uk").decision is Decision.approve
     assert _run(frames, Action.accelerate, "us").decision is Decision.override  # the US stops for it
@@ -866,14 +881,14 @@ def test_a_dark_signal_is_passed_with_great_care_in_the_uk_giving_way_to_cross_t
     assert {"san.lights.dark_signal", "san.caution.no_speeding_up"} <= set(verdict.rules)
     slow = _run((scene(speed=4.0, limit=15.6, lights=dark, intersection=DARK),), Action.accelerate, "uk")
     assert slow.decision is Decision.approve
-    car = obj(5, "car", -12.0, 20.0, 1, kind="cross_left", vy=0.0, vx=10.0)
+    car = obj("car", -12.0, 20.0, 1, oid=5, kind="cross_left", vy=0.0, vx=10.0, sources=("camera", "radar"))
     crossing = _run((scene(speed=4.0, limit=15.6, lights=dark, other_lanes=("cross_left",), objects=[car],
                            intersection={**DARK, "distance": 3.0}),), Action.accelerate, "uk")
     assert crossing.decision is Decision.override and "san.lights.dark_signal" in crossing.rules
 
 
 def test_inside_a_uk_junction_with_dark_signals_the_ego_clears_it_rather_than_stopping_for_cross_traffic():
-    car = obj(5, "car", 8.0, 6.0, 1, kind="cross_right")
+    car = obj("car", 8.0, 6.0, 1, oid=5, kind="cross_right", sources=("camera", "radar"))
     inside = (scene(speed=6.0, limit=13.4, lights=[{"colour": "none"}], other_lanes=("cross_right",), objects=[car],
                     intersection={"type": "signaled", "stage": "enter"}),)
     assert _run(inside, Action.cruise, "uk").decision is Decision.approve
@@ -891,13 +906,13 @@ def test_a_red_seen_before_the_lights_went_dark_still_holds_the_ego():
 def test_the_examples_command_explains_itself_and_names_a_file_it_cannot_fill_in_one_line(tmp_path, capsys):
     """`--help` was taken for the file to write into, and ended in a FileNotFoundError traceback."""
     with pytest.raises(SystemExit) as done:
-        examples.main(["--help"])
-    assert done.value.code == 0 and capsys.readouterr().out.startswith("usage: python -m discern.sanity.examples")
+        worked_examples.main(["--help"])
+    assert done.value.code == 0 and capsys.readouterr().out.startswith("usage: python -m tests.worked_examples")
     for name, problem in (("missing.md", "No such file or directory"), ("plain.md", "no examples block")):
         if name == "plain.md":
             (tmp_path / name).write_text("# no block here\n")
         with pytest.raises(SystemExit) as done:
-            examples.main([str(tmp_path / name)])
+            worked_examples.main([str(tmp_path / name)])
         err = capsys.readouterr().err
         assert done.value.code == 2 and f"error: {tmp_path / name}: {problem}" in err and "Traceback" not in err
 

@@ -3,20 +3,21 @@
 from __future__ import annotations
 
 import weakref
+from typing import Optional
 
 import pytest
 from clingo import Function
 
 from discern.rules.scene import ObjectClass
 from discern.sanity import WindowConfig, WindowProvider, default_providers
-from discern.sanity.examples import MPH, limit_sign, obj, scene, sensor
 from discern.sanity.window import Bodies
+from tests.scenes import MPH, limit_sign, obj, scene, sensor
 
 PROVIDER = WindowProvider()
 
 
-def at(t: float, **kw):
-    sc = scene(**kw)
+def at(t: float, limit: Optional[float] = 13.0, **kw):
+    sc = scene(limit=limit, **kw)
     return sc.model_copy(update={"timestamp": t})
 
 
@@ -87,7 +88,7 @@ def test_a_frame_decided_as_it_comes_late_is_judged_with_the_frames_before_it(id
 
 
 def test_a_pedestrian_hidden_across_a_clock_glitch_is_remembered():
-    walking = [obj(2, "pedestrian", 4.0 - 0.15 * i, 20 - i, vy=0.0, vx=-1.5, sources=["camera"])
+    walking = [obj("pedestrian", 4.0 - 0.15 * i, 20 - i, oid=2, vy=0.0, vx=-1.5, sources=["camera"])
                for i in range(3)]
     times = [0.0, 0.1, 0.2, 0.3, 3.4, 0.5]
     frames = [_framed(i + 1, t, objects=[walking[i]] if i < 3 else []) for i, t in enumerate(times)]
@@ -111,7 +112,7 @@ def test_frames_without_timestamps_fill_the_windows_seconds_and_age_by_the_untim
     0.3 s ago (it read 0.0 s)."""
     frames = [at(0.0, frame=i + 1) for i in range(30)]
     assert len(PROVIDER.window(frames[-1], frames[:-1])) == 20
-    car = obj(3, "car", -3.5, 0.0, 1, vy=10.0)
+    car = obj("car", -3.5, 0.0, 1, oid=3, vy=10.0, sources=("camera", "radar"))
     seen = [at(0.0, frame=i + 1, lanes=2, lane=2, objects=[car]) for i in range(5)]
     lost = [at(0.0, frame=6 + i, lanes=2, lane=2) for i in range(3)]
     assert "remembered(3,300)." in facts(seen + lost)
@@ -133,12 +134,12 @@ def test_a_flashing_light_is_seen_flashing_in_every_frame_at_any_frame_rate(hz):
 
 def test_the_provider_keeps_no_frame_alive_once_its_callers_let_it_go():
     provider = WindowProvider()
-    frames = [at(t, objects=[obj(1, "car", 0, 20)]) for t in (0.0, 0.1, 0.2)]
+    frames = [at(t, objects=[obj("car", 0, 20, oid=1, sources=("camera", "radar"))]) for t in (0.0, 0.1, 0.2)]
     before = facts(frames, provider)
     gone = [weakref.ref(frame) for frame in frames]
     del frames
     assert before and all(ref() is None for ref in gone)
-    again = [at(t, objects=[obj(1, "car", 0, 20)]) for t in (0.0, 0.1, 0.2)]
+    again = [at(t, objects=[obj("car", 0, 20, oid=1, sources=("camera", "radar"))]) for t in (0.0, 0.1, 0.2)]
     assert facts(again, provider) == before  # a new frame at a freed frame's address gets its own summary
 
 
@@ -152,7 +153,8 @@ def test_window_config_rejects_nonsense():
 
 
 def test_a_plain_frame_without_history_adds_no_facts():
-    plain = scene(objects=[obj(1, "car", 0.0, 20.0, 1, vy=10.0)], sensors=[sensor("left", 1.0)])
+    plain = scene(objects=[obj("car", 0.0, 20.0, 1, oid=1, vy=10.0, sources=("camera", "radar"))],
+                  sensors=[sensor("left", 1.0)], limit=13.0)
     assert PROVIDER.facts(plain, ()) == ""
 
 
@@ -254,7 +256,8 @@ def test_flags_and_emergency_lights_count_only_at_a_flashs_pace_up_to_now():
     assert "light_flashing_frames(yellow,2)." in facts([at(0.0, lights=yellow), at(0.9, lights=yellow), at(1.9)])
     assert "light_flashing_frames(yellow,1)." in facts([at(0.0, lights=yellow), at(1.1, lights=yellow), at(1.2)])
     assert not any(f.startswith("light_flashing_frames") for f in facts([at(0.0, lights=yellow), at(1.1)]))
-    frames = [at(0.1 * i, objects=[obj(4, "emergency_vehicle", 0.0, -30.0, 1, emergency_lights=i in (2, 15))])
+    frames = [at(0.1 * i, objects=[obj("emergency_vehicle", 0.0, -30.0, 1, oid=4, emergency_lights=i in (2, 15),
+                                       sources=("camera", "radar"))])
               for i in range(17)]
     assert "lights_frames(4,1)." in facts(frames)
     assert not any(f.startswith("lights_frames") for f in facts(frames[:2] + frames[3:15] + [frames[16]]))
@@ -274,40 +277,45 @@ def test_a_lamp_of_colour_none_does_not_erase_a_red_light_seen_before():
 
 
 def test_a_lost_object_is_remembered_where_its_track_puts_it():
-    seen = [at(0.1 * i, speed=10.0, objects=[obj(7, "car", -3.5, -10.0, 1, vy=20.0)]) for i in range(3)]
+    seen = [at(0.1 * i, speed=10.0,
+               objects=[obj("car", -3.5, -10.0, 1, oid=7, vy=20.0, sources=("camera", "radar"))]) for i in range(3)]
     found = facts(seen + [at(0.4, speed=10.0)])
     assert {"remembered(7,200).", "remembered_object(7,car).", "remembered_pos(7,-350,-800).",
             "track_frames(7,3)."} <= found
     # a lane of the ego's road is the one its tracked offset falls in (the rules place it); another kind stays
     assert not any(f.startswith("remembered_lane(7,") for f in found)
-    oncoming = [at(0.1 * i, speed=10.0, objects=[obj(8, "car", -3.5, 30.0, 1, kind="oncoming", vy=-10.0)])
+    oncoming = [at(0.1 * i, speed=10.0,
+                   objects=[obj("car", -3.5, 30.0, 1, oid=8, kind="oncoming", vy=-10.0, sources=("camera", "radar"))])
                 for i in range(3)]
     assert "remembered_lane(8,oncoming,1)." in facts(oncoming + [at(0.4, speed=10.0)])
 
 
 def test_a_lost_object_a_range_sensor_still_reads_is_kept():
-    glimpse = at(0.0, speed=10.0, objects=[obj(7, "car", -3.5, -10.0, 1, vy=20.0)])
+    glimpse = at(0.0, speed=10.0, objects=[obj("car", -3.5, -10.0, 1, oid=7, vy=20.0, sources=("camera", "radar"))])
     assert "sensor_still_reads(7,rear_left,radar,900)." in facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("rear_left", 9.0)])])
 
 
 def test_a_one_frame_glimpse_with_no_sensor_is_forgotten():
-    glimpse = at(0.0, objects=[obj(7, "car", -3.5, -10.0, 1, vy=20.0)])
+    glimpse = at(0.0, objects=[obj("car", -3.5, -10.0, 1, oid=7, vy=20.0, sources=("camera", "radar"))])
     assert not any(f.startswith("remembered") for f in facts([glimpse, at(0.1)]))
 
 
 def test_earlier_range_sources_of_an_object_are_kept():
-    frames = [at(0.0, objects=[obj(9, "car", 0.0, 30.0, 1)]), at(0.1, objects=[obj(9, "car", 0.0, 29.0, 1, sources=("camera",))])]
+    frames = [at(0.0, objects=[obj("car", 0.0, 30.0, 1, oid=9, sources=("camera", "radar"))]),
+              at(0.1, objects=[obj("car", 0.0, 29.0, 1, oid=9, sources=("camera",))])]
     assert "obj_source_before(9,radar)." in facts(frames)
 
 
 def test_emergency_lights_are_counted_over_the_window():
-    frames = [at(0.1 * i, objects=[obj(4, "emergency_vehicle", 0.0, -30.0, 1, emergency_lights=on)])
+    frames = [at(0.1 * i, objects=[obj("emergency_vehicle", 0.0, -30.0, 1, oid=4, emergency_lights=on,
+                                       sources=("camera", "radar"))])
               for i, on in enumerate([True, False, True])]
     assert "lights_frames(4,2)." in facts(frames)
 
 
 def test_a_pedestrian_walking_into_the_road_meets_the_ego_path():
-    walker = scene(speed=8.0, objects=[obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5)])
+    walker = scene(speed=8.0, objects=[obj("pedestrian", 5.5, 22.0, oid=3, vy=0.0, vx=-1.5,
+                                           sources=("camera", "radar"))], limit=13.0)
     (conflict,) = [f for f in facts([walker]) if f.startswith("predicted_conflict")]
     assert conflict.startswith("predicted_conflict(3,26")
 
@@ -315,59 +323,66 @@ def test_a_pedestrian_walking_into_the_road_meets_the_ego_path():
 def test_a_child_who_clears_the_ego_path_at_its_speed_but_not_one_accelerate_faster_gets_a_stepped_conflict():
     """VRU review, defect 5: at 10 m/s the child clears the path 0.07 s before the ego gets there; at 10.5 m/s,
     one accelerate step (accel_step, 0.5 m/s) faster, it does not."""
-    child = scene(speed=10.0, objects=[obj(1, "pedestrian", 3.5, 18.0, vy=0.0, vx=-3.0)])
+    child = scene(speed=10.0, objects=[obj("pedestrian", 3.5, 18.0, oid=1, vy=0.0, vx=-3.0,
+                                           sources=("camera", "radar"))], limit=13.0)
     found = facts([child])
     assert not any(f.startswith("predicted_conflict") for f in found)
     (stepped,) = [f for f in found if f.startswith("stepped_conflict")]
     assert stepped.startswith("stepped_conflict(1,16")  # 1.67 s on
-    farther = scene(speed=10.0, objects=[obj(1, "pedestrian", 3.5, 24.0, vy=0.0, vx=-3.0)])
+    farther = scene(speed=10.0, objects=[obj("pedestrian", 3.5, 24.0, oid=1, vy=0.0, vx=-3.0,
+                                             sources=("camera", "radar"))], limit=13.0)
     assert not any(f.startswith("stepped_conflict") for f in facts([farther]))
 
 
 def test_objects_walking_along_in_the_ego_lane_or_coming_from_behind_get_no_predicted_crossing():
-    along = scene(speed=8.0, objects=[obj(3, "pedestrian", 5.5, 22.0, vy=1.2)])
-    ahead = scene(speed=8.0, objects=[obj(4, "car", 0.0, 20.0, 1, vy=2.0)])
-    behind = scene(speed=8.0, lanes=2, objects=[obj(5, "car", 3.5, -7.0, 2, vy=12.0, vx=-1.0)])
+    along = scene(speed=8.0, objects=[obj("pedestrian", 5.5, 22.0, oid=3, vy=1.2, sources=("camera", "radar"))],
+                  limit=13.0)
+    ahead = scene(speed=8.0, objects=[obj("car", 0.0, 20.0, 1, oid=4, vy=2.0, sources=("camera", "radar"))], limit=13.0)
+    behind = scene(speed=8.0, lanes=2,
+                   objects=[obj("car", 3.5, -7.0, 2, oid=5, vy=12.0, vx=-1.0, sources=("camera", "radar"))], limit=13.0)
     assert not facts([along]) and not facts([ahead]) and not facts([behind])
 
 
 def test_a_camera_only_vehicle_inside_a_confirmed_outline_overlaps_it():
-    truck = obj(2, "truck", 0.0, 30.0, 1, size={"length": 12.0, "width": 2.5})
-    picture = obj(5, "car", 0.3, 30.2, 1, sources=("camera",))
-    apart = obj(6, "car", 3.5, 30.2, 2, sources=("camera",))
-    found = facts([scene(lanes=2, objects=[truck, picture, apart])])
+    truck = obj("truck", 0.0, 30.0, 1, oid=2, size={"length": 12.0, "width": 2.5}, sources=("camera", "radar"))
+    picture = obj("car", 0.3, 30.2, 1, oid=5, sources=("camera",))
+    apart = obj("car", 3.5, 30.2, 2, oid=6, sources=("camera",))
+    found = facts([scene(lanes=2, objects=[truck, picture, apart], limit=13.0)])
     assert "overlaps(5,2)." in found and not any(f.startswith("overlaps(6") for f in found)
 
 
 def test_outlines_reach_away_from_the_ego_from_their_nearest_face():
-    ahead = obj(2, "truck", 0.0, 30.0, 1, size={"length": 15.0, "width": 2.5})
-    behind = obj(3, "truck", 0.0, -30.0, 1, size={"length": 15.0, "width": 2.5}, sources=("radar",))
-    before_it = obj(5, "car", 0.0, 23.0, 1, sources=("camera",))  # 7 m short of the truck's rear: a real car
-    along_it = obj(6, "car", 0.0, 40.0, 1, sources=("camera",))
-    behind_it = obj(7, "car", 0.0, -40.0, 1, sources=("camera",))
-    after_it = obj(8, "car", 0.0, -20.0, 1, sources=("camera",))
-    found = facts([scene(lanes=1, objects=[ahead, behind, before_it, along_it, behind_it, after_it])])
+    ahead = obj("truck", 0.0, 30.0, 1, oid=2, size={"length": 15.0, "width": 2.5}, sources=("camera", "radar"))
+    behind = obj("truck", 0.0, -30.0, 1, oid=3, size={"length": 15.0, "width": 2.5}, sources=("radar",))
+    before_it = obj("car", 0.0, 23.0, 1, oid=5, sources=("camera",))  # 7 m short of the truck's rear: a real car
+    along_it = obj("car", 0.0, 40.0, 1, oid=6, sources=("camera",))
+    behind_it = obj("car", 0.0, -40.0, 1, oid=7, sources=("camera",))
+    after_it = obj("car", 0.0, -20.0, 1, oid=8, sources=("camera",))
+    found = facts([scene(lanes=1, objects=[ahead, behind, before_it, along_it, behind_it, after_it], limit=13.0)])
     assert {f for f in found if f.startswith("overlaps")} == {"overlaps(6,2).", "overlaps(7,3)."}
 
 
 def test_a_lost_vehicle_of_unknown_speed_is_moved_as_the_catalog_assumes_it(reasoner):
     """Ahead, a motor vehicle keeps pace and anything else stands (a bicycle too); behind, all but things keep pace."""
     bodies = reasoner.providers[0].bodies
-    solved = reasoner.solve(scene(), "cruise")
+    solved = reasoner.solve(scene(limit=13.0), "cruise")
     assert bodies.motor == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("motor_vehicle", 1)} != set()
     assert bodies.stands == {ObjectClass(a.arguments[0].name) for a in solved.answer.of("stands_by_nature", 1)} != set()
     for cls, ahead_after in [("car", 2000), ("bicycle", 1900), ("pedestrian", 1900)]:  # lost for 0.1 s at 10 m/s
-        seen = [at(0.1 * i, speed=10.0, objects=[obj(7, cls, 0.0, 20.0, 1)]) for i in range(3)]
+        seen = [at(0.1 * i, speed=10.0,
+                   objects=[obj(cls, 0.0, 20.0, 1, oid=7, sources=("camera", "radar"))]) for i in range(3)]
         assert f"remembered_pos(7,0,{ahead_after})." in facts(seen + [at(0.3, speed=10.0)]), cls
-    behind = [at(0.1 * i, speed=10.0, objects=[obj(7, "pedestrian", -3.5, -5.0, 1)]) for i in range(3)]
+    behind = [at(0.1 * i, speed=10.0,
+                 objects=[obj("pedestrian", -3.5, -5.0, 1, oid=7, sources=("camera", "radar"))]) for i in range(3)]
     assert "remembered_pos(7,-350,-500)." in facts(behind + [at(0.3, speed=10.0)])
-    cone = [at(0.1 * i, speed=10.0, objects=[obj(7, "traffic_cone", -3.5, -5.0, 1)]) for i in range(3)]
+    cone = [at(0.1 * i, speed=10.0,
+               objects=[obj("traffic_cone", -3.5, -5.0, 1, oid=7, sources=("camera", "radar"))]) for i in range(3)]
     assert "remembered_pos(7,-350,-600)." in facts(cone + [at(0.3, speed=10.0)])
 
 
 def test_a_lost_object_ahead_of_the_bumper_is_read_by_the_sensor_facing_it():
     """Positions are gaps from the bumper: 1 m ahead on the left is the front-left sensor's, not the left one's."""
-    glimpse = at(0.0, speed=10.0, objects=[obj(7, "car", -3.5, 1.0, 1, vy=10.0)])
+    glimpse = at(0.0, speed=10.0, objects=[obj("car", -3.5, 1.0, 1, oid=7, vy=10.0, sources=("camera", "radar"))])
     front = facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("front_left", 3.0)])])
     beside = facts([glimpse, at(0.1, speed=10.0, sensors=[sensor("left", 1.0)])])
     assert "sensor_still_reads(7,front_left,radar,300)." in front and not any("sensor_still_reads" in f for f in beside)
@@ -385,7 +400,8 @@ def test_whether_the_ego_stopped_in_the_window_is_the_rules_call_with_their_para
 
 
 def test_readings_and_tracks_last_as_many_mean_frame_intervals_as_they_have_frames():
-    fast = [at(round(0.02 * i, 2), limit=20.0, objects=[obj(7, "car", 0.0, 20.0, 1)] if i < 3 else []) for i in range(6)]
+    car = obj("car", 0.0, 20.0, 1, oid=7, sources=("camera", "radar"))
+    fast = [at(round(0.02 * i, 2), limit=20.0, objects=[car] if i < 3 else []) for i in range(6)]
     found = facts(fast)  # 50 Hz: 6 frames of the reading, 120 ms; the car in 3 frames, 60 ms
     assert {"reading_run(2000,6).", "reading_time(2000,120).", "track_frames(7,3).", "track_time(7,60).",
             "window_param(confirm_ms,200).", "window_param(track_ms,300)."} <= found
@@ -398,13 +414,15 @@ def test_readings_and_tracks_last_as_many_mean_frame_intervals_as_they_have_fram
 def test_a_lost_object_whose_track_runs_into_the_ego_is_not_remembered():
     """A car standing 14 m ahead, lost at 12 m/s: once its track reaches the ego's own footprint it was not there (the
     ego would have hit it), and it is no longer remembered; until then it is."""
-    seen = [at(round(0.1 * i, 1), speed=12.0, objects=[obj(8, "car", 0.0, 14.0 - 1.2 * i, 1, vy=0.0, sources=("camera",))])
+    seen = [at(round(0.1 * i, 1), speed=12.0,
+               objects=[obj("car", 0.0, 14.0 - 1.2 * i, 1, oid=8, vy=0.0, sources=("camera",))])
             for i in range(3)]
     before = facts(seen + [at(0.6, speed=12.0)])  # lost 0.4 s ago at 11.6 m: 6.8 m ahead now
     assert "remembered_pos(8,0,680)." in before
     for t in (1.2, 1.5, 2.1):  # level with the ego, then behind it
         assert not any(f.startswith("remembered") for f in facts(seen + [at(t, speed=12.0)])), t
-    beside = [at(round(0.1 * i, 1), speed=12.0, objects=[obj(8, "car", -3.5, 14.0 - 1.2 * i, 1, vy=0.0, sources=("camera",))])
+    beside = [at(round(0.1 * i, 1), speed=12.0,
+                 objects=[obj("car", -3.5, 14.0 - 1.2 * i, 1, oid=8, vy=0.0, sources=("camera",))])
               for i in range(3)]
     assert any(f.startswith("remembered_pos(8,-350,0)") for f in facts(beside + [at(1.2, speed=12.0)]))  # passed beside
 
@@ -451,8 +469,9 @@ def test_readings_and_tracks_last_by_their_own_timestamps_not_the_windows_mean_i
     """At 50 Hz, after 1.8 s without frames: a 65 read in three frames lasted 60 ms, not three mean intervals of the
     window (742 ms); a car seen in two frames was tracked for 40 ms."""
     times = [0.0, 0.02, 0.04, 0.06, 0.08, 0.1, 1.94, 1.96, 1.98]
-    frames = [at(t, limit=None, signs=SIGN_65 if t > 1 else SIGN_45,
-                 objects=[obj(7, "car", 0.0, 20.0, 1)] if t in (1.94, 1.96) else []) for t in times]
+    car = obj("car", 0.0, 20.0, 1, oid=7, sources=("camera", "radar"))
+    frames = [at(t, limit=None, signs=SIGN_65 if t > 1 else SIGN_45, objects=[car] if t in (1.94, 1.96) else [])
+              for t in times]
     found = facts(frames)
     assert {f"reading_run({CM_65},3).", f"reading_time({CM_65},60).", "track_frames(7,2).", "track_time(7,40)."} <= found
     # and a prior read before the dropout lasted its own frames: six at 50 Hz, 120 ms
@@ -464,7 +483,7 @@ def test_a_pedestrian_lost_in_front_of_a_braking_ego_stays_ahead_of_it():
     the pedestrian is still 1 m ahead and not taken for one the ego would have run into."""
     speeds = [3.0, 2.5, 2.0, 1.5, 1.0, 0.5, 0.0, 0.0, 0.0]
     times = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0]
-    walker = [obj(4, "pedestrian", 0.3, y, vy=0.0, vx=-0.3, sources=("camera",)) for y in (1.9, 1.6, 1.4)]
+    walker = [obj("pedestrian", 0.3, y, oid=4, vy=0.0, vx=-0.3, sources=("camera",)) for y in (1.9, 1.6, 1.4)]
     frames = [at(t, speed=v, objects=[walker[i]] if i < 3 else []) for i, (t, v) in enumerate(zip(times, speeds))]
     found = facts(frames)
     assert {"remembered(4,800).", "remembered_pos(4,6,100)."} <= found
@@ -525,7 +544,8 @@ def test_a_perceived_limit_carried_on_through_a_stop_controlled_approach_is_no_m
 
 def test_an_ultrasonic_reading_beyond_its_reach_neither_clears_nor_keeps_a_lost_car(reasoner):
     """A front ultrasonic sensor reading 60 m is no clear road past a lost car 20 m ahead; a radar reading is."""
-    seen = [at(0.1 * i, speed=10.0, objects=[obj(7, "car", 0.0, 20.0, 1, vy=10.0)]) for i in range(3)]
+    seen = [at(0.1 * i, speed=10.0,
+               objects=[obj("car", 0.0, 20.0, 1, oid=7, vy=10.0, sources=("camera", "radar"))]) for i in range(3)]
 
     def lost_car_kept(kind: str) -> bool:
         now = at(0.3, speed=10.0, sensors=[sensor("front", 60.0, kind)])
@@ -536,7 +556,8 @@ def test_an_ultrasonic_reading_beyond_its_reach_neither_clears_nor_keeps_a_lost_
 
 def test_a_truck_driving_across_the_road_reaches_the_ego_path_with_its_length_not_its_width():
     """Its 10 m length lies across the ego's road: its front enters the corridor 0.87 s from now, not 1.25 s."""
-    crossing = scene(speed=8.0, objects=[obj(3, "truck", -15.0, 5.0, 1, kind="cross_left", vy=0.0, vx=10.0)])
+    crossing = scene(speed=8.0, objects=[obj("truck", -15.0, 5.0, 1, oid=3, kind="cross_left", vy=0.0, vx=10.0,
+                                             sources=("camera", "radar"))], limit=13.0)
     (conflict,) = [f for f in facts([crossing]) if f.startswith("predicted_conflict")]
     assert conflict.startswith("predicted_conflict(3,870,")
 
@@ -544,8 +565,10 @@ def test_a_truck_driving_across_the_road_reaches_the_ego_path_with_its_length_no
 def test_a_size_of_0_in_length_or_width_is_no_size_and_the_class_gives_the_footprint():
     """A detector may give 0 for a size it does not know: the rules and the outlines get no size, not a point."""
     unknown = [{"length": 0.0, "width": 0.0}, {"length": 0.0, "width": 1.8}, {"length": 4.4, "width": 0.0}]
-    frame = scene(objects=[obj(i, "car", 0.0, 10.0 * i, 1, size=size) for i, size in enumerate(unknown, 1)]
-                  + [obj(4, "car", 0.0, 40.0, 1, size={"length": 4.4, "width": 1.8})])
+    frame = scene(limit=13.0,
+                  objects=[obj("car", 0.0, 10.0 * i, 1, oid=i, size=size, sources=("camera", "radar"))
+                           for i, size in enumerate(unknown, 1)]
+                  + [obj("car", 0.0, 40.0, 1, oid=4, size={"length": 4.4, "width": 1.8}, sources=("camera", "radar"))])
     assert {f for f in facts([frame]) if f.startswith("obj_size(")} == {"obj_size(4,440,180)."}
     bodies = Bodies.shipped()
     assert [bodies.footprint(o) for o in frame.objects] == [(4.5, 1.8)] * 3 + [(4.4, 1.8)]
@@ -579,10 +602,10 @@ def test_a_timestamp_too_large_for_the_windows_clock_is_refused_by_the_scene_mod
     from pydantic import ValidationError
 
     with pytest.raises(ValidationError, match="timestamp"):
-        scene(frame=1, timestamp=1e306)
+        scene(frame=1, timestamp=1e306, limit=13.0)
     with pytest.raises(ValidationError, match="timestamp"):
-        scene(frame=1, timestamp=-1e306)
-    early, late = scene(frame=1, timestamp=1e12 - 0.1), scene(frame=2, timestamp=1e12)
+        scene(frame=1, timestamp=-1e306, limit=13.0)
+    early, late = scene(frame=1, timestamp=1e12 - 0.1, limit=13.0), scene(frame=2, timestamp=1e12, limit=13.0)
     assert WindowProvider().facts(late, [early])  # the largest allowed timestamps still make a window
 
 
@@ -590,9 +613,11 @@ def test_one_frame_delivered_twice_is_seen_for_one_frame_not_two():
     """Two frames of one timestamp are one picture: a reading in both lasts a frame (100 ms), not the 200 ms that
     confirms it, as it did when the window took them for frames without timestamps."""
     sign = [{"kind": "speed_limit", "value": 20.117}]
-    first, again = scene(frame=1, timestamp=5.0, signs=sign), scene(frame=2, timestamp=5.0, signs=sign)
+    first = scene(frame=1, timestamp=5.0, signs=sign, limit=13.0)
+    again = scene(frame=2, timestamp=5.0, signs=sign, limit=13.0)
     assert "reading_time(2012,100)." in facts([first, again])
-    untimed = [scene(frame=1, timestamp=0.0, signs=sign), scene(frame=2, timestamp=0.0, signs=sign)]
+    untimed = [scene(frame=1, timestamp=0.0, signs=sign, limit=13.0),
+               scene(frame=2, timestamp=0.0, signs=sign, limit=13.0)]
     assert "reading_time(2012,200)." in facts(untimed)
 
 

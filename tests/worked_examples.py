@@ -1,9 +1,10 @@
 """One worked example per sanity and jurisdiction rule: where it fires, and a near miss where it does not.
 
-The tests check every example against the engine, and docs/sanity.md shows
-each one with the engine's own justification, regenerated with
+Test data and a documentation generator, not part of the installed package: the tests check every example
+against the engine, and docs/sanity.md shows each one with the engine's own justification, regenerated from the
+repository root with
 
-    python -m discern.sanity.examples docs/sanity.md
+    python -m tests.worked_examples docs/sanity.md
 """
 
 from __future__ import annotations
@@ -18,67 +19,23 @@ from discern.rules.engine import Reasoner
 from discern.rules.justify import Prover
 from discern.rules.scene import Action, Scene
 from discern.rules.verdict import JustificationNode, Verdict
-
-from .reasoner import reasoner_for
-
-MPH = 0.44704
-
-
-def scene(frame: int = 1, speed: float = 10.0, lane: int = 1, lanes: int = 1, zone: str = "city",
-          limit: Optional[float] = 13.0, objects: tuple = (), signs: tuple = (), lights: tuple = (),
-          sensors: tuple = (), intersection: Optional[dict] = None, intent: str = "continue_in_lane",
-          other_lanes: tuple = (), **extra) -> Scene:
-    """A validated Scene from a few keywords; frames are 0.1 s apart."""
-    data = {
-        "frame_id": frame,
-        "timestamp": round(0.1 * frame, 3),
-        "ego": {"speed": speed, "lane": lane, "zone": zone, "intent": intent},
-        "speed_limit": limit,
-        "lanes": [{"kind": "current", "id": i} for i in range(1, lanes + 1)] + [{"kind": k, "id": 1} for k in other_lanes],
-        "objects": list(objects),
-        "signs": list(signs),
-        "traffic_lights": list(lights),
-        "sensors": list(sensors),
-        "intersection": intersection,
-        **extra,
-    }
-    return Scene.model_validate(data)
-
-
-def obj(oid: int, cls: str, x: float, y: float, lane: Optional[int] = None, kind: str = "current",
-        vy: Optional[float] = None, vx: float = 0.0, sources: tuple = ("camera", "radar"), **extra) -> dict:
-    data = {"id": oid, "class": cls, "position": {"x": x, "y": y}, "sources": list(sources), **extra}
-    if lane is not None:
-        data["lane"] = {"kind": kind, "id": lane}
-    if vy is not None:
-        data["velocity"] = {"x": vx, "y": vy}
-    return data
+from discern.sanity import reasoner_for
+from tests.scenes import MPH, limit_sign, obj, scene, sensor
 
 
 def unmarked_crossroads(x: float) -> Scene:
     """A car of unknown speed on the cross road, x metres to the side, at a crossroads nothing controls."""
     kind = "cross_right" if x > 0 else "cross_left"
     return scene(speed=10.0, limit=13.4, other_lanes=("cross_left", "cross_right"),
-                 objects=[obj(1, "car", x, 8.0, 1, kind=kind)],
+                 objects=[obj("car", x, 8.0, 1, oid=1, kind=kind, sources=("camera", "radar"))],
                  intersection={"type": "unsignaled", "stage": "arriving", "distance": 6.0})
-
-
-def limit_sign(mph: float) -> dict:
-    return {"kind": "speed_limit", "value": round(mph * MPH, 3), "source": "camera"}
 
 
 def exit_sign(x: float) -> Scene:
     """The middle lane of three on a highway, the right one an exit 150 m on; a 25 mph sign x metres to the side."""
-    lanes = [{"kind": "current", "id": 1}, {"kind": "current", "id": 2},
-             {"kind": "current", "id": 3, "ends_in": 150.0, "leaves_road": True}]
-    data = scene(speed=30.0, lane=2, lanes=3, zone="highway", limit=None,
+    return scene(speed=30.0, lane=2, lanes=3, zone="highway", limit=None, lane_ends={3: 150.0}, exits=(3,),
                  signs=[{**limit_sign(25), "position": {"x": x, "y": 60.0}}],
-                 objects=[obj(2, "truck", 0.0, -5.0, 2, vy=30.0)]).model_dump(mode="json", by_alias=True, exclude_none=True)
-    return Scene.model_validate({**data, "lanes": lanes})
-
-
-def sensor(side: str, distance: float, kind: str = "radar") -> dict:
-    return {"side": side, "distance": distance, "kind": kind}
+                 objects=[obj("truck", 0.0, -5.0, 2, oid=2, vy=30.0, sources=("camera", "radar"))])
 
 
 @dataclass(frozen=True)
@@ -137,7 +94,7 @@ def decide(example: Example) -> Verdict:
     return reasoner.decide(example.frames[-1], example.proposed, history=example.frames[:-1], explain=True)
 
 
-BEGIN, END = "<!-- examples: python -m discern.sanity.examples docs/sanity.md -->", "<!-- /examples -->"
+BEGIN, END = "<!-- examples: python -m tests.worked_examples docs/sanity.md -->", "<!-- /examples -->"
 
 
 def markdown(examples: list[Example]) -> str:
@@ -170,7 +127,7 @@ def _examples() -> list[Example]:
     city_85 = (scene(speed=16.0, limit=85 * MPH, signs=[limit_sign(85)]),)
     road_45 = [scene(frame=i, speed=20.2, zone="road", limit=45 * MPH, signs=[limit_sign(45)]) for i in (1, 2)]
     road_55 = scene(frame=3, speed=20.2, zone="road", limit=55 * MPH, signs=[limit_sign(55)])
-    truck_behind = (obj(2, "truck", 0.0, -5.0, 1, vy=31.0),)
+    truck_behind = (obj("truck", 0.0, -5.0, 1, oid=2, vy=31.0, sources=("camera", "radar")),)
     highway_70 = [scene(frame=i, speed=31.0, zone="highway", limit=70 * MPH, signs=[limit_sign(70)], objects=truck_behind)
                   for i in (1, 2, 3)]
     highway_40 = scene(frame=4, speed=31.0, zone="highway", limit=40 * MPH, signs=[limit_sign(40)], objects=truck_behind)
@@ -183,12 +140,12 @@ def _examples() -> list[Example]:
     stop_line = {"type": "unsignaled", "stage": "arriving", "distance": 30.0, "stop_line": True}
     at_stop = {"type": "four_way", "stage": "at", "distance": 0.0}
     arriving = {"type": "four_way", "stage": "arriving", "distance": 12.0}  # within a comfortable stop (def.line_far_ahead)
-    radar_car = obj(2, "car", -3.5, 40.0, 1, vy=15.0)
-    phantom = obj(9, "car", 0.0, 16.0, 2, vy=5.0, sources=("camera",))
-    real_ahead = obj(9, "car", 0.0, 16.0, 2, vy=5.0)
+    radar_car = obj("car", -3.5, 40.0, 1, oid=2, vy=15.0, sources=("camera", "radar"))
+    phantom = obj("car", 0.0, 16.0, 2, oid=9, vy=5.0, sources=("camera",))
+    real_ahead = obj("car", 0.0, 16.0, 2, oid=9, vy=5.0, sources=("camera", "radar"))
     hw = {"zone": "highway", "limit": 29.0, "lanes": 2, "lane": 2, "speed": 15.0}
-    truck = obj(2, "truck", 0.0, 30.0, 1, vy=12.0, size={"length": 12.0, "width": 2.5})
-    toy_car = obj(11, "car", 0.0, 14.0, 1, vy=0.0, sources=("camera",), size={"length": 0.7, "width": 0.3})
+    truck = obj("truck", 0.0, 30.0, 1, oid=2, vy=12.0, size={"length": 12.0, "width": 2.5}, sources=("camera", "radar"))
+    toy_car = obj("car", 0.0, 14.0, 1, oid=11, vy=0.0, sources=("camera",), size={"length": 0.7, "width": 0.3})
     # a flash is about 1 Hz: frames half a second apart see the light lit, dark, lit, dark (a 0.1 s gap is a lost
     # frame); perception lists it dark (colour none), since a light it does not list is out of view, not dark
     flashing_red = [scene(frame=i + 1, timestamp=0.5 * (i + 1), speed=8.0 - i, limit=11.0,
@@ -197,28 +154,34 @@ def _examples() -> list[Example]:
     steady_red = (scene(frame=1, speed=8.0, limit=11.0, lights=[{"colour": "red"}], intersection=arriving),
                   scene(frame=2, speed=7.0, limit=11.0, lights=[{"colour": "red"}], intersection=arriving))
     ambulance = [scene(frame=i + 1, speed=12.0, lanes=2, limit=15.0,
-                       objects=[obj(4, "emergency_vehicle", 0.0, -40.0 + 2 * i, 1, vy=20.0, emergency_lights=on)])
+                       objects=[obj("emergency_vehicle", 0.0, -40.0 + 2 * i, 1, oid=4, vy=20.0, emergency_lights=on,
+                                    sources=("camera", "radar"))])
                  for i, on in enumerate([True, True, False])]
-    glint = (scene(frame=1, speed=12.0, lanes=2, limit=15.0, objects=[obj(4, "car", 0.0, -40.0, 1, vy=20.0)]),
+    glint = (scene(frame=1, speed=12.0, lanes=2, limit=15.0,
+                   objects=[obj("car", 0.0, -40.0, 1, oid=4, vy=20.0, sources=("camera", "radar"))]),
              scene(frame=2, speed=12.0, lanes=2, limit=15.0,
-                   objects=[obj(4, "car", 0.0, -38.0, 1, vy=20.0, emergency_lights=True)]))
+                   objects=[obj("car", 0.0, -38.0, 1, oid=4, vy=20.0, emergency_lights=True,
+                                sources=("camera", "radar"))]))
     school_bus = tuple(scene(frame=i + 1, speed=13.0, lane=2, lanes=2, limit=15.6, other_lanes=("shoulder",),
-                             objects=[obj(4, "bus", 3.5, 30.0 - i, 1, kind="shoulder", vy=0.0, emergency_lights=True)])
+                             objects=[obj("bus", 3.5, 30.0 - i, 1, oid=4, kind="shoulder", vy=0.0,
+                                          emergency_lights=True, sources=("camera", "radar"))])
                        for i in range(3))
     left_car = [scene(frame=i + 1, speed=12.0, lane=2, lanes=2, limit=15.0,
-                      objects=[obj(7, "car", -3.5, -12.8 + 0.8 * i, 1, vy=20.0)]) for i in range(3)]
+                      objects=[obj("car", -3.5, -12.8 + 0.8 * i, 1, oid=7, vy=20.0,
+                                   sources=("camera", "radar"))]) for i in range(3)]
     lost = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0)
     # 12 m behind: the headway a car keeping pace at 12 m/s needs, so the reading alone does not take the lane
     lost_seen = scene(frame=4, speed=12.0, lane=2, lanes=2, limit=15.0, sensors=[sensor("rear_left", 12.0)])
-    radar_lead = obj(2, "car", -3.5, 40.0, 1, vy=20.0)
+    radar_lead = obj("car", -3.5, 40.0, 1, oid=2, vy=20.0, sources=("camera", "radar"))
 
     def undertake(offside_speed: float) -> Scene:
         return scene(speed=30.0, lane=1, lanes=3, zone="highway", limit=31.3,
-                     objects=[obj(1, "car", 3.5, 15.0, 2, vy=offside_speed)])
+                     objects=[obj("car", 3.5, 15.0, 2, oid=1, vy=offside_speed, sources=("camera", "radar"))])
 
     def undertake_tailgated(offside_speed: float) -> Scene:
         return scene(speed=30.0, lane=1, lanes=3, zone="highway", limit=31.3,
-                     objects=[obj(1, "car", 3.5, 15.0, 2, vy=offside_speed), obj(2, "car", 0.0, -5.0, 1, vy=30.0)])
+                     objects=[obj("car", 3.5, 15.0, 2, oid=1, vy=offside_speed, sources=("camera", "radar")),
+                              obj("car", 0.0, -5.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))])
 
     def amber(distance: float) -> Scene:
         return scene(speed=30 * MPH, limit=30 * MPH, lights=[{"colour": "yellow"}],
@@ -228,33 +191,37 @@ def _examples() -> list[Example]:
         return scene(speed=0.0, limit=13.4, intent="enter_left_lane", lights=[{"colour": "green"}],
                      other_lanes=("oncoming", "cross_left", "sidewalk_left"),
                      intersection={"type": "signaled", "stage": "at", "distance": 0.0},
-                     objects=[obj(2, "pedestrian", -6.0, pedestrian_ahead, 1, kind="sidewalk_left", vy=0.0)])
+                     objects=[obj("pedestrian", -6.0, pedestrian_ahead, 1, oid=2, kind="sidewalk_left", vy=0.0,
+                                  sources=("camera", "radar"))])
 
     def zebra(divided: bool) -> Scene:
         return scene(speed=10.0, limit=13.4, other_lanes=("oncoming", "cross_right"), divided_road=divided,
-                     objects=[obj(1, "pedestrian", 4.5, 12.0, 1, kind="cross_right", vy=0.0)])
+                     objects=[obj("pedestrian", 4.5, 12.0, 1, oid=1, kind="cross_right", vy=0.0,
+                                  sources=("camera", "radar"))])
 
     def ghost_then_gone(sources: tuple) -> tuple[Scene, ...]:
         seen = [scene(frame=i + 1, speed=20.0, lane=2, lanes=2, zone="highway", limit=29.0,
-                      objects=[radar_lead, obj(9, "car", 0.0, 60.0 - 2.0 * i, 2, vy=0.0, sources=sources)])
+                      objects=[radar_lead, obj("car", 0.0, 60.0 - 2.0 * i, 2, oid=9, vy=0.0, sources=sources)])
                 for i in range(4)]
         return (*seen, scene(frame=5, speed=20.0, lane=2, lanes=2, zone="highway", limit=29.0, objects=[radar_lead]))
 
     def stopped_then_lost(front: float) -> tuple[Scene, ...]:
         """A standing car 24.8 to 20 m ahead at 12 m/s, camera and radar; then lost, the front radar reading `front` m."""
-        seen = [scene(frame=i + 1, speed=12.0, limit=15.0, objects=[obj(1, "car", 0.0, 24.8 - 1.2 * i, 1, vy=0.0)])
+        seen = [scene(frame=i + 1, speed=12.0, limit=15.0,
+                      objects=[obj("car", 0.0, 24.8 - 1.2 * i, 1, oid=1, vy=0.0, sources=("camera", "radar"))])
                 for i in range(5)]
         return (*seen, scene(frame=6, speed=12.0, limit=15.0, sensors=[sensor("front", front)]))
 
     def stopped_then_renamed(front: float) -> tuple[Scene, ...]:
         """As `stopped_then_lost`, but the tracker has given the car's id to a car 80 m ahead on the left."""
         *seen, _ = stopped_then_lost(front)
-        return (*seen, scene(frame=6, speed=12.0, limit=15.0, objects=[obj(1, "car", -3.5, 80.0, vy=12.0)],
+        return (*seen, scene(frame=6, speed=12.0, limit=15.0,
+                             objects=[obj("car", -3.5, 80.0, oid=1, vy=12.0, sources=("camera", "radar"))],
                              sensors=[sensor("front", front)]))
 
-    walker = obj(3, "pedestrian", 5.5, 22.0, vy=0.0, vx=-1.5, sources=("camera", "lidar"))
-    stroller = obj(3, "pedestrian", 5.5, 22.0, vy=1.2, vx=0.0, sources=("camera", "lidar"))
-    pulling_out = obj(7, "car", 6.0, 20.0, vy=0.0, vx=-4.0, sources=("camera",))
+    walker = obj("pedestrian", 5.5, 22.0, oid=3, vy=0.0, vx=-1.5, sources=("camera", "lidar"))
+    stroller = obj("pedestrian", 5.5, 22.0, oid=3, vy=1.2, vx=0.0, sources=("camera", "lidar"))
+    pulling_out = obj("car", 6.0, 20.0, oid=7, vy=0.0, vx=-4.0, sources=("camera",))
     stop_sign = {"kind": "stop", "source": "camera"}
     dark_signal = {"type": "signaled", "stage": "arriving", "distance": 20.0, "stop_line": True}
     # a flashing red reported by perception, the ego slowing to a stop over four frames
@@ -304,9 +271,10 @@ def _examples() -> list[Example]:
         Example("san.limit.highway_floor",
                 "On a highway the camera reads a 5 mph sign; the ego drives 30 m/s with a truck 5 m behind.",
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(5)],
-                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),), Action.cruise,
+                       objects=[obj("truck", 0.0, -5.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))]),),
+                Action.cruise,
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(45)],
-                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),)),
+                       objects=[obj("truck", 0.0, -5.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))]),)),
         Example("san.limit.exit_lane_sign",
                 "At 30 m/s in the middle lane of a highway whose right lane is an exit, the camera reads a 25 mph sign "
                 "standing 9 m to the right, past the exit lane, with a truck 5 m behind (the near miss: on the left verge).",
@@ -315,9 +283,10 @@ def _examples() -> list[Example]:
                 "On a highway the map says 70 mph and the camera reads a 25 mph sign; the ego drives 30 m/s with a "
                 "truck 5 m behind (the near miss: the map says 25 mph too).",
                 (scene(speed=30.0, zone="highway", limit=None, map_speed_limit=31.3, signs=[limit_sign(25)],
-                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),), Action.cruise,
+                       objects=[obj("truck", 0.0, -5.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))]),),
+                Action.cruise,
                 (scene(speed=30.0, zone="highway", limit=None, map_speed_limit=11.2, signs=[limit_sign(25)],
-                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),)),
+                       objects=[obj("truck", 0.0, -5.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))]),)),
         Example("san.limit.unusually_low",
                 "In a city the camera reads a 5 mph sign in one frame; the ego drives 10 m/s.",
                 (scene(speed=10.0, limit=None, signs=[limit_sign(5)]),), Action.cruise,
@@ -336,10 +305,12 @@ def _examples() -> list[Example]:
         Example("san.limit.low_confidence", "On a 70 mph highway (the map says 70) perception reads a 40 mph sign with 30 % "
                 "confidence in one frame; the ego drives 31 m/s with a truck 6 m behind.",
                 (scene(speed=31.0, zone="highway", limit=None, map_speed_limit=31.3,
-                       signs=[{**limit_sign(40), "confidence": 0.3}], objects=[obj(9, "truck", 0.0, -6.0, 1, vy=31.0)]),),
+                       signs=[{**limit_sign(40), "confidence": 0.3}],
+                       objects=[obj("truck", 0.0, -6.0, 1, oid=9, vy=31.0, sources=("camera", "radar"))]),),
                 Action.cruise,
                 (scene(speed=31.0, zone="highway", limit=None, map_speed_limit=31.3,
-                       signs=[{**limit_sign(40), "confidence": 0.9}], objects=[obj(9, "truck", 0.0, -6.0, 1, vy=31.0)]),)),
+                       signs=[{**limit_sign(40), "confidence": 0.9}],
+                       objects=[obj("truck", 0.0, -6.0, 1, oid=9, vy=31.0, sources=("camera", "radar"))]),)),
         Example("san.limit.zero", "In a city the camera reads a limit of 0 in every frame for a second; the ego drives 10 m/s.",
                 tuple(scene(frame=i + 1, timestamp=0.1 * i, speed=10.0, limit=None, signs=[limit_sign(0)])
                       for i in range(10)), Action.cruise,
@@ -347,9 +318,10 @@ def _examples() -> list[Example]:
         Example("san.limit.map_zero", "On a highway the map gives a limit of 0 (a limit it does not know); the camera reads "
                 "70 mph, and the ego drives 30 m/s with a truck 5 m behind.",
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=0.0,
-                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),), Action.cruise,
+                       objects=[obj("truck", 0.0, -5.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))]),),
+                Action.cruise,
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=31.3,
-                       objects=[obj(2, "truck", 0.0, -5.0, 1, vy=30.0)]),)),
+                       objects=[obj("truck", 0.0, -5.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))]),)),
         Example("san.limit.map_implausible", "In a city the map gives 85 mph (stale or wrong data) and no sign is read; "
                 "the ego drives 20 m/s.",
                 (scene(speed=20.0, limit=None, map_speed_limit=85 * MPH),), Action.accelerate,
@@ -357,9 +329,10 @@ def _examples() -> list[Example]:
         Example("san.limit.map_implausibly_low", "On a highway the map gives 5 mph (a wrong map tile) while the camera "
                 "reads 70 mph; the ego drives 30 m/s with a truck 6 m behind.",
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=5 * MPH,
-                       objects=[obj(2, "truck", 0.0, -6.0, 1, vy=30.0)]),), Action.cruise,
+                       objects=[obj("truck", 0.0, -6.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))]),),
+                Action.cruise,
                 (scene(speed=30.0, zone="highway", limit=None, signs=[limit_sign(70)], map_speed_limit=55 * MPH,
-                       objects=[obj(2, "truck", 0.0, -6.0, 1, vy=30.0)]),)),
+                       objects=[obj("truck", 0.0, -6.0, 1, oid=2, vy=30.0, sources=("camera", "radar"))]),)),
         Example("san.limit.fallback_zone", "The taped 85 mph city sign, with no map and nothing read before.",
                 city_85, Action.accelerate, (scene(speed=16.0, limit=85 * MPH, map_speed_limit=15.0),)),
         Example("san.limit.zone_default", "Nothing tells the limit in a city; the ego drives 16 m/s.",
@@ -373,10 +346,12 @@ def _examples() -> list[Example]:
                 (scene(limit=11.0, intersection=stop_line, traffic_lights=[{"colour": "green"}]),)),
         Example("san.stop.evidence_traffic", "Cross traffic drives through an unsignalised intersection ahead.",
                 (scene(limit=11.0, intersection=arriving, other_lanes=("cross_left",),
-                       objects=[obj(5, "car", -15.0, 25.0, 1, kind="cross_left", vy=0.0, vx=10.0)]),),
+                       objects=[obj("car", -15.0, 25.0, 1, oid=5, kind="cross_left", vy=0.0, vx=10.0,
+                                    sources=("camera", "radar"))]),),
                 Action.cruise,
                 (scene(limit=11.0, intersection=arriving, other_lanes=("cross_left",),
-                       objects=[obj(5, "car", -15.0, 25.0, 1, kind="cross_left", vy=0.0, vx=0.0)]),)),
+                       objects=[obj("car", -15.0, 25.0, 1, oid=5, kind="cross_left", vy=0.0, vx=0.0,
+                                    sources=("camera", "radar"))]),)),
         Example("san.stop.misread_sign", "Stickers make the camera read a stop sign as \"speed limit 45\" at a stop line.",
                 (scene(limit=25 * MPH, signs=[limit_sign(45)], intersection=stop_line),), Action.accelerate,
                 (scene(limit=25 * MPH, signs=[limit_sign(45)], intersection={**stop_line, "stop_line": False}),)),
@@ -445,47 +420,58 @@ def _examples() -> list[Example]:
                 (scene(speed=27.0, zone="highway", limit=29.0, lanes=2, sensors=[sensor("left", 0.8, "ultrasonic")]),)),
         Example("san.range.beyond_reach",
                 "On a highway the front ultrasonic sensor reads 60 m; the front radar reads 90 m, where it reports a car.",
-                (scene(speed=29.0, zone="highway", limit=29.0, objects=[obj(8, "car", 0.0, 90.0, 1, vy=29.0)],
+                (scene(speed=29.0, zone="highway", limit=29.0,
+                       objects=[obj("car", 0.0, 90.0, 1, oid=8, vy=29.0, sources=("camera", "radar"))],
                        sensors=[sensor("front", 60.0, "ultrasonic"), sensor("front", 90.0)]),), Action.cruise,
-                (scene(speed=29.0, zone="highway", limit=29.0, objects=[obj(8, "car", 0.0, 90.0, 1, vy=29.0)],
+                (scene(speed=29.0, zone="highway", limit=29.0,
+                       objects=[obj("car", 0.0, 90.0, 1, oid=8, vy=29.0, sources=("camera", "radar"))],
                        sensors=[sensor("front", 8.0, "ultrasonic"), sensor("front", 90.0)]),)),
         Example("san.lane.position_over_label",
                 "The lidar confirms a pedestrian 5 m straight ahead that perception labels as on the right sidewalk.",
                 (scene(speed=10.0, limit=15.0, other_lanes=("sidewalk_right",),
-                       objects=[obj(1, "pedestrian", 0.0, 5.0, 1, kind="sidewalk_right", sources=("camera", "lidar"))]),),
+                       objects=[obj("pedestrian", 0.0, 5.0, 1, oid=1, kind="sidewalk_right",
+                                    sources=("camera", "lidar"))]),),
                 Action.accelerate,
                 (scene(speed=10.0, limit=15.0, other_lanes=("sidewalk_right",),
-                       objects=[obj(1, "pedestrian", 5.5, 5.0, 1, kind="sidewalk_right", sources=("camera", "lidar"))]),)),
+                       objects=[obj("pedestrian", 5.5, 5.0, 1, oid=1, kind="sidewalk_right",
+                                    sources=("camera", "lidar"))]),)),
         # --- multiple worlds
         Example("san.world.elevated", "A car on a billboard: its base is 4.5 m above the road, 9 m ahead.",
-                (scene(speed=12.0, limit=15.0, objects=[obj(6, "car", 0.0, 9.0, 1, sources=("camera",), elevation=4.5)]),),
+                (scene(speed=12.0, limit=15.0,
+                       objects=[obj("car", 0.0, 9.0, 1, oid=6, sources=("camera",), elevation=4.5)]),),
                 Action.cruise,
-                (scene(speed=12.0, limit=15.0, objects=[obj(6, "car", 0.0, 9.0, 1, sources=("camera",), elevation=0.2)]),)),
+                (scene(speed=12.0, limit=15.0,
+                       objects=[obj("car", 0.0, 9.0, 1, oid=6, sources=("camera",), elevation=0.2)]),)),
         Example("san.world.picture_on_object", "A car painted on the back of a truck: only the camera sees it, inside the truck's outline.",
-                (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 30.2, 1, sources=("camera",))]),),
+                (scene(speed=12.0, limit=15.0, objects=[truck, obj("car", 0.3, 30.2, 1, oid=5, sources=("camera",))]),),
                 Action.accelerate,
-                (scene(speed=12.0, limit=15.0, objects=[truck, obj(5, "car", 0.3, 30.2, 1)]),)),
+                (scene(speed=12.0, limit=15.0,
+                       objects=[truck, obj("car", 0.3, 30.2, 1, oid=5, sources=("camera", "radar"))]),)),
         Example("san.world.sign_on_a_vehicle", "On a 70 mph highway a \"40\" sticker on the back of a truck 70 m ahead is "
                 "read as a speed-limit sign; the ego drives 31 m/s with another truck 6 m behind.",
                 (scene(speed=31.0, zone="highway", limit=None, map_speed_limit=31.3,
                        signs=[{**limit_sign(40), "position": {"x": 0.0, "y": 72.0}}],
-                       objects=[obj(3, "truck", 0.0, 70.0, 1, vy=31.0), obj(9, "truck", 0.0, -6.0, 1, vy=31.0)]),),
+                       objects=[obj("truck", 0.0, 70.0, 1, oid=3, vy=31.0, sources=("camera", "radar")),
+                                obj("truck", 0.0, -6.0, 1, oid=9, vy=31.0, sources=("camera", "radar"))]),),
                 Action.cruise,
                 (scene(speed=31.0, zone="highway", limit=None, map_speed_limit=31.3,
                        signs=[{**limit_sign(40), "position": {"x": 8.0, "y": 72.0}}],
-                       objects=[obj(3, "truck", 0.0, 70.0, 1, vy=31.0), obj(9, "truck", 0.0, -6.0, 1, vy=31.0)]),)),
+                       objects=[obj("truck", 0.0, 70.0, 1, oid=3, vy=31.0, sources=("camera", "radar")),
+                                obj("truck", 0.0, -6.0, 1, oid=9, vy=31.0, sources=("camera", "radar"))]),)),
         Example("san.world.size", "A toy-sized car, 0.7 m long, standing 14 m ahead, that only the camera reports, while "
                 "the front radar reads clear road for 60 m; without the radar reading, the same toy is braked for.",
                 (scene(speed=8.0, limit=15.0, objects=[toy_car], sensors=[sensor("front", 60.0)]),),
                 Action.accelerate,
                 (scene(speed=8.0, limit=15.0, objects=[toy_car]),)),
         Example("san.world.no_echo_off_lane", "A car only the camera sees, on no lane, while the radar is running (a roadside advert).",
-                (scene(speed=12.0, limit=15.0, objects=[obj(2, "car", 0.0, 40.0, 1, vy=12.0),
-                                                        obj(8, "car", 6.0, 9.0, sources=("camera",), predicted_path="op1")],
+                (scene(speed=12.0, limit=15.0,
+                       objects=[obj("car", 0.0, 40.0, 1, oid=2, vy=12.0, sources=("camera", "radar")),
+                                obj("car", 6.0, 9.0, oid=8, sources=("camera",), predicted_path="op1")],
                        path_crossings=[{"ego_path": "sp1", "object_path": "op1"}],
                        ego={"speed": 12.0, "lane": 1, "predicted_path": "sp1"}),),
                 Action.cruise,
-                (scene(speed=12.0, limit=15.0, objects=[obj(8, "car", 6.0, 9.0, sources=("camera",), predicted_path="op1")],
+                (scene(speed=12.0, limit=15.0,
+                       objects=[obj("car", 6.0, 9.0, oid=8, sources=("camera",), predicted_path="op1")],
                        path_crossings=[{"ego_path": "sp1", "object_path": "op1"}],
                        ego={"speed": 12.0, "lane": 1, "predicted_path": "sp1"}),)),
         # --- the frame window
@@ -525,18 +511,20 @@ def _examples() -> list[Example]:
         Example("san.emergency.move_over",
                 "A police car stands on the right shoulder 75 m ahead, lights flashing; the ego is in the right lane.",
                 tuple(scene(frame=i + 1, speed=25.0, lane=2, lanes=2, zone="highway", limit=29.0, other_lanes=("shoulder",),
-                            objects=[obj(9, "emergency_vehicle", 3.5, 79.0 - 2 * i, 1, kind="shoulder", vy=0.0,
-                                         emergency_lights=True)]) for i in range(3)),
+                            objects=[obj("emergency_vehicle", 3.5, 79.0 - 2 * i, 1, oid=9, kind="shoulder", vy=0.0,
+                                         emergency_lights=True, sources=("camera", "radar"))]) for i in range(3)),
                 Action.cruise,
                 tuple(scene(frame=i + 1, speed=25.0, lane=2, lanes=2, zone="highway", limit=29.0, other_lanes=("shoulder",),
-                            objects=[obj(9, "emergency_vehicle", 3.5, 79.0 - 2 * i, 1, kind="shoulder", vy=0.0)])
+                            objects=[obj("emergency_vehicle", 3.5, 79.0 - 2 * i, 1, oid=9, kind="shoulder", vy=0.0,
+                                         sources=("camera", "radar"))])
                       for i in range(3))),
         Example("san.school_bus.stop",
                 "A bus stands at the right kerb 30 m ahead, red lights flashing; the ego could pass it in the left lane.",
                 school_bus,
                 Action.change_lane_left,
                 tuple(scene(frame=i + 1, speed=13.0, lane=2, lanes=2, limit=15.6, other_lanes=("shoulder",),
-                            objects=[obj(4, "bus", 3.5, 30.0 - i, 1, kind="shoulder", vy=0.0)])
+                            objects=[obj("bus", 3.5, 30.0 - i, 1, oid=4, kind="shoulder", vy=0.0,
+                                         sources=("camera", "radar"))])
                       for i in range(3))),
         Example("jur.us.school_bus_law",
                 "The school bus at the right kerb again, red lights flashing; under the US pack the ego stops behind it "
@@ -568,16 +556,23 @@ def _examples() -> list[Example]:
                 "A child runs across from the right, 18 m ahead, at 3 m/s: at the ego's 10 m/s they clear its path just "
                 "before it gets there, one step of accelerating faster they would not (the near miss: 24 m ahead, they "
                 "clear it either way).",
-                (scene(speed=10.0, limit=11.2, objects=[obj(3, "pedestrian", 3.5, 18.0, vy=0.0, vx=-3.0, sources=("camera", "lidar"))]),),
+                (scene(speed=10.0, limit=11.2,
+                       objects=[obj("pedestrian", 3.5, 18.0, oid=3, vy=0.0, vx=-3.0, sources=("camera", "lidar"))]),),
                 Action.accelerate,
-                (scene(speed=10.0, limit=11.2, objects=[obj(3, "pedestrian", 3.5, 24.0, vy=0.0, vx=-3.0, sources=("camera", "lidar"))]),)),
+                (scene(speed=10.0, limit=11.2,
+                       objects=[obj("pedestrian", 3.5, 24.0, oid=3, vy=0.0, vx=-3.0, sources=("camera", "lidar"))]),)),
         # --- jurisdictions
-        Example("jur.us", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),
-        Example("jur.right_hand_traffic", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),
-        Example("jur.us.kerb_side", "Any scene under the US pack.", (scene(),), Action.cruise, (scene(),), "us", "uk"),
+        Example("jur.us", "Any scene under the US pack.", (scene(limit=13.0),), Action.cruise, (scene(limit=13.0),),
+                "us", "uk"),
+        Example("jur.right_hand_traffic", "Any scene under the US pack.", (scene(limit=13.0),), Action.cruise,
+                (scene(limit=13.0),), "us", "uk"),
+        Example("jur.us.kerb_side", "Any scene under the US pack.", (scene(limit=13.0),), Action.cruise,
+                (scene(limit=13.0),), "us", "uk"),
         Example("jur.us.lane_preference", "A roadblock in the middle lane of three; both neighbouring lanes are free.",
-                (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), Action.cruise,
-                (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), "us", "uk"),
+                (scene(lanes=3, lane=2, objects=[obj("roadblock", 0.0, 15.0, 2, oid=1, sources=("camera", "radar"))],
+                       limit=13.0),), Action.cruise,
+                (scene(lanes=3, lane=2, objects=[obj("roadblock", 0.0, 15.0, 2, oid=1, sources=("camera", "radar"))],
+                       limit=13.0),), "us", "uk"),
         Example("jur.us.zone_limits", "Nothing tells the limit in a US city.", (scene(speed=16.0, limit=None),),
                 Action.accelerate, (scene(speed=16.0, limit=None),), "us", "uk"),
         Example("jur.us.right_on_red", "Stopped at a red light with a right turn to make (US).",
@@ -603,21 +598,26 @@ def _examples() -> list[Example]:
                 "Arriving at 10 m/s, 6 m from the line of a crossroads no light or sign controls; a car of unknown speed "
                 "is 10 m to the right on the cross road (US).",
                 (unmarked_crossroads(10.0),), Action.accelerate, (unmarked_crossroads(10.0),), "us", "uk"),
-        Example("jur.uk", "Any scene under the UK pack.", (scene(),), Action.cruise, (scene(),), "uk", "us"),
+        Example("jur.uk", "Any scene under the UK pack.", (scene(limit=13.0),), Action.cruise, (scene(limit=13.0),),
+                "uk", "us"),
         Example("jur.uk.unmarked_junction",
                 "Arriving at 10 m/s, 6 m from the line of an unmarked crossroads; a car of unknown speed is 30 m to the "
                 "left on the cross road (UK).",
                 (unmarked_crossroads(-30.0),), Action.accelerate, (unmarked_crossroads(-30.0),), "uk", "us"),
         Example("jur.left_hand_traffic", "A slower truck ahead on a UK motorway: overtake on the right.",
-                (scene(speed=20.0, zone="highway", limit=29.0, lanes=2, objects=[obj(1, "truck", 0.0, 30.0, 1, vy=15.0)]),),
-                Action.cruise, (scene(),), "uk", "us"),
+                (scene(speed=20.0, zone="highway", limit=29.0, lanes=2,
+                       objects=[obj("truck", 0.0, 30.0, 1, oid=1, vy=15.0, sources=("camera", "radar"))]),),
+                Action.cruise, (scene(limit=13.0),), "uk", "us"),
         Example("jur.uk.kerb_side", "An emergency vehicle on duty behind; the UK kerb is on the left.",
                 (scene(speed=12.0, lane=2, lanes=2, limit=13.0,
-                       objects=[obj(4, "emergency_vehicle", 0.0, -30.0, 2, vy=20.0, emergency_lights=True)]),),
-                Action.cruise, (scene(),), "uk", "us"),
+                       objects=[obj("emergency_vehicle", 0.0, -30.0, 2, oid=4, vy=20.0, emergency_lights=True,
+                                    sources=("camera", "radar"))]),),
+                Action.cruise, (scene(limit=13.0),), "uk", "us"),
         Example("jur.uk.lane_preference", "A roadblock in the middle lane of three (UK).",
-                (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), Action.cruise,
-                (scene(lanes=3, lane=2, objects=[obj(1, "roadblock", 0.0, 15.0, 2)]),), "uk", "us"),
+                (scene(lanes=3, lane=2, objects=[obj("roadblock", 0.0, 15.0, 2, oid=1, sources=("camera", "radar"))],
+                       limit=13.0),), Action.cruise,
+                (scene(lanes=3, lane=2, objects=[obj("roadblock", 0.0, 15.0, 2, oid=1, sources=("camera", "radar"))],
+                       limit=13.0),), "uk", "us"),
         Example("jur.uk.no_overtaking_on_the_left",
                 "On a UK motorway at 30 m/s in the left lane, a car at 22 m/s is 15 m ahead in the lane on the right "
                 "(the near miss: it keeps the ego's pace).",
@@ -661,7 +661,7 @@ def write_into(path: Path) -> None:
 
 def main(argv: Optional[list[str]] = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m discern.sanity.examples",
+        prog="python -m tests.worked_examples",
         description="One worked example per sanity and jurisdiction rule, each with the engine's justification, "
         "as markdown: written into a file's examples block, or to stdout.")
     parser.add_argument("markdown", nargs="?", type=Path, metavar="FILE",
