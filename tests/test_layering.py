@@ -24,14 +24,18 @@ def imported_modules(source: str, package: str) -> list[tuple[int, str]]:
     return found
 
 
+def imports_of(files: list[Path], package: str) -> list[str]:
+    """Where any of `files` imports `package` or a module of it, as "path:line: module"."""
+    return [f"{path.relative_to(PACKAGE)}:{line}: {module}" for path in files
+            for line, module in imported_modules(path.read_text(encoding="utf-8"),
+                                                 ".".join(("discern",) + path.relative_to(PACKAGE).parent.parts))
+            if module == package or module.startswith(package + ".")]
+
+
 def test_no_module_under_rules_imports_the_sanity_layer():
     files = sorted(RULES.rglob("*.py"))
     assert len(files) > 10
-    offending = [f"{path.relative_to(PACKAGE)}:{line}: {module}" for path in files
-                 for line, module in imported_modules(path.read_text(encoding="utf-8"),
-                                                      ".".join(("discern",) + path.relative_to(PACKAGE).parent.parts))
-                 if module == "discern.sanity" or module.startswith("discern.sanity.")]
-    assert offending == []
+    assert imports_of(files, "discern.sanity") == []
 
 
 def test_the_import_check_sees_the_sanity_layer_however_it_is_imported():
@@ -47,11 +51,7 @@ def test_no_module_of_the_installed_package_imports_the_tests():
     """The scene builder and the worked examples are test data in tests/, which pip does not install."""
     files = sorted(path for folder in INSTALLED for path in (PACKAGE / folder).rglob("*.py"))
     assert len(files) > 50
-    offending = [f"{path.relative_to(PACKAGE)}:{line}: {module}" for path in files
-                 for line, module in imported_modules(path.read_text(encoding="utf-8"),
-                                                      ".".join(("discern",) + path.relative_to(PACKAGE).parent.parts))
-                 if module == "tests" or module.startswith("tests.")]
-    assert offending == []
+    assert imports_of(files, "tests") == []
 
 
 def test_the_import_check_sees_the_tests_however_they_are_imported():
