@@ -271,9 +271,10 @@ class Lane(Strict):
     movements: Optional[LaneMovements] = Field(
         None, description="the movements this lane may make at the junction ahead (straight, left, right), as its lane-use "
         "arrows, signs or markings show them; a current lane's only. Omitted, they are not known: the ego's movement "
-        "is then the proposed action's alone. A lane that allows turns and no straight on takes the ego its way "
-        "whatever the proposal, so the light for that turn governs a cruise from it; a turn it does not allow is "
-        "forbidden coming up to the junction")
+        "is then the proposed action's alone. A cruise, brake or accelerate from a lane that allows turns and no "
+        "straight on is judged going each way the lane allows as well as straight on, so the lights for all of them "
+        "govern it (a planner that turns proposes the turn); a turn the lane does not allow is forbidden coming up to "
+        "the junction")
 
     @field_validator("movements")
     @classmethod
