@@ -7,18 +7,12 @@ import random
 import pytest
 
 from discern.rules.engine import jurisdiction_pack
-from discern.rules.scene import Action, Scene
+from discern.rules.scene import Action
 from discern.sanity import reasoner_for, window_reasoner
 from tests.mirror import mirror_action, mirror_scene
 from tests.scenes import obj, scene, sensor
 
 US, UK = reasoner_for("us"), reasoner_for("uk")
-
-
-def with_lane_end(sc: Scene, lane: int, metres: float) -> Scene:
-    data = sc.model_dump(by_alias=True)
-    data["lanes"][lane - 1]["ends_in"] = metres
-    return Scene.model_validate(data)
 
 
 AT = {"type": "four_way", "stage": "at"}
@@ -34,7 +28,7 @@ MIRROR_CASES = {
     "lane change into a taken lane": (scene(lanes=2, lane=2,
                                             objects=[obj("car", -3.5, 2.0, 1, oid=1, sources=("camera", "radar"))],
                                             limit=13.0), "change_lane_left"),
-    "merge when the lane ends": (with_lane_end(scene(lanes=3, lane=2, limit=13.0), lane=2, metres=80.0), "cruise"),
+    "merge when the lane ends": (scene(lanes=3, lane=2, limit=13.0, lane_ends={2: 80.0}), "cruise"),
     "turn across oncoming traffic": (scene(speed=3.0, limit=11.0, intent="enter_left_lane", intersection=AT,
                                            other_lanes=("oncoming",),
                                            objects=[obj("car", -3.0, 8.0, 1, oid=1, kind="oncoming",
